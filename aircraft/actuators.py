@@ -1,0 +1,81 @@
+"""The 12 actuator channels on the wire (SERVO_OUTPUT_RAW, SPEC section 2) and their physical meaning.
+
+| channel | actuator          | PWM 1000 ... 2000 maps to                         |
+| 1-4     | rotors 1-4        | thrust fraction u = omega^2 / omega_max^2, 0 ... 1 |
+| 5-8     | tilt servos 1-4   | tilt chi from tilt_min to tilt_max (-7 ... 95 deg) |
+| 9, 10   | ailerons L, R     | deflection -1 ... 1                               |
+| 11      | elevator          | -1 ... 1                                          |
+| 12      | rudder            | -1 ... 1                                          |
+
+A PWM of 0 means "channel not driven" (PX4's convention for an unused output): a rotor without a
+signal stops, a servo or surface without a signal holds where it is.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from aircraft.airframe import Airframe
+
+CHANNELS = 12
+PWM_MIN = 1000
+PWM_MAX = 2000
+ROTORS = slice(0, 4)
+TILTS = slice(4, 8)
+SURFACES = slice(8, 12)
+
+
+@dataclass
+class DecodedCommand:
+    """Physical actuator commands decoded from PWM."""
+
+    command: np.ndarray  # 12: thrust fractions (4), tilts rad (4), deflections -1..1 (4)
+    clamped: int  # channels whose PWM was outside 1000..2000 and got clamped
+    undriven: int  # channels with PWM 0
+
+
+def pwm_to_command(airframe: Airframe, pwm: list[int], previous: np.ndarray) -> DecodedCommand:
+    """Decode 12 PWM values into physical commands; undriven servos and surfaces hold `previous`.
+
+    Called for every physics step, hence plain Python rather than numpy (3 us instead of 16 us).
+    """
+    command = previous.tolist()
+    clamped = undriven = 0
+    tilt_min, tilt_span = airframe.tilt_min, airframe.tilt_max - airframe.tilt_min
+    for channel in range(CHANNELS):
+        raw = pwm[channel]
+        if raw == 0:
+            undriven += 1
+            if channel < 4:
+                command[channel] = 0.0  # a rotor without a signal stops; servos and surfaces hold
+            continue
+        if raw < PWM_MIN or raw > PWM_MAX:
+            clamped += 1
+            raw = PWM_MIN if raw < PWM_MIN else PWM_MAX
+        fraction = (raw - PWM_MIN) / (PWM_MAX - PWM_MIN)
+        if channel < 4:
+            command[channel] = fraction
+        elif channel < 8:
+            command[channel] = tilt_min + fraction * tilt_span
+        else:
+            command[channel] = 2.0 * fraction - 1.0
+    return DecodedCommand(np.array(command), clamped, undriven)
+
+
+def command_to_pwm(airframe: Airframe, command: np.ndarray) -> list[int]:
+    """Encode physical commands as 12 PWM values (rounded, clamped to 1000..2000; NaN becomes the safe value).
+
+    Safe values: rotors off (1000), servos and surfaces centred on their range.
+    """
+    fraction = np.empty(CHANNELS)
+    fraction[ROTORS] = command[ROTORS]
+    fraction[TILTS] = (command[TILTS] - airframe.tilt_min) / (airframe.tilt_max - airframe.tilt_min)
+    fraction[SURFACES] = (command[SURFACES] + 1.0) / 2.0
+    safe = np.full(CHANNELS, 0.5)
+    safe[ROTORS] = 0.0
+    fraction = np.where(np.isfinite(fraction), fraction, safe)
+    pwm = np.rint(PWM_MIN + np.clip(fraction, 0.0, 1.0) * (PWM_MAX - PWM_MIN))
+    return [int(v) for v in pwm]
+

@@ -1,0 +1,129 @@
+"""`vtol-sim`: the plant process (SPEC sections 1-3)."""
+
+from __future__ import annotations
+
+import json
+import signal
+import socket
+import sys
+
+from aircraft.airframe import AirframeError, load_airframe
+from sim_bridge.plant import Plant, Spawn
+from sim_bridge.sensors import SensorSuite
+from sim_bridge.server import PlantServer
+from transport.cli import (
+    OneLineArgumentParser,
+    bounded_int,
+    fail,
+    finite_float,
+    float_triple,
+    nonnegative_float,
+    positive_float,
+)
+from transport.geodesy import Home, LocalGeodetic
+from transport.mavlink import Link
+from transport.ports import LOOPBACK, Ports
+from transport.zenoh_bus import open_session
+
+PROG = "vtol-sim"
+
+
+def build_parser() -> OneLineArgumentParser:
+    parser = OneLineArgumentParser(
+        prog=PROG,
+        description="Tilt-rotor VTOL plant: 6-DOF physics behind a MAVLink UDP link (lockstep by default).",
+    )
+    parser.add_argument("--instance", type=bounded_int(0, 999), default=0, help="shift every port by I (default 0)")
+    parser.add_argument("--port", type=bounded_int(1, 65535), help="plant link UDP port (default 4560+I)")
+    parser.add_argument("--spawn-alt", type=nonnegative_float, default=0.0, metavar="M",
+                        help="start hovering at M metres (rotors at hover trim); 0 = on the ground, disarmed")
+    parser.add_argument("--spawn-rotors", choices=("spinning", "stopped"), default="spinning",
+                        help="with --spawn-alt: rotors at hover trim (default) or stopped (a drop test)")
+    parser.add_argument("--spawn-yaw", type=finite_float, default=0.0, metavar="DEG",
+                        help="initial heading in degrees (default 0, north)")
+    parser.add_argument("--realtime", action="store_true", help="pace to the wall clock instead of lockstep")
+    parser.add_argument("--speed", type=positive_float, default=1.0, metavar="F",
+                        help="with --realtime: simulated seconds per wall second (default 1)")
+    parser.add_argument("--airframe", metavar="FILE", help="airframe TOML file (default: the paper's vehicle)")
+    parser.add_argument("--sysid", type=bounded_int(1, 255), default=1, help="vehicle system id (default 1)")
+    parser.add_argument("--compid", type=bounded_int(1, 255), default=200, help="plant component id (default 200)")
+    parser.add_argument("--home", type=float_triple, default=None, metavar="LAT,LON,ALT",
+                        help="home position in degrees and metres AMSL (default 40.4433,-79.9436,300)")
+    parser.add_argument("--wind", type=float_triple, default=(0.0, 0.0, 0.0), metavar="N,E,D",
+                        help="constant wind in NED, m/s (default 0,0,0)")
+    parser.add_argument("--lockstep-timeout", type=positive_float, default=0.5, metavar="S",
+                        help="wall seconds to wait for the autopilot's command before holding the last one")
+    parser.add_argument("--duration", type=positive_float, default=None, metavar="S",
+                        help="stop after S simulated seconds (default: run until stopped)")
+    parser.add_argument("--sensor-noise-seed", type=bounded_int(0, 2**31 - 1), default=None, metavar="N",
+                        help="add seeded sensor noise (default: none, runs repeat exactly)")
+    parser.add_argument("--no-zenoh", action="store_true", help="do not publish telemetry on zenoh")
+    parser.add_argument("--zenoh-listen", action="append", metavar="ENDPOINT",
+                        help="zenoh endpoint to listen on (default tcp/127.0.0.1:7447+I); repeatable")
+    parser.add_argument("--zenoh-connect", action="append", default=[], metavar="ENDPOINT",
+                        help="zenoh endpoint to connect to; repeatable")
+    parser.add_argument("--summary", action="store_true",
+                        help="print a JSON line of counters (steps, missed, dropped...) on exit")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    if args.speed != 1.0 and not args.realtime:
+        fail(PROG, "--speed only applies with --realtime")
+    try:
+        airframe = load_airframe(args.airframe)
+    except AirframeError as exc:
+        fail(PROG, str(exc))
+    ports = Ports(args.instance)
+    port = args.port if args.port is not None else ports.plant
+    home = Home(*args.home) if args.home is not None else Home()
+    if not -90.0 <= home.lat <= 90.0 or not -180.0 <= home.lon <= 180.0:
+        fail(PROG, f"--home latitude/longitude out of range: {args.home}")
+
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        sock.bind((LOOPBACK, port))
+    except OSError as exc:
+        fail(PROG, f"cannot bind UDP {LOOPBACK}:{port}: {exc.strerror}")
+    sock.setblocking(False)
+
+    spawn = Spawn(
+        altitude=args.spawn_alt if args.spawn_alt > 0 else None,
+        rotors_spinning=args.spawn_rotors == "spinning",
+        yaw_deg=args.spawn_yaw,
+    )
+    plant = Plant(airframe, spawn, wind_ned=args.wind)
+    link = Link(args.sysid, args.compid)
+    sensors = SensorSuite(plant, link, LocalGeodetic(home), noise_seed=args.sensor_noise_seed)
+    session = None
+    if not args.no_zenoh:
+        session = open_session(args.zenoh_listen or [ports.zenoh_plant], args.zenoh_connect, PROG)
+
+    stop_requested = []
+
+    def request_stop(signum: int, frame: object) -> None:
+        stop_requested.append(signum)
+
+    signal.signal(signal.SIGINT, request_stop)
+    signal.signal(signal.SIGTERM, request_stop)
+    server = PlantServer(
+        plant, sock, link, sensors,
+        lockstep=not args.realtime, speed=args.speed, lockstep_timeout_s=args.lockstep_timeout,
+        duration_s=args.duration, zenoh_session=session, should_stop=lambda: bool(stop_requested),
+    )  # fmt: skip
+    mode = f"real time x{args.speed:g}" if args.realtime else "lockstep"
+    print(f"{PROG}: {airframe.name}, {mode}, listening on udp {LOOPBACK}:{port}", file=sys.stderr, flush=True)
+    try:
+        server.run()
+    finally:
+        sock.close()
+        if session is not None:
+            session.close()
+    if args.summary:
+        print(json.dumps(server.summary()), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,127 @@
+"""Synthesised sensors: the plant's MAVLink messages for one step (SPEC section 2, PX4 units).
+
+HIL_STATE_QUATERNION is ground truth. HIL_SENSOR carries IMU (specific force, body rates), magnetometer
+(gauss), barometer and differential pressure (hPa); HIL_GPS goes out at 10 Hz. Noise is off unless a seed is
+given, so runs repeat exactly.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from sim_bridge.plant import DT_USEC, Plant
+from transport.geodesy import LocalGeodetic
+from transport.mavlink import Link, mavlink
+
+# Earth's field at the default home (Pittsburgh; WMM: 0.52 G, inclination 67 deg, declination -8.5 deg), NED.
+MAG_FIELD_NED_GAUSS = (0.2008, -0.0300, 0.4787)
+GPS_PERIOD_USEC = 100_000  # 10 Hz
+HEARTBEAT_PERIOD_USEC = 1_000_000
+HIL_SENSOR_ALL_FIELDS = 0x1FFF  # acc xyz, gyro xyz, mag xyz, abs pressure, diff pressure, pressure alt, temperature
+NOISE_STD = {"accel": 0.05, "gyro": 0.003, "mag": 0.002, "baro_hpa": 0.02, "diff_hpa": 0.01}
+
+
+def isa_pressure_hpa(altitude_m: float) -> float:
+    """Static pressure of the International Standard Atmosphere (troposphere), hPa."""
+    return 1013.25 * (1.0 - 2.25577e-5 * altitude_m) ** 5.25588
+
+
+def isa_temperature_c(altitude_m: float) -> float:
+    return 15.0 - 0.0065 * altitude_m
+
+
+class SensorSuite:
+    """Builds the datagram the plant sends for its current state."""
+
+    def __init__(self, plant: Plant, link: Link, geodetic: LocalGeodetic, noise_seed: int | None = None) -> None:
+        self.plant = plant
+        self.link = link
+        self.geodetic = geodetic
+        self.rng = None if noise_seed is None else np.random.default_rng(noise_seed)
+
+    def datagram(self) -> bytes:
+        """HIL_STATE_QUATERNION + HIL_SENSOR (+ HIL_GPS at 10 Hz, HEARTBEAT at 1 Hz) for the current step.
+
+        Per-step code: plain Python floats (one tolist() per array), since numpy scalars cost ~10x more.
+        """
+        plant = self.plant
+        t = plant.time_usec
+        (north, east, down, vn, ve, vd, qw, qx, qy, qz, p, q, r) = plant.state[0:13].tolist()
+        ax, ay, az = plant.specific_force.tolist()
+        airspeed = float(plant.airspeed[0])
+        lat, lon, alt = self.geodetic.to_geodetic(north, east, down)
+        lat_e7, lon_e7, alt_mm = int(round(lat * 1e7)), int(round(lon * 1e7)), int(round(alt * 1000))
+        link = self.link
+        mav = link.mav
+        g0 = plant.airframe.gravity
+        frames = [
+            link.pack(
+                mav.hil_state_quaternion_encode(
+                    t, (qw, qx, qy, qz), p, q, r, lat_e7, lon_e7, alt_mm,
+                    _clip_int16(vn * 100), _clip_int16(ve * 100), _clip_int16(vd * 100),
+                    _clip_uint16(airspeed * 100), _clip_uint16(airspeed * 100),
+                    _clip_int16(ax / g0 * 1000), _clip_int16(ay / g0 * 1000), _clip_int16(az / g0 * 1000),
+                )
+            )
+        ]  # fmt: skip
+        mx, my, mz = _body_from_ned((qw, qx, qy, qz), MAG_FIELD_NED_GAUSS)
+        baro = isa_pressure_hpa(alt)
+        diff = 0.5 * plant.airframe.air_density * airspeed * airspeed / 100.0
+        if self.rng is not None:
+            n = self.rng.normal(0.0, 1.0, 11).tolist()
+            ax, ay, az = ax + NOISE_STD["accel"] * n[0], ay + NOISE_STD["accel"] * n[1], az + NOISE_STD["accel"] * n[2]
+            p, q, r = p + NOISE_STD["gyro"] * n[3], q + NOISE_STD["gyro"] * n[4], r + NOISE_STD["gyro"] * n[5]
+            mx, my, mz = mx + NOISE_STD["mag"] * n[6], my + NOISE_STD["mag"] * n[7], mz + NOISE_STD["mag"] * n[8]
+            baro, diff = baro + NOISE_STD["baro_hpa"] * n[9], diff + NOISE_STD["diff_hpa"] * n[10]
+        frames.append(
+            link.pack(
+                mav.hil_sensor_encode(
+                    t, ax, ay, az, p, q, r, mx, my, mz, baro, diff, alt, isa_temperature_c(alt),
+                    HIL_SENSOR_ALL_FIELDS,
+                )
+            )
+        )  # fmt: skip
+        if t % GPS_PERIOD_USEC == 0:
+            course = math.degrees(math.atan2(ve, vn)) % 360.0
+            frames.append(
+                link.pack(
+                    mav.hil_gps_encode(
+                        t, 3, lat_e7, lon_e7, alt_mm, 100, 100, _clip_uint16(math.hypot(vn, ve) * 100),
+                        _clip_int16(vn * 100), _clip_int16(ve * 100), _clip_int16(vd * 100),
+                        int(round(course * 100)) % 36000, 12,
+                    )
+                )
+            )  # fmt: skip
+        if t % HEARTBEAT_PERIOD_USEC == 0:
+            frames.append(
+                link.pack(
+                    mav.heartbeat_encode(
+                        mavlink.MAV_TYPE_GENERIC, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, mavlink.MAV_STATE_ACTIVE
+                    )
+                )
+            )
+        return b"".join(frames)
+
+
+def _body_from_ned(quaternion: tuple[float, float, float, float], v: tuple[float, float, float]) -> tuple[float, ...]:
+    """R_IB^T v for a unit quaternion (w, x, y, z): a NED vector in body axes."""
+    w, x, y, z = quaternion
+    vn, ve, vd = v
+    return (
+        (1 - 2 * (y * y + z * z)) * vn + 2 * (x * y + w * z) * ve + 2 * (x * z - w * y) * vd,
+        2 * (x * y - w * z) * vn + (1 - 2 * (x * x + z * z)) * ve + 2 * (y * z + w * x) * vd,
+        2 * (x * z + w * y) * vn + 2 * (y * z - w * x) * ve + (1 - 2 * (x * x + y * y)) * vd,
+    )
+
+
+def _clip_int16(value: float) -> int:
+    return int(max(-32767, min(32767, round(value))))
+
+
+def _clip_uint16(value: float) -> int:
+    return int(max(0, min(65535, round(value))))
+
+
+assert DT_USEC > 0 and GPS_PERIOD_USEC % DT_USEC == 0, "GPS period must be a whole number of steps"

@@ -1,0 +1,246 @@
+"""The plant link (SPEC section 2): UDP MAVLink on 127.0.0.1:4560+I, lockstep by default, real time on request.
+
+Lockstep: for each step k the plant sends the state at t_k, then waits for SERVO_OUTPUT_RAW stamped
+t_k mod 2^32 before it integrates to t_{k+1}. If none comes within the timeout it holds the last command,
+counts a missed step and goes on, so a silent peer never hangs the plant. Real time: the plant paces
+itself to the wall clock (times a speed factor) and uses the latest command it has.
+
+Everything received is untrusted: the Link parser drops and counts bad frames; out-of-range PWM is
+clamped and counted; commands for other components are ignored and counted.
+"""
+
+from __future__ import annotations
+
+import socket
+import time
+from collections import Counter
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+from aircraft.actuators import pwm_to_command
+from sim_bridge.failures import FailureRejected
+from sim_bridge.plant import DT, Plant
+from sim_bridge.sensors import SensorSuite
+from transport.mavlink import (
+    MAV_RESULT_ACCEPTED,
+    MAV_RESULT_DENIED,
+    MAV_RESULT_UNSUPPORTED,
+    Link,
+    mavlink,
+)
+from transport.udp import receive
+from transport.telemetry import encode_event, encode_plant_state, plant_events_key, plant_state_key
+
+USEC_WRAP = 1 << 32
+
+
+@dataclass
+class PlantCounters:
+    """What the plant did with its input, reported at exit (and on zenoh)."""
+
+    steps: int = 0
+    commands_used: int = 0
+    missed_commands: int = 0  # lockstep steps that timed out and held the last command
+    stale_commands: int = 0  # SERVO_OUTPUT_RAW for another step than the one awaited
+    pwm_clamped: int = 0
+    ignored: Counter[str] = field(default_factory=Counter)
+    failures_applied: int = 0
+    failures_rejected: int = 0
+
+
+class PlantServer:
+    """Runs a Plant behind its MAVLink socket."""
+
+    def __init__(
+        self,
+        plant: Plant,
+        sock: socket.socket,
+        link: Link,
+        sensors: SensorSuite,
+        *,
+        lockstep: bool = True,
+        speed: float = 1.0,
+        lockstep_timeout_s: float = 0.5,
+        duration_s: float | None = None,
+        zenoh_session: Any | None = None,
+        should_stop: Callable[[], bool] = lambda: False,
+    ) -> None:
+        self.plant = plant
+        self.sock = sock
+        self.link = link
+        self.sensors = sensors
+        self.lockstep = lockstep
+        self.speed = speed
+        self.timeout_s = lockstep_timeout_s
+        self.max_steps = None if duration_s is None else int(round(duration_s / DT))
+        self.should_stop = should_stop
+        self.peer: tuple[str, int] | None = None
+        self.counters = PlantCounters()
+        self.system_id = link.mav.srcSystem
+        self.component_id = link.mav.srcComponent
+        self._state_publisher = None
+        self._event_publisher = None
+        if zenoh_session is not None:
+            self._state_publisher = zenoh_session.declare_publisher(plant_state_key(self.system_id))
+            self._event_publisher = zenoh_session.declare_publisher(plant_events_key(self.system_id))
+        self._awaited_usec = -1
+        self._got_command = False
+        self.wall_time_s = 0.0
+        self.wait_time_s = 0.0  # time spent waiting for datagrams; the rest of wall time is the plant's work
+
+    # ---- receiving -------------------------------------------------------------------------------------
+    def _handle_datagram(self, data: bytes, sender: tuple[str, int]) -> None:
+        for message in self.link.parse(data):
+            kind = message.get_type()
+            if kind == "SERVO_OUTPUT_RAW":
+                self.peer = sender
+                self._handle_servo_output(message)
+            elif kind == "COMMAND_LONG":
+                self._handle_command(message, sender)
+            elif kind == "HEARTBEAT":
+                self.peer = sender
+            else:
+                self.counters.ignored[kind] += 1
+
+    def _handle_servo_output(self, message: Any) -> None:
+        if message.port != 0:
+            self.counters.ignored["servo_output_raw_port"] += 1
+            return
+        if self.lockstep and message.time_usec != self._awaited_usec:
+            self.counters.stale_commands += 1
+            return
+        pwm = [
+            message.servo1_raw, message.servo2_raw, message.servo3_raw, message.servo4_raw,
+            message.servo5_raw, message.servo6_raw, message.servo7_raw, message.servo8_raw,
+            message.servo9_raw, message.servo10_raw, message.servo11_raw, message.servo12_raw,
+        ]  # fmt: skip
+        decoded = pwm_to_command(self.plant.airframe, pwm, self.plant.command)
+        self.counters.pwm_clamped += decoded.clamped
+        self.plant.set_command(decoded.command)
+        self.counters.commands_used += 1
+        self._got_command = True
+
+    def _handle_command(self, message: Any, sender: tuple[str, int]) -> None:
+        if message.target_system not in (0, self.system_id) or message.target_component not in (0, self.component_id):
+            self.counters.ignored["command_for_other_component"] += 1
+            return
+        if message.command != mavlink.MAV_CMD_INJECT_FAILURE:
+            self.counters.ignored["command_unsupported"] += 1
+            self._acknowledge(message, MAV_RESULT_UNSUPPORTED, sender)
+            return
+        try:
+            lines = self.plant.inject_failure(message.param1, message.param2, message.param3, message.param4)
+        except FailureRejected as refusal:
+            self.counters.failures_rejected += 1
+            result = MAV_RESULT_UNSUPPORTED if refusal.unsupported else MAV_RESULT_DENIED
+            self._acknowledge(message, result, sender)
+            self._announce(f"plant: failure refused: {refusal}", mavlink.MAV_SEVERITY_WARNING, sender)
+            return
+        self.counters.failures_applied += 1
+        self._acknowledge(message, MAV_RESULT_ACCEPTED, sender)
+        for line in lines:
+            self._announce(f"plant: {line}", mavlink.MAV_SEVERITY_WARNING, sender)
+
+    def _acknowledge(self, message: Any, result: int, sender: tuple[str, int]) -> None:
+        ack = self.link.mav.command_ack_encode(
+            message.command, result, 0, 0, message.get_srcSystem(), message.get_srcComponent()
+        )
+        self._send(self.link.pack(ack), sender)
+
+    def _announce(self, text: str, severity: int, sender: tuple[str, int]) -> None:
+        status = self.link.mav.statustext_encode(severity, text.encode()[:50])
+        self._send(self.link.pack(status), sender)
+        if self._event_publisher is not None:
+            self._event_publisher.put(encode_event(self.plant.time_usec / 1e6, "failure", text))
+
+    def _send(self, data: bytes, address: tuple[str, int]) -> None:
+        try:
+            self.sock.sendto(data, address)
+        except OSError:  # full socket buffer or vanished peer: counted, the simulation goes on
+            self.counters.ignored["send_failed"] += 1
+
+    def _receive_until(self, deadline: float, stop_on_command: bool) -> None:
+        """Handle datagrams until the deadline (monotonic s), or until the awaited command arrived."""
+        while not (stop_on_command and self._got_command) and not self.should_stop():
+            waiting_since = time.monotonic()
+            if waiting_since >= deadline:
+                return
+            received = receive(self.sock, deadline)
+            self.wait_time_s += time.monotonic() - waiting_since
+            if received is not None:
+                self._handle_datagram(*received)
+
+    def _drain(self) -> None:
+        """Handle whatever is already queued, without waiting."""
+        while (received := receive(self.sock, deadline=0.0, spin_s=0.0)) is not None:
+            self._handle_datagram(*received)
+
+    # ---- the loop ----------------------------------------------------------------------------------------
+    def wait_for_peer(self) -> bool:
+        """Block until an autopilot speaks (any SERVO_OUTPUT_RAW, HEARTBEAT or COMMAND_LONG)."""
+        while self.peer is None:
+            if self.should_stop():
+                return False
+            self._receive_until(time.monotonic() + 0.25, stop_on_command=False)
+        return True
+
+    def _send_state(self) -> None:
+        plant = self.plant
+        if self.peer is not None:
+            self._send(self.sensors.datagram(), self.peer)
+        if self._state_publisher is not None:
+            self._state_publisher.put(
+                encode_plant_state(
+                    plant.time_usec / 1e6, plant.state, plant.specific_force, float(plant.airspeed[0]),
+                    float(plant.on_ground[0]), plant.command,
+                )
+            )  # fmt: skip
+
+    def run(self) -> PlantCounters:
+        """Run until the duration is reached or a stop is requested."""
+        if not self.wait_for_peer():
+            return self.counters
+        start = time.monotonic()
+        self.wait_time_s = 0.0
+        plant = self.plant
+        while not self.should_stop():
+            self._send_state()
+            if self.max_steps is not None and plant.step_count >= self.max_steps:
+                break
+            if self.lockstep:
+                self._awaited_usec = plant.time_usec % USEC_WRAP
+                self._got_command = False
+                self._receive_until(time.monotonic() + self.timeout_s, stop_on_command=True)
+                if not self._got_command:
+                    if self.should_stop():
+                        break
+                    self.counters.missed_commands += 1
+            else:
+                self._drain()
+                deadline = start + (plant.step_count + 1) * DT / self.speed
+                self._receive_until(deadline, stop_on_command=False)
+            plant.step()
+            self.counters.steps += 1
+        self.wall_time_s = time.monotonic() - start
+        return self.counters
+
+    def summary(self) -> dict[str, Any]:
+        c = self.counters
+        sim_time = self.plant.time_usec / 1e6
+        busy = self.wall_time_s - self.wait_time_s
+        return {
+            "steps": c.steps,
+            "sim_time_s": sim_time,
+            "wall_time_s": round(self.wall_time_s, 3),
+            "real_time_factor": round(sim_time / self.wall_time_s, 2) if self.wall_time_s > 0 else None,
+            "busy_time_s": round(busy, 3),
+            "plant_alone_real_time_factor": round(sim_time / busy, 2) if busy > 0 else None,
+            "commands_used": c.commands_used,
+            "missed_commands": c.missed_commands,
+            "stale_commands": c.stale_commands,
+            "pwm_clamped": c.pwm_clamped,
+            "ignored": dict(c.ignored),
+            "dropped": dict(self.link.dropped),
+            "failures_applied": c.failures_applied,
+            "failures_rejected": c.failures_rejected,
+        }

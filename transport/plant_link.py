@@ -1,0 +1,93 @@
+"""The autopilot's end of the plant link: receive each step's state, answer with SERVO_OUTPUT_RAW.
+
+Used by the autopilot process, by the test peers and by the benchmarks, so every one of them speaks the
+lockstep protocol the same way (SPEC section 2).
+"""
+
+from __future__ import annotations
+
+import socket
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+from transport.mavlink import Link, mavlink
+from transport.ports import LOOPBACK
+from transport.udp import receive
+
+USEC_WRAP = 1 << 32
+
+
+@dataclass
+class PlantSample:
+    """What the plant sent for one step."""
+
+    time_usec: int
+    state: Any  # HIL_STATE_QUATERNION
+    sensor: Any | None = None  # HIL_SENSOR
+    gps: Any | None = None  # HIL_GPS, at 10 Hz
+    others: list[Any] = field(default_factory=list)  # COMMAND_ACK, STATUSTEXT, HEARTBEAT...
+
+
+class PlantLinkClient:
+    """UDP client of a plant listening on 127.0.0.1:port."""
+
+    def __init__(self, port: int, system_id: int = 1, component_id: int = 1, host: str = LOOPBACK) -> None:
+        self.address = (host, port)
+        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        self.sock.bind((LOOPBACK, 0))
+        self.sock.setblocking(False)
+        self.link = Link(system_id, component_id)
+        self.received_other: list[Any] = []
+
+    def close(self) -> None:
+        self.sock.close()
+
+    def send(self, message: Any) -> None:
+        self.sock.sendto(self.link.pack(message), self.address)
+
+    def send_raw(self, data: bytes) -> None:
+        self.sock.sendto(data, self.address)
+
+    def hello(self) -> None:
+        """Announce ourselves so the plant learns where to send (it starts stepping on the first message)."""
+        self.send(
+            self.link.mav.heartbeat_encode(
+                mavlink.MAV_TYPE_VTOL_TILTROTOR, mavlink.MAV_AUTOPILOT_PX4, 0, 0, mavlink.MAV_STATE_ACTIVE
+            )
+        )
+
+    def receive_step(self, timeout_s: float = 2.0) -> PlantSample | None:
+        """The next step's state (messages in between are collected in `received_other`); None on timeout."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            received = receive(self.sock, deadline)
+            if received is None:
+                if time.monotonic() >= deadline:
+                    return None
+                continue
+            data = received[0]
+            sample = None
+            for message in self.link.parse(data):
+                kind = message.get_type()
+                if kind == "HIL_STATE_QUATERNION":
+                    sample = PlantSample(message.time_usec, message)
+                elif kind == "HIL_SENSOR" and sample is not None:
+                    sample.sensor = message
+                elif kind == "HIL_GPS" and sample is not None:
+                    sample.gps = message
+                else:
+                    self.received_other.append(message)
+            if sample is not None:
+                return sample
+
+    def send_pwm(self, time_usec: int, pwm: list[int]) -> None:
+        """SERVO_OUTPUT_RAW for step time_usec with 12 channels (port 0)."""
+        channels = list(pwm) + [0] * (16 - len(pwm))
+        self.send(self.link.mav.servo_output_raw_encode(time_usec % USEC_WRAP, 0, *channels))
+
+    def send_command_long(
+        self, command: int, params: tuple[float, ...], target_system: int = 1, target_component: int = 200
+    ) -> None:
+        p = list(params) + [0.0] * (7 - len(params))
+        self.send(self.link.mav.command_long_encode(target_system, target_component, command, 0, *p))

@@ -1,0 +1,49 @@
+"""Default ports and how `--instance I` shifts them (SPEC sections 1, 2 and 6). All on 127.0.0.1."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+LOOPBACK = "127.0.0.1"
+
+
+@dataclass(frozen=True)
+class Ports:
+    """Every port of one vehicle instance."""
+
+    instance: int = 0
+
+    @property
+    def plant(self) -> int:
+        """Plant link: the plant binds it, the autopilot sends to it."""
+        return 4560 + self.instance
+
+    @property
+    def gcs_bind(self) -> int:
+        """GCS link: the autopilot binds it."""
+        return 18570 + self.instance
+
+    @property
+    def gcs_remote(self) -> int:
+        """GCS link: where the autopilot sends until a ground station speaks."""
+        return 14550 + self.instance
+
+    @property
+    def api_bind(self) -> int:
+        """API (offboard) link: the autopilot binds it."""
+        return 14580 + self.instance
+
+    @property
+    def api_remote(self) -> int:
+        """API link: where MAVSDK listens."""
+        return 14540 + self.instance
+
+    @property
+    def zenoh_plant(self) -> str:
+        """zenoh endpoint the plant listens on."""
+        return f"tcp/{LOOPBACK}:{7447 + self.instance}"
+
+    @property
+    def zenoh_autopilot(self) -> str:
+        """zenoh endpoint the autopilot listens on."""
+        return f"tcp/{LOOPBACK}:{7547 + self.instance}"

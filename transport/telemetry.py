@@ -1,0 +1,50 @@
+"""zenoh key expressions and payload layouts (documented in docs/telemetry.md).
+
+`vtol/<sysid>/plant/state`: every physics step, little-endian float64 values in PLANT_STATE_FIELDS order.
+`vtol/<sysid>/plant/events`: JSON objects, e.g. {"t": 12.5, "event": "failure", "text": "rotor 1: OFF"}.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+PLANT_STATE_FIELDS: tuple[str, ...] = (
+    ("t",)
+    + ("north", "east", "down", "vn", "ve", "vd", "qw", "qx", "qy", "qz", "p", "q", "r")
+    + tuple(f"rotor_speed{i}" for i in range(1, 5))
+    + tuple(f"tilt{i}" for i in range(1, 5))
+    + ("aileron_left", "aileron_right", "elevator", "rudder")
+    + ("accel_x", "accel_y", "accel_z", "airspeed", "on_ground")
+    + tuple(f"cmd_thrust{i}" for i in range(1, 5))
+    + tuple(f"cmd_tilt{i}" for i in range(1, 5))
+    + ("cmd_aileron_left", "cmd_aileron_right", "cmd_elevator", "cmd_rudder")
+)
+
+
+def plant_state_key(system_id: int) -> str:
+    return f"vtol/{system_id}/plant/state"
+
+
+def plant_events_key(system_id: int) -> str:
+    return f"vtol/{system_id}/plant/events"
+
+
+def encode_plant_state(
+    t: float, state: np.ndarray, specific_force: np.ndarray, airspeed: float, on_ground: float, command: np.ndarray
+) -> bytes:
+    values = np.concatenate(((t,), state, specific_force, (airspeed, on_ground), command))
+    return values.astype("<f8").tobytes()
+
+
+def decode_plant_state(payload: bytes) -> dict[str, float]:
+    """Field name -> value of one plant state sample."""
+    values = np.frombuffer(payload, dtype="<f8")
+    if values.size != len(PLANT_STATE_FIELDS):
+        raise ValueError(f"plant state payload has {values.size} values, expected {len(PLANT_STATE_FIELDS)}")
+    return dict(zip(PLANT_STATE_FIELDS, values.tolist()))
+
+
+def encode_event(t: float, event: str, text: str) -> bytes:
+    return json.dumps({"t": t, "event": event, "text": text}).encode()
