@@ -1,0 +1,98 @@
+"""Shared fixtures: the airframe, free ports, and real plant processes that are always killed by PID."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+
+import pytest
+
+from aircraft.airframe import Airframe, load_airframe
+from transport.plant_link import PlantLinkClient, PlantSample
+
+
+@pytest.fixture(scope="session")
+def airframe() -> Airframe:
+    return load_airframe()
+
+
+def free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def free_tcp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@dataclass
+class PlantProcess:
+    """A running `vtol-sim` and a plant-link client talking to it."""
+
+    process: subprocess.Popen
+    port: int
+    client: PlantLinkClient
+    output: str = ""
+    errors: str = ""
+    extra: dict = field(default_factory=dict)
+
+    def first_sample(self, timeout_s: float = 60.0) -> PlantSample:
+        """Say hello until the plant answers with its first state (it starts stepping on our first message)."""
+        import time
+
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            if self.process.poll() is not None:
+                raise AssertionError(f"vtol-sim exited early: {self.process.communicate()[1]}")
+            self.client.hello()
+            sample = self.client.receive_step(0.2)
+            if sample is not None:
+                return sample
+        raise AssertionError("vtol-sim did not start within the timeout")
+
+    def stop(self) -> dict:
+        """SIGTERM the plant, return its --summary counters."""
+        if self.process.poll() is None:
+            self.process.send_signal(signal.SIGTERM)
+        self.output, self.errors = self.process.communicate(timeout=20)
+        lines = [line for line in self.output.splitlines() if line.startswith("{")]
+        return json.loads(lines[-1]) if lines else {}
+
+
+def vtol_sim_command(*args: str) -> list[str]:
+    return [sys.executable, "-m", "sim_bridge", *args]
+
+
+@pytest.fixture
+def start_plant() -> Iterator:
+    """Factory: start_plant(*args) -> PlantProcess on a free port with --no-zenoh --summary (unless zenoh asked)."""
+    started: list[PlantProcess] = []
+
+    def start(*args: str) -> PlantProcess:
+        port = free_udp_port()
+        options = ["--port", str(port), "--summary", *args]
+        if not any(a.startswith("--zenoh") for a in args):
+            options.append("--no-zenoh")
+        process = subprocess.Popen(
+            vtol_sim_command(*options), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+            env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        )  # fmt: skip
+        plant = PlantProcess(process, port, PlantLinkClient(port))
+        started.append(plant)
+        return plant
+
+    yield start
+    for plant in started:
+        plant.client.close()
+        if plant.process.poll() is None:
+            plant.process.kill()
+        plant.process.wait(timeout=20)
