@@ -13,6 +13,7 @@ signal stops, a servo or surface without a signal holds where it is.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -67,15 +68,19 @@ def pwm_to_command(airframe: Airframe, pwm: list[int], previous: np.ndarray) -> 
 def command_to_pwm(airframe: Airframe, command: np.ndarray) -> list[int]:
     """Encode physical commands as 12 PWM values (rounded, clamped to 1000..2000; NaN becomes the safe value).
 
-    Safe values: rotors off (1000), servos and surfaces centred on their range.
+    Safe values: rotors off (1000), servos and surfaces centred on their range. Plain Python: called every step.
     """
-    fraction = np.empty(CHANNELS)
-    fraction[ROTORS] = command[ROTORS]
-    fraction[TILTS] = (command[TILTS] - airframe.tilt_min) / (airframe.tilt_max - airframe.tilt_min)
-    fraction[SURFACES] = (command[SURFACES] + 1.0) / 2.0
-    safe = np.full(CHANNELS, 0.5)
-    safe[ROTORS] = 0.0
-    fraction = np.where(np.isfinite(fraction), fraction, safe)
-    pwm = np.rint(PWM_MIN + np.clip(fraction, 0.0, 1.0) * (PWM_MAX - PWM_MIN))
-    return [int(v) for v in pwm]
-
+    tilt_min, tilt_span = airframe.tilt_min, airframe.tilt_max - airframe.tilt_min
+    pwm = []
+    for channel, value in enumerate(command.tolist()):
+        if channel < 4:
+            fraction = value
+        elif channel < 8:
+            fraction = (value - tilt_min) / tilt_span
+        else:
+            fraction = (value + 1.0) / 2.0
+        if not math.isfinite(fraction):
+            fraction = 0.0 if channel < 4 else 0.5
+        fraction = 0.0 if fraction < 0.0 else 1.0 if fraction > 1.0 else fraction
+        pwm.append(int(round(PWM_MIN + fraction * (PWM_MAX - PWM_MIN))))
+    return pwm

@@ -19,8 +19,11 @@ def airflow(v_air_body: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX]:
     """Airspeed V, angle of attack alpha = atan2(w, u) and sideslip beta = asin(v / V) of the body airspeed."""
     u, v, w = v_air_body[0], v_air_body[1], v_air_body[2]
     airspeed = ca.sqrt(u * u + v * v + w * w + AIRSPEED_FLOOR**2)
-    # atan2(w, u) = 2 atan(w / (|(u, w)| + u)), with the floor inside the norm: smooth at u = w = 0.
-    alpha = 2 * ca.atan(w / (ca.sqrt(u * u + w * w + AIRSPEED_FLOOR**2) + u))
+    # atan2 has no derivative at u = w = 0: there (within the floor) the flow is taken as coming from ahead.
+    # Elsewhere it is the exact atan2, including backward flow (alpha near +-pi, where the flat-plate
+    # coefficients are continuous across the branch cut).
+    in_still_air = u * u + w * w < AIRSPEED_FLOOR**2
+    alpha = ca.atan2(w, ca.if_else(in_still_air, AIRSPEED_FLOOR, u))
     beta = ca.asin(v / airspeed)
     return airspeed, alpha, beta
 

@@ -19,11 +19,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from aircraft.airframe import Airframe
+from transport.mavlink import mavlink
 from sim_bridge.dynamics import OVERRIDE_FLAG, OVERRIDE_VALUE, PARAMETER_SIZE, ROTOR_SPEED, SCALE, SURFACE, TILT
 
-UNIT_MOTOR = 101
-UNIT_SERVO = 102
-TYPE_OK, TYPE_OFF, TYPE_STUCK, TYPE_WRONG = 0, 1, 2, 4
+UNIT_MOTOR, UNIT_SERVO = mavlink.FAILURE_UNIT_SYSTEM_MOTOR, mavlink.FAILURE_UNIT_SYSTEM_SERVO  # 101, 102
+TYPE_OK, TYPE_OFF, TYPE_STUCK, TYPE_WRONG = (
+    mavlink.FAILURE_TYPE_OK, mavlink.FAILURE_TYPE_OFF, mavlink.FAILURE_TYPE_STUCK, mavlink.FAILURE_TYPE_WRONG
+)  # 0, 1, 2, 4
 DEFAULT_WRONG_FRACTION = 0.5
 FAILURE_TYPE_NAMES = {TYPE_OK: "OK", TYPE_OFF: "OFF", TYPE_STUCK: "STUCK", TYPE_WRONG: "WRONG"}
 ACTUATOR_NAMES = (

@@ -126,3 +126,12 @@ def test_quaternion_and_euler_rotations_agree():
     q = quaternion_from_euler(*euler)
     assert vec(rotation_from_quaternion(q)) == pytest.approx(vec(rotation_from_euler(euler)), abs=1e-12)
     assert vec(euler_from_quaternion(q)) == pytest.approx(euler, abs=1e-12)
+
+
+@pytest.mark.parametrize(
+    "velocity, alpha",
+    [((15, 0, 0), 0.0), ((-15, 0, 0), math.pi), ((-15, 0, 1e-9), math.pi), ((-15, 0, -1e-9), -math.pi),
+     ((10, 0, 10), math.pi / 4), ((0, 0, 5), math.pi / 2), ((1e-5, 0, 0), 0.0)],
+)  # fmt: skip
+def test_angle_of_attack_is_atan2_everywhere_including_backward_flow(velocity, alpha):
+    assert float(airflow(ca.DM(velocity))[1]) == pytest.approx(alpha, abs=1e-6)

@@ -41,6 +41,18 @@ class LocalGeodetic:
         self._dlat_de, self._dlon_de = float(lat_e - self._lat0), float(lon_e - self._lon0)
         self._lat0, self._lon0 = float(self._lat0), float(self._lon0)
 
+    def to_ned(self, lat: float, lon: float, alt: float) -> tuple[float, float, float]:
+        """NED position (m) of a geodetic point, with the same anchored linearisation (inverse of to_geodetic)."""
+        dlat, dlon = lat - self._lat0, lon - self._lon0
+        det = self._dlat_dn * self._dlon_de - self._dlat_de * self._dlon_dn
+        dn = (self._dlon_de * dlat - self._dlat_de * dlon) / det
+        de = (self._dlat_dn * dlon - self._dlon_dn * dlat) / det
+        north, east = self._n0 + dn, self._e0 + de
+        if dn * dn + de * de > ANCHOR_RADIUS**2:
+            self._anchor(north, east)
+            return self.to_ned(lat, lon, alt)
+        return north, east, self.home.alt - alt
+
     def to_geodetic(self, north: float, east: float, down: float) -> tuple[float, float, float]:
         """(lat deg, lon deg, alt m AMSL) of a NED position; altitude is home altitude minus down."""
         dn, de = north - self._n0, east - self._e0

@@ -1,0 +1,105 @@
+"""The attitude loop (SPEC section 4.1, paper "State Update"), defined once for the autopilot and the MPC.
+
+P on attitude to a rate set-point, PD on rates to an angular-acceleration demand:
+    rate_sp   = K_att (Psi_sp - Psi)                         (angles wrapped, paper eq. for Psi_dot_sp)
+    accel_des = K_p (rate_sp - rate) + K_d (rate_prev - rate)   (paper eq. for tau)
+in ZYX Euler-angle space (Psi = roll, pitch, yaw). The MPC predicts Psi_ddot = accel_des with exactly this law;
+the autopilot maps it to body axes (omega_dot = E(Psi) Psi_ddot) and to a torque
+tau = I omega_dot + omega x I omega.
+
+Gains (tuned for I = diag(0.844, 1.347, 1.598) kg m^2 and the 12.5-25 ms motor lag; docs/autopilot.md):
+roll/pitch: attitude 6 1/s, rate 20 1/s; yaw: attitude 3 1/s, rate 10 1/s; K_d = 0.1 x K_p on the
+rate difference of consecutive loop ticks (4 ms apart at 250 Hz), a light damping of rate jitter.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from aircraft.airframe import Airframe
+
+
+@dataclass(frozen=True)
+class AttitudeGains:
+    """Per-axis gains (roll, pitch, yaw)."""
+
+    attitude: tuple[float, float, float] = (6.0, 6.0, 3.0)  # 1/s
+    rate_p: tuple[float, float, float] = (20.0, 20.0, 10.0)  # 1/s
+    rate_d: tuple[float, float, float] = (2.0, 2.0, 1.0)  # 1 (on the per-tick rate difference)
+    max_rate: tuple[float, float, float] = (math.pi, math.pi, math.pi)  # rad/s, SPEC 4.3 |Psi_dot| <= pi
+
+
+DEFAULT_GAINS = AttitudeGains()
+
+
+def wrap_angle(angle: ca.SX) -> ca.SX:
+    """Angle wrapped to (-pi, pi], smooth where it matters (works on floats and symbols)."""
+    return ca.atan2(ca.sin(angle), ca.cos(angle))
+
+
+def attitude_law(
+    euler: ca.SX, euler_rate: ca.SX, euler_rate_prev: ca.SX, euler_sp: ca.SX, gains: AttitudeGains = DEFAULT_GAINS
+) -> ca.SX:
+    """Euler-angle acceleration demand (rad/s^2) of the attitude loop (SPEC 4.1)."""
+    k_att, k_p, k_d = (ca.DM(g) for g in (gains.attitude, gains.rate_p, gains.rate_d))
+    error = ca.vertcat(euler_sp[0] - euler[0], euler_sp[1] - euler[1], wrap_angle(euler_sp[2] - euler[2]))
+    limit = ca.DM(gains.max_rate)
+    rate_sp = ca.fmin(ca.fmax(k_att * error, -limit), limit)
+    return k_p * (rate_sp - euler_rate) + k_d * (euler_rate_prev - euler_rate)
+
+
+def euler_rate_matrix(euler: ca.SX) -> ca.SX:
+    """E(Psi) with body rates omega = E(Psi) Psi_dot for ZYX Euler angles."""
+    phi, theta = euler[0], euler[1]
+    return ca.vertcat(
+        ca.horzcat(1, 0, -ca.sin(theta)),
+        ca.horzcat(0, ca.cos(phi), ca.sin(phi) * ca.cos(theta)),
+        ca.horzcat(0, -ca.sin(phi), ca.cos(phi) * ca.cos(theta)),
+    )
+
+
+def build_attitude_function(airframe: Airframe, gains: AttitudeGains = DEFAULT_GAINS) -> ca.Function:
+    """torque(euler, body_rates, euler_rate_prev, euler_sp) -> (torque_body N m, euler_rate) for the autopilot."""
+    euler, rates, prev, sp = (ca.SX.sym(n, 3) for n in ("euler", "body_rates", "euler_rate_prev", "euler_sp"))
+    e_matrix = euler_rate_matrix(euler)
+    euler_rate = ca.solve(e_matrix, rates)
+    accel = attitude_law(euler, euler_rate, prev, sp, gains)
+    inertia = ca.diag(ca.DM(airframe.inertia_diag))
+    torque = inertia @ (e_matrix @ accel) + ca.cross(rates, inertia @ rates)
+    return ca.Function("attitude_torque", [euler, rates, prev, sp], [torque, euler_rate])
+
+
+class AttitudeController:
+    """The 250 Hz attitude loop: Euler set-point -> body torque set-point, remembering the previous rate."""
+
+    def __init__(self, airframe: Airframe, gains: AttitudeGains = DEFAULT_GAINS) -> None:
+        self._function = build_attitude_function(airframe, gains)
+        self._buffer, self._evaluate = self._function.buffer()
+        self.euler = np.zeros(3)
+        self.body_rates = np.zeros(3)
+        self.euler_rate_prev = np.zeros(3)
+        self.euler_sp = np.zeros(3)
+        self.torque = np.zeros(3)
+        self.euler_rate = np.zeros(3)
+        for i, array in enumerate((self.euler, self.body_rates, self.euler_rate_prev, self.euler_sp)):
+            self._buffer.set_arg(i, memoryview(array))
+        self._buffer.set_res(0, memoryview(self.torque))
+        self._buffer.set_res(1, memoryview(self.euler_rate))
+        self._started = False
+
+    def update(self, euler: np.ndarray, body_rates: np.ndarray, euler_sp: np.ndarray) -> np.ndarray:
+        """Torque set-point (N m, body) for the current attitude and set-point."""
+        self.euler[:] = euler
+        self.body_rates[:] = body_rates
+        self.euler_sp[:] = euler_sp
+        if not self._started:  # first tick: no previous rate yet, so no derivative kick
+            self._evaluate()
+            self.euler_rate_prev[:] = self.euler_rate
+            self._started = True
+        self._evaluate()
+        self.euler_rate_prev[:] = self.euler_rate
+        return self.torque

@@ -1,0 +1,100 @@
+"""The autopilot's control core: velocity controller at 100 Hz, attitude loop and allocation at 250 Hz, in
+simulation time, producing the 12 actuator commands of every 400 Hz plant step (SPEC section 4).
+
+    velocity set-point --(100 Hz)--> velocity controller --> attitude set-point, tilts, force set-point
+    attitude set-point --(250 Hz)--> attitude loop --> torque set-point
+    (force, torque)    --(250 Hz)--> QP allocation --> rotor thrusts, surfaces
+    tilts                         --> tilt servos directly (not allocated)
+
+The 250 Hz tasks run on the 400 Hz plant clock whenever their 4 ms period has elapsed (so 2.5 or 5 ms apart,
+250 Hz on average); the 100 Hz task runs every fourth step exactly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aircraft.airframe import Airframe
+from autopilot.actuator_health import ActuatorHealth, ServoEstimate
+from autopilot.allocation import ControlAllocator
+from autopilot.attitude import AttitudeController
+from autopilot.pid_baseline import PidVelocityController
+from autopilot.vehicle_state import VehicleState
+from autopilot.velocity_command import VelocityCommand
+
+VELOCITY_PERIOD_USEC = 10_000  # 100 Hz
+ATTITUDE_PERIOD_USEC = 4_000  # 250 Hz
+PLANT_DT = 1.0 / 400.0
+# Attitude before force when the demand is infeasible (as PX4's allocation prioritises roll and pitch):
+# 1 N m of roll or pitch error costs like 100 N of force error, yaw like 10 N (the weakest axis).
+MOMENT_WEIGHTS = (100.0, 100.0, 10.0)
+
+
+class FlightController:
+    """Velocity set-point in, physical actuator commands out (thrust fractions, tilts rad, deflections)."""
+
+    def __init__(self, airframe: Airframe, velocity_controller: PidVelocityController | None = None) -> None:
+        self.airframe = airframe
+        hover = airframe.hover_thrust_per_rotor / airframe.thrust_max
+        self.allocator = ControlAllocator(airframe, u_initial=[hover] * 4 + [0.0] * 4)
+        self.attitude = AttitudeController(airframe)
+        self.velocity_controller = velocity_controller or PidVelocityController(airframe, dt=VELOCITY_PERIOD_USEC / 1e6)
+        self.servos = ServoEstimate(airframe)
+        self.health = ActuatorHealth(airframe, self.allocator, self.servos)
+        self.velocity_command = VelocityCommand()
+        self.velocity_setpoint = np.zeros(3)
+        self.command = np.zeros(12)
+        self.command[0:4] = hover
+        self.torque_sp = np.zeros(3)
+        self.residual = np.zeros(6)
+        self.allocation_fallbacks = 0
+        self._next_velocity_usec: int | None = None
+        self._next_attitude_usec: int | None = None
+        self._weights = np.array([1.0, 1.0, 1.0, *MOMENT_WEIGHTS])
+        self.allocator.set_wrench_weights(self._weights)
+
+    @property
+    def mode(self) -> str:
+        return self.velocity_command.mode
+
+    def set_velocity_setpoint(self, velocity_ned: np.ndarray) -> bool:
+        """Accept a NED velocity set-point (m/s); a non-finite one is refused (False) and the last one kept."""
+        if not np.all(np.isfinite(velocity_ned)):
+            return False
+        self.velocity_setpoint[:] = velocity_ned
+        return True
+
+    def step(self, state: VehicleState) -> np.ndarray:
+        """Commands for the plant step at state.time_usec (call once per plant step, in time order)."""
+        t = state.time_usec
+        if self._next_velocity_usec is None:
+            self._next_velocity_usec = self._next_attitude_usec = t
+        if t >= self._next_velocity_usec:
+            self._next_velocity_usec += VELOCITY_PERIOD_USEC
+            mean_tilt = float(np.mean(self.servos.tilt))
+            self.velocity_command = self.velocity_controller.update(state, self.velocity_setpoint, mean_tilt)
+        if t >= self._next_attitude_usec:
+            self._next_attitude_usec += ATTITUDE_PERIOD_USEC
+            self._attitude_and_allocation(state)
+        self.command[4:8] = self.velocity_command.tilt_sp
+        self.servos.advance(self.command[4:8], PLANT_DT)
+        return self.command
+
+    def _attitude_and_allocation(self, state: VehicleState) -> None:
+        command = self.velocity_command
+        self.torque_sp = self.attitude.update(state.euler, state.body_rates, command.euler_sp)
+        if not np.array_equal(self._weights[0:3], command.force_weights):
+            self._weights[0:3] = command.force_weights
+            self.allocator.set_wrench_weights(self._weights)
+        v_air_body = state.rotation().T @ state.velocity_ned  # no wind estimate: ground velocity as airspeed
+        wrench_sp = np.concatenate((command.force_sp_body, self.torque_sp))
+        result = self.allocator.allocate(wrench_sp, self.servos.tilt, v_air_body, state.body_rates)
+        if result.fallback:
+            self.allocation_fallbacks += 1
+        self.residual = result.residual
+        self.command[0:4] = result.u[0:4]
+        self.command[8:12] = result.u[4:8]
+
+    def apply_failure(self, unit: int, kind: int, instance: int, value: float) -> None:
+        """Tell the allocator and the servo estimate about a failure the plant accepted (SPEC section 5)."""
+        self.health.apply(unit, kind, instance, value)

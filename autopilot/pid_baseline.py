@@ -1,0 +1,212 @@
+"""PX4-style mode-switching PID velocity controller for the tilt-rotor (SPEC section 4.4): the paper's baseline.
+
+Phases, as PX4's standard VTOL logic runs them for a tiltrotor:
+  MC             multicopter velocity PID -> acceleration -> attitude + collective thrust; rotors up (tilt 0).
+  TRANSITION_FW  triggered when the horizontal set-point exceeds MPC_XY_VEL_MAX: rotors to VT_TILT_TRANS with
+                 pitch held, altitude by collective thrust, forward acceleration as fast as the tilt gives;
+                 multicopter and fixed-wing commands blended by airspeed between VT_ARSP_BLEND and
+                 VT_ARSP_TRANS; past VT_ARSP_TRANS rotors to 90 deg, then FW.
+  FW             fixed wing: airspeed PID on thrust, climb-rate PID on pitch, coordinated turns (bank from the
+                 course error and the set-point's turn rate, yaw along the track).
+  TRANSITION_MC  back transition when the set-point drops below FW_AIRSPD_MIN: rotors back to 0, multicopter
+                 control with the deceleration limited to VT_B_DEC_MSS; MC again below MPC_XY_VEL_MAX.
+Parameter names follow PX4 where PX4 has them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from aircraft.airframe import Airframe
+from autopilot.vehicle_state import VehicleState
+from autopilot.velocity_command import VelocityCommand
+
+MC, TRANSITION_FW, FW, TRANSITION_MC = "MC", "TRANSITION_FW", "FW", "TRANSITION_MC"
+YAW_FROM_COURSE_SPEED = 3.0  # m/s: above this horizontal set-point speed the nose follows its course (as the MPC)
+
+
+@dataclass(frozen=True)
+class PidParameters:
+    """Gains and limits. PX4 parameter names in the comments."""
+
+    mc_vel_p_xy: float = 1.8  # MPC_XY_VEL_P_ACC (1/s)
+    mc_vel_i_xy: float = 0.4  # MPC_XY_VEL_I_ACC (1/s^2)
+    mc_vel_p_z: float = 4.0  # MPC_Z_VEL_P_ACC
+    mc_vel_i_z: float = 2.0  # MPC_Z_VEL_I_ACC
+    mc_tilt_max_deg: float = 35.0  # MPC_TILTMAX_AIR
+    mc_acc_hor_max: float = 6.0  # MPC_ACC_HOR_MAX (m/s^2)
+    mc_speed_max: float = 12.0  # MPC_XY_VEL_MAX (m/s): above it the set-point asks for forward flight
+    arsp_blend: float = 13.5  # VT_ARSP_BLEND (m/s)
+    arsp_trans: float = 23.0  # VT_ARSP_TRANS (m/s)
+    tilt_trans_deg: float = 30.0  # VT_TILT_TRANS x 90 deg
+    tilt_fw_deg: float = 90.0  # VT_TILT_FW x 90 deg
+    trans_pitch_deg: float = 0.0  # pitch held while the rotors pull the aircraft through the transition
+    back_trans_decel: float = 2.0  # VT_B_DEC_MSS (m/s^2)
+    fw_airspd_min: float = 20.0  # FW_AIRSPD_MIN (m/s): slower set-points bring the rotors back up
+    fw_speed_p: float = 1.0  # airspeed error -> along-track acceleration (1/s)
+    fw_speed_i: float = 0.3
+    fw_climb_p: float = 0.08  # sink-rate error -> pitch (rad per m/s)
+    fw_climb_i: float = 0.05
+    fw_pitch_max_deg: float = 20.0
+    fw_roll_max_deg: float = 35.0  # FW_R_LIM
+    fw_course_p: float = 0.8  # course error -> turn rate (1/s)
+
+
+def clamp(value: float, low: float, high: float) -> float:
+    return low if value < low else high if value > high else value
+
+
+def wrap(angle: float) -> float:
+    return math.atan2(math.sin(angle), math.cos(angle))
+
+
+class PidVelocityController:
+    """Velocity set-point (NED, m/s) -> VelocityCommand, with PX4-like VTOL phase switching."""
+
+    def __init__(self, airframe: Airframe, parameters: PidParameters = PidParameters(), dt: float = 0.01) -> None:
+        self.airframe = airframe
+        self.p = parameters
+        self.dt = dt
+        self.phase = MC
+        self.mode_switches = 0
+        self.integral_xy = np.zeros(2)
+        self.integral_z = 0.0
+        self.integral_speed = 0.0
+        self.integral_climb = 0.0
+        self.yaw_hold: float | None = None
+        self.previous_course_sp: float | None = None
+
+    def reset(self) -> None:
+        """Forget integrators and phase (e.g. when this controller takes over from the MPC)."""
+        self.__init__(self.airframe, self.p, self.dt)  # type: ignore[misc]
+
+    # ---- phase logic -----------------------------------------------------------------------------------
+    def _switch(self, phase: str) -> None:
+        if phase != self.phase:
+            self.phase = phase
+            self.mode_switches += 1
+
+    def _update_phase(self, state: VehicleState, speed_sp: float, mean_tilt: float) -> None:
+        p = self.p
+        if self.phase == MC and speed_sp > p.mc_speed_max:
+            self._switch(TRANSITION_FW)
+            self.integral_speed = 0.0
+            self.integral_climb = 0.0
+        elif self.phase == TRANSITION_FW:
+            if speed_sp < p.mc_speed_max:
+                self._switch(TRANSITION_MC)
+            elif state.airspeed >= p.arsp_trans and mean_tilt >= math.radians(p.tilt_fw_deg - 2):
+                self._switch(FW)
+        elif self.phase == FW and speed_sp < p.fw_airspd_min:
+            self._switch(TRANSITION_MC)
+            self.integral_xy[:] = 0.0
+        elif self.phase == TRANSITION_MC and state.airspeed < p.mc_speed_max and mean_tilt < math.radians(5):
+            self._switch(MC)
+
+    # ---- helpers -----------------------------------------------------------------------------------------
+    def _yaw_setpoint(self, state: VehicleState, v_sp: np.ndarray) -> float:
+        speed_sp = math.hypot(v_sp[0], v_sp[1])
+        if speed_sp > YAW_FROM_COURSE_SPEED:
+            self.yaw_hold = None
+            return math.atan2(v_sp[1], v_sp[0])
+        if self.yaw_hold is None:
+            self.yaw_hold = float(state.euler[2])
+        return self.yaw_hold
+
+    def _mc_acceleration(self, state: VehicleState, v_sp: np.ndarray, horizontal_limit: float) -> np.ndarray:
+        """Multicopter velocity PID: NED acceleration set-point (m/s^2) with anti-windup."""
+        p = self.p
+        error = v_sp - state.velocity_ned
+        self.integral_xy = np.clip(self.integral_xy + error[0:2] * self.dt, -3.0, 3.0)
+        self.integral_z = clamp(self.integral_z + error[2] * self.dt, -3.0, 3.0)
+        horizontal = p.mc_vel_p_xy * error[0:2] + p.mc_vel_i_xy * self.integral_xy
+        norm = float(np.hypot(*horizontal))
+        if norm > horizontal_limit:
+            horizontal *= horizontal_limit / norm
+        vertical = clamp(p.mc_vel_p_z * error[2] + p.mc_vel_i_z * self.integral_z, -6.0, 4.0)
+        return np.array([horizontal[0], horizontal[1], vertical])
+
+    def _attitude_from_force(self, force_ned: np.ndarray, yaw: float, tilt_limit: float) -> tuple[float, float]:
+        """Roll and pitch that point the rotors' thrust (tilt 0) along force_ned, for a given yaw."""
+        forward = math.cos(yaw) * force_ned[0] + math.sin(yaw) * force_ned[1]
+        right = -math.sin(yaw) * force_ned[0] + math.cos(yaw) * force_ned[1]
+        up = max(-force_ned[2], 1e-3)
+        pitch = clamp(-math.atan2(forward, up), -tilt_limit, tilt_limit)
+        roll = clamp(math.atan2(right, math.hypot(forward, up)), -tilt_limit, tilt_limit)
+        return roll, pitch
+
+    def _fw_commands(self, state: VehicleState, v_sp: np.ndarray, speed_sp: float) -> tuple[np.ndarray, float, float]:
+        """Fixed-wing laws: (NED acceleration wanted, pitch set-point, roll set-point)."""
+        p = self.p
+        g = self.airframe.gravity
+        speed = max(state.airspeed, 1.0)
+        speed_error = speed_sp - state.airspeed
+        self.integral_speed = clamp(self.integral_speed + speed_error * self.dt, -10.0, 10.0)
+        along = clamp(p.fw_speed_p * speed_error + p.fw_speed_i * self.integral_speed, -4.0, 4.0)
+        sink_error = state.velocity_ned[2] - v_sp[2]  # positive: sinking faster than wanted -> nose up
+        self.integral_climb = clamp(self.integral_climb + sink_error * self.dt, -5.0, 5.0)
+        pitch_limit = math.radians(p.fw_pitch_max_deg)
+        pitch = clamp(p.fw_climb_p * sink_error + p.fw_climb_i * self.integral_climb, -pitch_limit, pitch_limit)
+        course = math.atan2(state.velocity_ned[1], state.velocity_ned[0])
+        course_sp = math.atan2(v_sp[1], v_sp[0])
+        course_rate_sp = 0.0
+        if self.previous_course_sp is not None:
+            course_rate_sp = wrap(course_sp - self.previous_course_sp) / self.dt
+        self.previous_course_sp = course_sp
+        turn_rate = p.fw_course_p * wrap(course_sp - course) + course_rate_sp
+        roll_limit = math.radians(p.fw_roll_max_deg)
+        roll = clamp(math.atan(speed * turn_rate / g), -roll_limit, roll_limit)
+        track = np.array([math.cos(course), math.sin(course), 0.0])
+        lateral = np.array([-math.sin(course), math.cos(course), 0.0])
+        acceleration = along * track + g * math.tan(roll) * lateral
+        return acceleration, pitch, roll
+
+    # ---- the controller ----------------------------------------------------------------------------------
+    def update(self, state: VehicleState, v_sp: np.ndarray, mean_tilt: float) -> VelocityCommand:
+        """One 100 Hz step. `mean_tilt` is the autopilot's estimate of the rotors' present mean tilt (rad)."""
+        p = self.p
+        a = self.airframe
+        speed_sp = math.hypot(v_sp[0], v_sp[1])
+        self._update_phase(state, speed_sp, mean_tilt)
+        yaw_sp = self._yaw_setpoint(state, v_sp)
+        gravity = np.array([0.0, 0.0, a.gravity])
+        rotation = state.rotation()
+        tilt_limit = math.radians(p.mc_tilt_max_deg)
+        command = VelocityCommand(mode=self.phase)
+
+        if self.phase in (MC, TRANSITION_MC):
+            limit = p.mc_acc_hor_max if self.phase == MC else p.back_trans_decel
+            acceleration = self._mc_acceleration(state, v_sp, min(limit, a.gravity * math.tan(tilt_limit)))
+            force_ned = a.mass * (acceleration - gravity)
+            roll, pitch = self._attitude_from_force(force_ned, yaw_sp, tilt_limit)
+            command.tilt_sp[:] = 0.0
+            command.force_weights[:] = (0.0, 0.0, 1.0)
+            command.euler_sp[:] = (roll, pitch, yaw_sp)
+        else:
+            blend = clamp((state.airspeed - p.arsp_blend) / (p.arsp_trans - p.arsp_blend), 0.0, 1.0)
+            if self.phase == FW:
+                blend = 1.0
+            fw_acceleration, fw_pitch, fw_roll = self._fw_commands(state, v_sp, speed_sp)
+            mc_acceleration = self._mc_acceleration(state, v_sp, p.mc_acc_hor_max)
+            mc_roll, _ = self._attitude_from_force(a.mass * (mc_acceleration - gravity), yaw_sp, tilt_limit)
+            # Vertical: collective thrust holds altitude while the wing cannot (weight 1 - blend);
+            # the fixed-wing climb law on pitch takes over as airspeed builds.
+            acceleration = blend * fw_acceleration
+            acceleration[2] = (1.0 - blend) * mc_acceleration[2]
+            force_ned = a.mass * (acceleration - gravity)
+            pitch = (1.0 - blend) * math.radians(p.trans_pitch_deg) + blend * fw_pitch
+            roll = (1.0 - blend) * mc_roll + blend * fw_roll
+            if self.phase == TRANSITION_FW and state.airspeed < p.arsp_trans:
+                tilt = math.radians(p.tilt_trans_deg)
+            else:
+                tilt = math.radians(p.tilt_fw_deg)
+            command.tilt_sp[:] = tilt
+            command.force_weights[:] = (blend, 0.0, 1.0 - blend)
+            course = math.atan2(state.velocity_ned[1], state.velocity_ned[0]) if state.airspeed > 5 else yaw_sp
+            yaw = yaw_sp if self.phase == TRANSITION_FW and blend < 1.0 else course
+            command.euler_sp[:] = (roll, pitch, yaw)
+        command.force_sp_body[:] = rotation.T @ force_ned
+        return command

@@ -1,0 +1,74 @@
+"""What the autopilot knows of the vehicle each step: ground truth from HIL_STATE_QUATERNION (SPEC section 3)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from transport.geodesy import LocalGeodetic
+
+
+@dataclass
+class VehicleState:
+    """Navigation state in SI units: NED position and velocity, attitude, body rates, airspeed."""
+
+    time_usec: int = 0
+    position_ned: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    velocity_ned: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    quaternion: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0, 0.0]))
+    euler: np.ndarray = field(default_factory=lambda: np.zeros(3))  # roll, pitch, yaw (rad), ZYX
+    body_rates: np.ndarray = field(default_factory=lambda: np.zeros(3))  # p, q, r (rad/s)
+    airspeed: float = 0.0  # true airspeed (m/s)
+    specific_force: np.ndarray = field(default_factory=lambda: np.zeros(3))  # accelerometer, body (m/s^2)
+    valid: bool = False
+
+    @property
+    def time_s(self) -> float:
+        return self.time_usec / 1e6
+
+    @property
+    def altitude_above_home(self) -> float:
+        return -float(self.position_ned[2])
+
+    def rotation(self) -> np.ndarray:
+        """R_IB (body -> NED)."""
+        w, x, y, z = self.quaternion
+        return np.array(
+            [
+                [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
+            ]
+        )
+
+
+def euler_from_quaternion(w: float, x: float, y: float, z: float) -> tuple[float, float, float]:
+    """ZYX Euler angles (roll, pitch, yaw) in rad."""
+    roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
+    pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
+    yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    return roll, pitch, yaw
+
+
+def update_from_hil_state(state: VehicleState, message, geodetic: LocalGeodetic, gravity: float) -> bool:
+    """Fill `state` from a HIL_STATE_QUATERNION; False (state untouched) if any value is not finite."""
+    q = message.attitude_quaternion
+    values = (*q, message.rollspeed, message.pitchspeed, message.yawspeed)
+    if not all(math.isfinite(v) for v in values):
+        return False
+    norm = math.sqrt(sum(v * v for v in q))
+    if not 0.5 < norm < 1.5:
+        return False
+    w, x, y, z = (v / norm for v in q)
+    state.time_usec = message.time_usec
+    state.position_ned[:] = geodetic.to_ned(message.lat * 1e-7, message.lon * 1e-7, message.alt * 1e-3)
+    state.velocity_ned[:] = (message.vx * 0.01, message.vy * 0.01, message.vz * 0.01)
+    state.quaternion[:] = (w, x, y, z)
+    state.euler[:] = euler_from_quaternion(w, x, y, z)
+    state.body_rates[:] = (message.rollspeed, message.pitchspeed, message.yawspeed)
+    state.airspeed = message.true_airspeed * 0.01
+    state.specific_force[:] = (message.xacc * gravity / 1000, message.yacc * gravity / 1000, message.zacc * gravity / 1000)
+    state.valid = True
+    return True

@@ -1,0 +1,25 @@
+"""What a velocity controller (the MPC or the PID baseline) hands to the attitude loop and the allocator."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass
+class VelocityCommand:
+    """Outer-loop output, refreshed at 100 Hz (SPEC section 4).
+
+    euler_sp: attitude set-point (roll, pitch, yaw) in rad for the attitude loop.
+    tilt_sp: tilt servo set-points chi_1..4 in rad, sent straight to the servos (not allocated).
+    force_sp_body: total non-gravity force wanted in body FRD (N), the force part of the allocator's wrench.
+    force_weights: how much each body force row matters to the allocator (moments always weigh 1); a PID
+        mode that leaves a force axis to the attitude (e.g. lift by pitch in forward flight) weighs it 0.
+    """
+
+    euler_sp: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    tilt_sp: np.ndarray = field(default_factory=lambda: np.zeros(4))
+    force_sp_body: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    force_weights: np.ndarray = field(default_factory=lambda: np.ones(3))
+    mode: str = ""  # the controller's phase name, for telemetry and mode-switch counting
