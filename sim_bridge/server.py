@@ -36,7 +36,7 @@ USEC_WRAP = 1 << 32
 
 @dataclass
 class PlantCounters:
-    """What the plant did with its input, reported at exit (and on zenoh)."""
+    """What the plant did with its input, reported at exit by --summary."""
 
     steps: int = 0
     commands_used: int = 0
@@ -96,6 +96,7 @@ class PlantServer:
                 self.peer = sender
                 self._handle_servo_output(message)
             elif kind == "COMMAND_LONG":
+                self.peer = sender
                 self._handle_command(message, sender)
             elif kind == "HEARTBEAT":
                 self.peer = sender
