@@ -25,9 +25,14 @@ from autopilot.velocity_command import VelocityCommand
 VELOCITY_PERIOD_USEC = 10_000  # 100 Hz
 ATTITUDE_PERIOD_USEC = 4_000  # 250 Hz
 PLANT_DT = 1.0 / 400.0
-# Attitude before force when the demand is infeasible (as PX4's allocation prioritises roll and pitch):
-# 1 N m of roll or pitch error costs like 100 N of force error, yaw like 10 N (the weakest axis).
-MOMENT_WEIGHTS = (100.0, 100.0, 10.0)
+# Differential tilt for hover yaw: tilting the right rotors (1, 2) back and the left ones (3, 4) forward by d
+# makes a yaw moment of about 2 T d (rotor arms 0.5 m to each side) and no net force.
+YAW_TILT_PATTERN = np.array([-1.0, -1.0, 1.0, 1.0])
+YAW_TILT_GAIN = 0.05  # per 250 Hz tick: the residual is integrated with a ~80 ms time constant
+YAW_TILT_MAX = np.radians(35.0)
+# Priorities when the demand is infeasible, as PX4's allocation has them: roll and pitch first (1 N m of
+# error costs like 10 N of force error), then thrust, yaw last (1 N m like 1 N).
+MOMENT_WEIGHTS = (100.0, 100.0, 1.0)
 
 
 class FlightController:
@@ -51,6 +56,7 @@ class FlightController:
         self._next_velocity_usec: int | None = None
         self._next_attitude_usec: int | None = None
         self._weights = np.array([1.0, 1.0, 1.0, *MOMENT_WEIGHTS])
+        self.yaw_tilt = 0.0  # rad: right rotors tilted back and left rotors forward by this much (yaw_by_tilt)
         self.allocator.set_wrench_weights(self._weights)
 
     @property
@@ -76,7 +82,7 @@ class FlightController:
         if t >= self._next_attitude_usec:
             self._next_attitude_usec += ATTITUDE_PERIOD_USEC
             self._attitude_and_allocation(state)
-        self.command[4:8] = self.velocity_command.tilt_sp
+        self.command[4:8] = self.velocity_command.tilt_sp + self.yaw_tilt * YAW_TILT_PATTERN
         self.servos.advance(self.command[4:8], PLANT_DT)
         return self.command
 
@@ -92,8 +98,18 @@ class FlightController:
         if result.fallback:
             self.allocation_fallbacks += 1
         self.residual = result.residual
+        self._update_yaw_tilt(command.yaw_by_tilt, result.residual[5], result.u[0:4])
         self.command[0:4] = result.u[0:4]
         self.command[8:12] = result.u[4:8]
+
+    def _update_yaw_tilt(self, active: bool, yaw_residual: float, thrust_fractions: np.ndarray) -> None:
+        """Integrate the yaw the allocator could not make into a differential tilt (d/d tilt of yaw = 2 T)."""
+        if not active:
+            self.yaw_tilt *= 1.0 - YAW_TILT_GAIN  # hand back to the velocity controller's tilts smoothly
+            return
+        thrust = max(float(np.mean(thrust_fractions)) * self.airframe.thrust_max, 5.0)
+        self.yaw_tilt += YAW_TILT_GAIN * yaw_residual / (2.0 * thrust)
+        self.yaw_tilt = min(max(self.yaw_tilt, -YAW_TILT_MAX), YAW_TILT_MAX)
 
     def apply_failure(self, unit: int, kind: int, instance: int, value: float) -> None:
         """Tell the allocator and the servo estimate about a failure the plant accepted (SPEC section 5)."""

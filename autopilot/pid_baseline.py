@@ -21,10 +21,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from aircraft.airframe import Airframe
+from autopilot.attitude import DEFAULT_GAINS
 from autopilot.vehicle_state import VehicleState
 from autopilot.velocity_command import VelocityCommand
 
 MC, TRANSITION_FW, FW, TRANSITION_MC = "MC", "TRANSITION_FW", "FW", "TRANSITION_MC"
+YAW_ATTITUDE_GAIN = DEFAULT_GAINS.attitude[2]
 YAW_FROM_COURSE_SPEED = 3.0  # m/s: above this horizontal set-point speed the nose follows its course (as the MPC)
 
 
@@ -120,8 +122,10 @@ class PidVelocityController:
         """Multicopter velocity PID: NED acceleration set-point (m/s^2) with anti-windup."""
         p = self.p
         error = v_sp - state.velocity_ned
-        self.integral_xy = np.clip(self.integral_xy + error[0:2] * self.dt, -3.0, 3.0)
-        self.integral_z = clamp(self.integral_z + error[2] * self.dt, -3.0, 3.0)
+        # Integrators may supply up to the acceleration limit (a jammed tilted rotor needs ~4 m/s^2 of trim).
+        xy_limit, z_limit = p.mc_acc_hor_max / p.mc_vel_i_xy, 4.0 / p.mc_vel_i_z
+        self.integral_xy = np.clip(self.integral_xy + error[0:2] * self.dt, -xy_limit, xy_limit)
+        self.integral_z = clamp(self.integral_z + error[2] * self.dt, -z_limit, z_limit)
         horizontal = p.mc_vel_p_xy * error[0:2] + p.mc_vel_i_xy * self.integral_xy
         norm = float(np.hypot(*horizontal))
         if norm > horizontal_limit:
@@ -177,16 +181,29 @@ class PidVelocityController:
         tilt_limit = math.radians(p.mc_tilt_max_deg)
         command = VelocityCommand(mode=self.phase)
 
-        if self.phase in (MC, TRANSITION_MC):
-            limit = p.mc_acc_hor_max if self.phase == MC else p.back_trans_decel
-            acceleration = self._mc_acceleration(state, v_sp, min(limit, a.gravity * math.tan(tilt_limit)))
+        blend = clamp((state.airspeed - p.arsp_blend) / (p.arsp_trans - p.arsp_blend), 0.0, 1.0)
+        if self.phase == MC:
+            acceleration = self._mc_acceleration(state, v_sp, min(p.mc_acc_hor_max, a.gravity * math.tan(tilt_limit)))
             force_ned = a.mass * (acceleration - gravity)
             roll, pitch = self._attitude_from_force(force_ned, yaw_sp, tilt_limit)
             command.tilt_sp[:] = 0.0
             command.force_weights[:] = (0.0, 0.0, 1.0)
             command.euler_sp[:] = (roll, pitch, yaw_sp)
+            command.yaw_by_tilt = True
+        elif self.phase == TRANSITION_MC:
+            # Back transition: rotors up at once; the multicopter law decelerates (limited to VT_B_DEC_MSS) while
+            # the wing still flies, so the fixed-wing climb law keeps the pitch (and altitude) by airspeed blend.
+            mc_acceleration = self._mc_acceleration(state, v_sp, p.back_trans_decel)
+            _, fw_pitch, fw_roll = self._fw_commands(state, v_sp, speed_sp)
+            acceleration = mc_acceleration.copy()
+            acceleration[2] *= 1.0 - blend
+            force_ned = a.mass * (acceleration - gravity)
+            mc_roll, mc_pitch = self._attitude_from_force(force_ned, yaw_sp, tilt_limit)
+            command.tilt_sp[:] = 0.0
+            command.force_weights[:] = (0.0, 0.0, 1.0 - blend)
+            command.euler_sp[:] = ((1 - blend) * mc_roll + blend * fw_roll, (1 - blend) * mc_pitch + blend * fw_pitch,
+                                   yaw_sp)  # fmt: skip
         else:
-            blend = clamp((state.airspeed - p.arsp_blend) / (p.arsp_trans - p.arsp_blend), 0.0, 1.0)
             if self.phase == FW:
                 blend = 1.0
             fw_acceleration, fw_pitch, fw_roll = self._fw_commands(state, v_sp, speed_sp)
@@ -206,7 +223,10 @@ class PidVelocityController:
             command.tilt_sp[:] = tilt
             command.force_weights[:] = (blend, 0.0, 1.0 - blend)
             course = math.atan2(state.velocity_ned[1], state.velocity_ned[0]) if state.airspeed > 5 else yaw_sp
-            yaw = yaw_sp if self.phase == TRANSITION_FW and blend < 1.0 else course
+            # Coordinated turn: the nose leads the track by the attitude loop's yaw lag (turn rate / K_att,yaw),
+            # so the sideslip, and the side force that would fight the turn, stay near zero.
+            turn_rate = a.gravity * math.tan(state.euler[0]) / max(state.airspeed, 1.0)
+            yaw = yaw_sp if self.phase == TRANSITION_FW and blend < 1.0 else course + turn_rate / YAW_ATTITUDE_GAIN
             command.euler_sp[:] = (roll, pitch, yaw)
         command.force_sp_body[:] = rotation.T @ force_ned
         return command

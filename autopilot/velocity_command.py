@@ -14,12 +14,15 @@ class VelocityCommand:
     euler_sp: attitude set-point (roll, pitch, yaw) in rad for the attitude loop.
     tilt_sp: tilt servo set-points chi_1..4 in rad, sent straight to the servos (not allocated).
     force_sp_body: total non-gravity force wanted in body FRD (N), the force part of the allocator's wrench.
-    force_weights: how much each body force row matters to the allocator (moments always weigh 1); a PID
-        mode that leaves a force axis to the attitude (e.g. lift by pitch in forward flight) weighs it 0.
+    force_weights: how much each body force row matters to the allocator; a PID mode that leaves a force
+        axis to the attitude (e.g. lift by pitch in forward flight) weighs it 0.
+    yaw_by_tilt: hover yaw by differential tilt, as PX4 flies tiltrotors: the rotors' reaction torque alone
+        (0.05 of thrust) cannot hold heading against a rotor jammed tilted.
     """
 
     euler_sp: np.ndarray = field(default_factory=lambda: np.zeros(3))
     tilt_sp: np.ndarray = field(default_factory=lambda: np.zeros(4))
     force_sp_body: np.ndarray = field(default_factory=lambda: np.zeros(3))
     force_weights: np.ndarray = field(default_factory=lambda: np.ones(3))
+    yaw_by_tilt: bool = False  # let differential tilt take the yaw the rotors' thrust cannot make (PID, hover)
     mode: str = ""  # the controller's phase name, for telemetry and mode-switch counting
