@@ -107,6 +107,7 @@ class PidVelocityController:
             self.integral_xy[:] = 0.0
         elif self.phase == TRANSITION_MC and state.airspeed < p.mc_speed_max and mean_tilt < math.radians(5):
             self._switch(MC)
+            self.integral_xy[:] = 0.0  # as PX4 resets its integrators at a transition
 
     # ---- helpers -----------------------------------------------------------------------------------------
     def _yaw_setpoint(self, state: VehicleState, v_sp: np.ndarray) -> float:
@@ -118,18 +119,21 @@ class PidVelocityController:
             self.yaw_hold = float(state.euler[2])
         return self.yaw_hold
 
-    def _mc_acceleration(self, state: VehicleState, v_sp: np.ndarray, horizontal_limit: float) -> np.ndarray:
+    def _mc_acceleration(
+        self, state: VehicleState, v_sp: np.ndarray, horizontal_limit: float, integrate_xy: bool = True
+    ) -> np.ndarray:
         """Multicopter velocity PID: NED acceleration set-point (m/s^2) with anti-windup."""
         p = self.p
         error = v_sp - state.velocity_ned
         # Integrators may supply up to the acceleration limit (a jammed tilted rotor needs ~4 m/s^2 of trim).
         xy_limit, z_limit = p.mc_acc_hor_max / p.mc_vel_i_xy, 4.0 / p.mc_vel_i_z
-        self.integral_xy = np.clip(self.integral_xy + error[0:2] * self.dt, -xy_limit, xy_limit)
         self.integral_z = clamp(self.integral_z + error[2] * self.dt, -z_limit, z_limit)
         horizontal = p.mc_vel_p_xy * error[0:2] + p.mc_vel_i_xy * self.integral_xy
         norm = float(np.hypot(*horizontal))
         if norm > horizontal_limit:
             horizontal *= horizontal_limit / norm
+        elif integrate_xy:  # anti-windup: integrate only while the output is not saturated
+            self.integral_xy = np.clip(self.integral_xy + error[0:2] * self.dt, -xy_limit, xy_limit)
         vertical = clamp(p.mc_vel_p_z * error[2] + p.mc_vel_i_z * self.integral_z, -6.0, 4.0)
         return np.array([horizontal[0], horizontal[1], vertical])
 
@@ -193,7 +197,7 @@ class PidVelocityController:
         elif self.phase == TRANSITION_MC:
             # Back transition: rotors up at once; the multicopter law decelerates (limited to VT_B_DEC_MSS) while
             # the wing still flies, so the fixed-wing climb law keeps the pitch (and altitude) by airspeed blend.
-            mc_acceleration = self._mc_acceleration(state, v_sp, p.back_trans_decel)
+            mc_acceleration = self._mc_acceleration(state, v_sp, p.back_trans_decel, integrate_xy=False)
             _, fw_pitch, fw_roll = self._fw_commands(state, v_sp, speed_sp)
             acceleration = mc_acceleration.copy()
             acceleration[2] *= 1.0 - blend
