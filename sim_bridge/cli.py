@@ -53,6 +53,8 @@ def build_parser() -> OneLineArgumentParser:
                         help="constant wind in NED, m/s (default 0,0,0)")
     parser.add_argument("--lockstep-timeout", type=positive_float, default=0.5, metavar="S",
                         help="wall seconds to wait for the autopilot's command before holding the last one")
+    parser.add_argument("--peer-lost-after", type=bounded_int(1, 1_000_000), default=10, metavar="N",
+                        help="lockstep: after N missed commands in a row, pause until an autopilot speaks (default 10)")
     parser.add_argument("--duration", type=positive_float, default=None, metavar="S",
                         help="stop after S simulated seconds (default: run until stopped)")
     parser.add_argument("--sensor-noise-seed", type=bounded_int(0, 2**31 - 1), default=None, metavar="N",
@@ -110,6 +112,7 @@ def main(argv: list[str] | None = None) -> int:
     server = PlantServer(
         plant, sock, link, sensors,
         lockstep=not args.realtime, speed=args.speed, lockstep_timeout_s=args.lockstep_timeout,
+        peer_lost_after=args.peer_lost_after,
         duration_s=args.duration, zenoh_session=session, should_stop=lambda: bool(stop_requested),
     )  # fmt: skip
     mode = f"real time x{args.speed:g}" if args.realtime else "lockstep"

@@ -2,7 +2,8 @@
 
 Lockstep: for each step k the plant sends the state at t_k, then waits for SERVO_OUTPUT_RAW stamped
 t_k mod 2^32 before it integrates to t_{k+1}. If none comes within the timeout it holds the last command,
-counts a missed step and goes on, so a silent peer never hangs the plant. Real time: the plant paces
+counts a missed step and goes on, so a silent peer never hangs the plant; after `peer_lost_after` missed
+steps in a row it pauses (not stepping) until an autopilot speaks again, then resends the current state. Real time: the plant paces
 itself to the wall clock (times a speed factor) and uses the latest command it has.
 
 Everything received is untrusted: the Link parser drops and counts bad frames; out-of-range PWM is
@@ -12,6 +13,7 @@ clamped and counted; commands for other components are ignored and counted.
 from __future__ import annotations
 
 import socket
+import sys
 import time
 from collections import Counter
 from dataclasses import dataclass, field
@@ -41,6 +43,7 @@ class PlantCounters:
     steps: int = 0
     commands_used: int = 0
     missed_commands: int = 0  # lockstep steps that timed out and held the last command
+    peer_lost: int = 0  # times the peer stayed silent for peer_lost_after steps and the plant paused for it
     stale_commands: int = 0  # SERVO_OUTPUT_RAW for another step than the one awaited
     pwm_clamped: int = 0
     ignored: Counter[str] = field(default_factory=Counter)
@@ -61,6 +64,7 @@ class PlantServer:
         lockstep: bool = True,
         speed: float = 1.0,
         lockstep_timeout_s: float = 0.5,
+        peer_lost_after: int = 10,
         duration_s: float | None = None,
         zenoh_session: Any | None = None,
         should_stop: Callable[[], bool] = lambda: False,
@@ -72,6 +76,7 @@ class PlantServer:
         self.lockstep = lockstep
         self.speed = speed
         self.timeout_s = lockstep_timeout_s
+        self.peer_lost_after = peer_lost_after
         self.max_steps = None if duration_s is None else int(round(duration_s / DT))
         self.should_stop = should_stop
         self.peer: tuple[str, int] | None = None
@@ -203,6 +208,7 @@ class PlantServer:
             return self.counters
         start = time.monotonic()
         self.wait_time_s = 0.0
+        silent_steps = 0
         plant = self.plant
         while not self.should_stop():
             self._send_state()
@@ -216,6 +222,19 @@ class PlantServer:
                     if self.should_stop():
                         break
                     self.counters.missed_commands += 1
+                    silent_steps += 1
+                    if silent_steps >= self.peer_lost_after:
+                        # The autopilot is gone: pause (not integrate in slow motion) until one speaks again.
+                        self.counters.peer_lost += 1
+                        print(f"vtol-sim: no command for {silent_steps} steps; paused at t = "
+                              f"{plant.time_usec / 1e6:.4f} s until an autopilot speaks", file=sys.stderr, flush=True)
+                        self.peer = None
+                        if not self.wait_for_peer():
+                            break
+                        silent_steps = 0
+                        continue  # resend this step's state to the (new) peer, then wait for its answer
+                else:
+                    silent_steps = 0
             else:
                 self._drain()
                 deadline = start + (plant.step_count + 1) * DT / self.speed
@@ -238,6 +257,7 @@ class PlantServer:
             "plant_alone_real_time_factor": round(sim_time / busy, 2) if busy > 0 else None,
             "commands_used": c.commands_used,
             "missed_commands": c.missed_commands,
+            "peer_lost": c.peer_lost,
             "stale_commands": c.stale_commands,
             "pwm_clamped": c.pwm_clamped,
             "ignored": dict(c.ignored),

@@ -132,12 +132,21 @@ def test_a_missing_command_times_out_holds_and_is_counted(start_plant, airframe)
     assert abs(sample.state.vz) <= 1  # held hover
 
 
-def test_a_silent_peer_never_hangs_the_plant(start_plant):
-    plant = start_plant("--spawn-alt", "100", "--lockstep-timeout", "0.01", "--duration", "0.5")
-    plant.first_sample()
-    plant.process.wait(timeout=30)  # 200 steps at 10 ms each, then the duration ends it
+def test_a_vanished_peer_pauses_the_plant_until_one_speaks_again(start_plant, airframe):
+    plant = start_plant("--spawn-alt", "100", "--lockstep-timeout", "0.01", "--peer-lost-after", "4")
+    sample = plant.first_sample()
+    plant.client.send_pwm(sample.time_usec, hover_pwm(airframe))
+    sample = plant.client.receive_step(5.0)
+    stamps = []
+    while (late := plant.client.receive_step(0.5)) is not None:  # we say nothing: 4 misses, then a pause
+        stamps.append(late.time_usec)
+    assert stamps == [5000, 7500, 10000]  # 2500, 5000, 7500 timed out and were stepped past; 10000 is the 4th
+    assert plant.process.poll() is None  # paused, not gone
+    plant.client.hello()  # an autopilot speaks: the plant resends the current state and steps on
+    samples = fly(plant, lambda s: hover_pwm(airframe), 20, first=plant.client.receive_step(5.0))
+    assert samples[0].time_usec == 10000 and samples[-1].time_usec == 10000 + 20 * 2500
     summary = plant.stop()
-    assert summary["steps"] == 200 and summary["missed_commands"] == 200
+    assert summary["missed_commands"] == 4 and summary["peer_lost"] == 1
 
 
 def acks(plant):
