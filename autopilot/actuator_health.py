@@ -30,7 +30,7 @@ class ServoEstimate:
         self.rate_scale = np.ones(4)
 
     def advance(self, command: np.ndarray, dt: float) -> np.ndarray:
-        """Move the estimate one plant step towards `command` (rad); plain Python, it runs every step."""
+        """Move the estimate dt seconds towards `command` (rad), at the servo's rate; plain Python (hot path)."""
         a = self.airframe
         for i, target in enumerate(command.tolist()):
             stuck = self.stuck[i]

@@ -24,7 +24,6 @@ from autopilot.velocity_command import VelocityCommand
 
 VELOCITY_PERIOD_USEC = 10_000  # 100 Hz
 ATTITUDE_PERIOD_USEC = 4_000  # 250 Hz
-PLANT_DT = 1.0 / 400.0
 # Differential tilt for hover yaw: tilting the right rotors (1, 2) back and the left ones (3, 4) forward by d
 # makes a yaw moment of about 2 T d (rotor arms 0.5 m to each side) and no net force.
 YAW_TILT_PATTERN = np.array([-1.0, -1.0, 1.0, 1.0])
@@ -54,7 +53,8 @@ class FlightController:
         self.residual = np.zeros(6)
         self.allocation_fallbacks = 0
         self._next_velocity_usec: int | None = None
-        self._next_attitude_usec: int | None = None
+        self._next_attitude_usec = 0
+        self._servo_time_usec = 0
         self._weights = np.array([1.0, 1.0, 1.0, *MOMENT_WEIGHTS])
         self.yaw_tilt = 0.0  # rad: right rotors tilted back and left rotors forward by this much (yaw_by_tilt)
         self.allocator.set_wrench_weights(self._weights)
@@ -70,21 +70,31 @@ class FlightController:
         self.velocity_setpoint[:] = velocity_ned
         return True
 
-    def step(self, state: VehicleState) -> np.ndarray:
-        """Commands for the plant step at state.time_usec (call once per plant step, in time order)."""
+    def velocity_due(self, time_usec: int) -> bool:
+        """True when the velocity controller runs at this plant step (the set-point is read then)."""
+        return self._next_velocity_usec is None or time_usec >= self._next_velocity_usec
+
+    def step(self, state: VehicleState) -> bool:
+        """Run the tasks due at the plant step state.time_usec (call once per step, in time order).
+
+        Returns True when `command` changed (at the 250 Hz ticks); between ticks the command holds.
+        """
         t = state.time_usec
         if self._next_velocity_usec is None:
-            self._next_velocity_usec = self._next_attitude_usec = t
+            self._next_velocity_usec = self._next_attitude_usec = self._servo_time_usec = t
         if t >= self._next_velocity_usec:
             self._next_velocity_usec += VELOCITY_PERIOD_USEC
             mean_tilt = float(np.mean(self.servos.tilt))
             self.velocity_command = self.velocity_controller.update(state, self.velocity_setpoint, mean_tilt)
-        if t >= self._next_attitude_usec:
-            self._next_attitude_usec += ATTITUDE_PERIOD_USEC
-            self._attitude_and_allocation(state)
+        if t < self._next_attitude_usec:
+            return False
+        self._next_attitude_usec += ATTITUDE_PERIOD_USEC
+        # The servos have been following the tilt command sent since the last tick: advance the estimate.
+        self.servos.advance(self.command[4:8], (t - self._servo_time_usec) / 1e6)
+        self._servo_time_usec = t
+        self._attitude_and_allocation(state)
         self.command[4:8] = self.velocity_command.tilt_sp + self.yaw_tilt * YAW_TILT_PATTERN
-        self.servos.advance(self.command[4:8], PLANT_DT)
-        return self.command
+        return True
 
     def _attitude_and_allocation(self, state: VehicleState) -> None:
         command = self.velocity_command

@@ -146,6 +146,7 @@ class PlantLoop:
         counters = self.counters
         start_wall = time.perf_counter()
         last_heard = time.monotonic()
+        pwm: list[int] | None = None
         self.client.hello()
         while not self.should_stop():
             sample = self.client.receive_step(0.25)
@@ -168,8 +169,10 @@ class PlantLoop:
             t = (t_usec - self._start_usec) / 1e6
             self._inject_due_failures(t)
             if self.armed:
-                self.controller.set_velocity_setpoint(self.setpoint(t))
-                pwm = command_to_pwm(self.airframe, self.controller.step(self.state))
+                if self.controller.velocity_due(t_usec):
+                    self.controller.set_velocity_setpoint(self.setpoint(t))
+                if self.controller.step(self.state) or pwm is None:
+                    pwm = command_to_pwm(self.airframe, self.controller.command)
             else:
                 pwm = self._disarmed_pwm
             self.client.send_pwm(sample.time_usec, pwm)
