@@ -1,0 +1,1 @@
+"""What a user runs: `vtol` and its sub-commands (flights, figures)."""
