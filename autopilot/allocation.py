@@ -14,7 +14,8 @@ only says that a QP distributes the wrench W^B over all actuators at once; it gi
     dW = W_sp - W(u_trim)
     Q  = diag(wrench_weights), default identity (1 N weighs like 1 N m: the rotor arms are ~1 m). Raise the
          moment weights to give attitude priority over force when the demand is infeasible.
-    eps = least_effort * max(1, max_j (A^T Q A)_jj): relative least-effort regularisation on the command u itself.
+    eps = least_effort * max(1, max_j (A^T A)_jj): relative least-effort regularisation on the command u itself
+         (relative to the unweighted A, so that the row weights do not scale it).
          It makes the Hessian H = A^T Q A + eps I positive definite (surface columns vanish at zero airspeed, and a
          failed actuator's column is zero) and, among equally good commands, picks the least-norm one (the paper's
          "least-norm solution"): redundant rotors share the work instead of keeping whatever split the history
@@ -117,7 +118,8 @@ def build_allocation_functions(airframe: Airframe) -> tuple[ca.Function, ca.Func
     jacobian = ca.jacobian(wrench, u)  # A, 6 x 8; the wrench is affine in u for fixed tilts and airspeed
     weighted = ca.diag(weights) @ jacobian  # Q A
     hessian_ls = jacobian.T @ weighted  # A^T Q A
-    eps = least_effort * ca.fmax(1.0, ca.mmax(ca.diag(hessian_ls)))
+    # Relative to the unweighted A^T A, so that raising the moment weights does not raise the regularisation.
+    eps = least_effort * ca.fmax(1.0, ca.mmax(ca.sum1(jacobian * jacobian)))
     hessian = hessian_ls + eps * ca.SX.eye(N_ACTUATORS)
     # g = -A^T Q dW + eps u_trim: the least-effort term acts on the command u = u_trim + du itself (paper: "the
     # least-norm solution"), not only on the change du, so redundant actuators share the work (equal rotors)

@@ -14,6 +14,7 @@ from autopilot.setpoint_profiles import PROFILES
 from transport.cli import OneLineArgumentParser, bounded_int, fail, finite_float, nonnegative_float, positive_float
 from transport.plant_link import PlantLinkClient
 from transport.ports import Ports
+from transport.zenoh_bus import open_session
 
 PROG = "vtol-autopilot"
 
@@ -50,7 +51,12 @@ def build_parser() -> OneLineArgumentParser:
                         metavar="T,UNIT,TYPE,INSTANCE[,VALUE]",
                         help="inject MAV_CMD_INJECT_FAILURE at simulated time T (repeatable)")
     parser.add_argument("--log", metavar="FILE.csv", help="write the 100 Hz flight log (state, set-points, actuators)")
+    parser.add_argument("--sysid", type=bounded_int(1, 255), default=1, help="vehicle system id (MAV_SYS_ID)")
     parser.add_argument("--no-zenoh", action="store_true", help="do not publish telemetry on zenoh")
+    parser.add_argument("--zenoh-listen", action="append", metavar="ENDPOINT",
+                        help="zenoh endpoint to listen on (default tcp/127.0.0.1:7547+I); repeatable")
+    parser.add_argument("--zenoh-connect", action="append", default=[], metavar="ENDPOINT",
+                        help="zenoh endpoint to connect to; repeatable")
     parser.add_argument("--summary", action="store_true", help="print a JSON line of counters on exit")
     return parser
 
@@ -61,17 +67,25 @@ def main(argv: list[str] | None = None) -> int:
         airframe = load_airframe(args.airframe)
     except AirframeError as exc:
         fail(PROG, str(exc))
-    port = args.sim_port if args.sim_port is not None else Ports(args.instance).plant
+    ports = Ports(args.instance)
+    port = args.sim_port if args.sim_port is not None else ports.plant
     profile, _ = PROFILES[args.profile]
     stop_requested: list[int] = []
     signal.signal(signal.SIGINT, lambda signum, frame: stop_requested.append(signum))
     signal.signal(signal.SIGTERM, lambda signum, frame: stop_requested.append(signum))
     controller = FlightController(airframe)
-    client = PlantLinkClient(port)
-    log = open(args.log, "w", newline="") if args.log else None
+    client = PlantLinkClient(port, system_id=args.sysid)
+    try:
+        log = open(args.log, "w", newline="") if args.log else None
+    except OSError as exc:
+        fail(PROG, f"cannot write the log {args.log}: {exc.strerror}")
+    session = None
+    if not args.no_zenoh:
+        session = open_session(args.zenoh_listen or [ports.zenoh_autopilot], args.zenoh_connect, PROG)
     loop = PlantLoop(
         airframe, controller, client, profile,
         armed=args.spawn_alt > 0, duration_s=args.duration, failures=args.failure, log=log,
+        zenoh_session=session, system_id=args.sysid,
         should_stop=lambda: bool(stop_requested),
     )  # fmt: skip
     print(f"{PROG}: {args.controller} controller, plant link udp 127.0.0.1:{port}", file=sys.stderr, flush=True)
@@ -81,6 +95,8 @@ def main(argv: list[str] | None = None) -> int:
         client.close()
         if log is not None:
             log.close()
+        if session is not None:
+            session.close()
     if args.summary:
         print(json.dumps(loop.summary()), flush=True)
     return 0

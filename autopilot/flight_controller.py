@@ -50,6 +50,7 @@ class FlightController:
         self.command = np.zeros(12)
         self.command[0:4] = hover
         self.torque_sp = np.zeros(3)
+        self.wrench_sp = np.zeros(6)
         self.residual = np.zeros(6)
         self.allocation_fallbacks = 0
         self._next_velocity_usec: int | None = None
@@ -69,6 +70,10 @@ class FlightController:
             return False
         self.velocity_setpoint[:] = velocity_ned
         return True
+
+    def restart_clock(self) -> None:
+        """The plant's clock went back (a new plant run): schedule the tasks afresh from the next step."""
+        self._next_velocity_usec = None
 
     def velocity_due(self, time_usec: int) -> bool:
         """True when the velocity controller runs at this plant step (the set-point is read then)."""
@@ -103,8 +108,8 @@ class FlightController:
             self._weights[0:3] = command.force_weights
             self.allocator.set_wrench_weights(self._weights)
         v_air_body = state.rotation().T @ state.velocity_ned  # no wind estimate: ground velocity as airspeed
-        wrench_sp = np.concatenate((command.force_sp_body, self.torque_sp))
-        result = self.allocator.allocate(wrench_sp, self.servos.tilt, v_air_body, state.body_rates)
+        self.wrench_sp = np.concatenate((command.force_sp_body, self.torque_sp))
+        result = self.allocator.allocate(self.wrench_sp, self.servos.tilt, v_air_body, state.body_rates)
         if result.fallback:
             self.allocation_fallbacks += 1
         self.residual = result.residual

@@ -1,7 +1,8 @@
 """The autopilot's side of the lockstep plant link: one control step per plant step, in simulation time.
 
 Every HIL_STATE_QUATERNION gets its SERVO_OUTPUT_RAW answer. A silent plant is waited for (with a HEARTBEAT
-every second so a restarted plant finds us again); garbage from the plant is dropped, counted, and said.
+every 0.25 s so a restarted plant finds us again; a clock that goes back restarts the schedule and the
+profile); garbage from the plant is dropped, counted, and said.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from autopilot.vehicle_state import VehicleState, update_from_hil_state
 from transport.geodesy import Home, LocalGeodetic
 from transport.mavlink import MAV_RESULT_ACCEPTED, mavlink
 from transport.plant_link import PlantLinkClient
+from transport.telemetry import control_key, encode_control
 
 SILENCE_NOTICE_S = 1.0
 LOG_PERIOD_USEC = 10_000  # the log is written at the velocity controller's 100 Hz
@@ -74,6 +76,8 @@ class PlantLoop:
         duration_s: float | None = None,
         failures: list[ScheduledFailure] | None = None,
         log: IO[str] | None = None,
+        zenoh_session: Any | None = None,
+        system_id: int = 1,
         should_stop: Callable[[], bool] = lambda: False,
     ) -> None:
         self.airframe = airframe
@@ -83,12 +87,15 @@ class PlantLoop:
         self.armed = armed
         self.geodetic = LocalGeodetic(home)
         self.duration_usec = None if duration_s is None else int(round(duration_s * 1e6))
-        self.pending_failures = sorted(failures or [], key=lambda f: f.time_s)
+        self.all_failures = list(failures or [])
+        self.pending_failures = sorted(self.all_failures, key=lambda f: f.time_s)
+        self._last_usec = 0
         self.awaiting_ack: list[ScheduledFailure] = []
         self.state = VehicleState()
         self.counters = LoopCounters()
         self.should_stop = should_stop
         self._writer = csv.writer(log) if log is not None else None
+        self._publisher = None if zenoh_session is None else zenoh_session.declare_publisher(control_key(system_id))
         if self._writer is not None:
             self._writer.writerow(LOG_COLUMNS)
         self._start_usec: int | None = None
@@ -130,6 +137,13 @@ class PlantLoop:
             )
             self.awaiting_ack.append(failure)
 
+    def _publish(self, t: float) -> None:
+        c = self.controller
+        self._publisher.put(
+            encode_control(t, c.mode, c.velocity_setpoint, c.velocity_command.euler_sp, c.command[4:8],
+                           np.concatenate((c.command[0:4], c.command[8:12])), c.wrench_sp, c.residual)
+        )  # fmt: skip
+
     def _log(self, t: float) -> None:
         s, c = self.state, self.controller
         cmd, vc = c.command, c.velocity_command
@@ -164,6 +178,14 @@ class PlantLoop:
                 counters.invalid_states += 1
                 continue  # no answer: the plant holds the last command (and counts it)
             t_usec = self.state.time_usec
+            if self._start_usec is not None and t_usec < self._last_usec:
+                self._say(f"the plant's clock went back ({self._last_usec} -> {t_usec} us): a new plant run; "
+                          f"restarting the profile")  # fmt: skip
+                self.controller.restart_clock()
+                self._start_usec = None
+                self._next_log_usec = 0
+                self.pending_failures = sorted(self.all_failures, key=lambda f: f.time_s)
+            self._last_usec = t_usec
             if self._start_usec is None:
                 self._start_usec = t_usec
             t = (t_usec - self._start_usec) / 1e6
@@ -171,6 +193,8 @@ class PlantLoop:
             if self.armed:
                 if self.controller.velocity_due(t_usec):
                     self.controller.set_velocity_setpoint(self.setpoint(t))
+                    if self._publisher is not None:
+                        self._publish(t)
                 if self.controller.step(self.state) or pwm is None:
                     pwm = command_to_pwm(self.airframe, self.controller.command)
             else:
@@ -188,7 +212,7 @@ class PlantLoop:
 
     def summary(self) -> dict[str, Any]:
         c = self.counters
-        sim_time = c.steps / 400
+        sim_time = (self._last_usec - (self._start_usec or 0)) / 1e6 if c.steps else 0.0
         return {
             "steps": c.steps,
             "sim_time_s": sim_time,

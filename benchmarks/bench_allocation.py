@@ -24,10 +24,9 @@ import casadi as ca
 import numpy as np
 import proxsuite
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the checkout, also when autopilot is not installed
-from aircraft.airframe import Airframe, load_airframe  # noqa: E402
-from aircraft.wrench import actuator_wrench  # noqa: E402
-from autopilot.allocation import ControlAllocator  # noqa: E402
+from aircraft.airframe import Airframe, load_airframe
+from aircraft.wrench import actuator_wrench
+from autopilot.allocation import ControlAllocator
 
 RATE_HZ = 250.0
 

@@ -2,6 +2,9 @@
 
 `vtol/<sysid>/plant/state`: every physics step, little-endian float64 values in PLANT_STATE_FIELDS order.
 `vtol/<sysid>/plant/events`: JSON objects, e.g. {"t": 12.5, "event": "failure", "text": "rotor 1: OFF"}.
+`vtol/<sysid>/autopilot/control`: at the velocity controller's 100 Hz, a JSON object with the time, the
+controller's mode, the velocity set-point, the attitude set-point, the tilt commands, the allocated actuators
+u (8), the wrench set-point and the allocation's residual (see `encode_control`).
 """
 
 from __future__ import annotations
@@ -48,3 +51,32 @@ def decode_plant_state(payload: bytes) -> dict[str, float]:
 
 def encode_event(t: float, event: str, text: str) -> bytes:
     return json.dumps({"t": t, "event": event, "text": text}).encode()
+
+
+def control_key(system_id: int) -> str:
+    return f"vtol/{system_id}/autopilot/control"
+
+
+def encode_control(
+    t: float,
+    mode: str,
+    velocity_sp: np.ndarray,
+    euler_sp: np.ndarray,
+    tilt_cmd: np.ndarray,
+    actuators: np.ndarray,
+    wrench_sp: np.ndarray,
+    residual: np.ndarray,
+) -> bytes:
+    """One autopilot control sample as JSON (SI units, angles in rad)."""
+    return json.dumps(
+        {
+            "t": t,
+            "mode": mode,
+            "velocity_sp": velocity_sp.tolist(),
+            "euler_sp": euler_sp.tolist(),
+            "tilt_cmd": tilt_cmd.tolist(),
+            "u": actuators.tolist(),
+            "wrench_sp": wrench_sp.tolist(),
+            "residual": residual.tolist(),
+        }
+    ).encode()
