@@ -205,7 +205,8 @@ class PlantLoop:
                 self._next_log_usec = t_usec + LOG_PERIOD_USEC
                 self._log(t)
             counters.busy_s += time.perf_counter() - busy_from
-            if self.duration_usec is not None and t_usec - self._start_usec >= self.duration_usec:
+            # Half a plant step of tolerance: the plant rounds a duration to whole steps (2.5 ms) too.
+            if self.duration_usec is not None and t_usec - self._start_usec >= self.duration_usec - 1250:
                 break
         counters.wall_s = time.perf_counter() - start_wall
         return counters

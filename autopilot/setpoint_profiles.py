@@ -48,7 +48,8 @@ def circle(t: float) -> np.ndarray:
 
 
 def circle_duration() -> float:
-    return circle_start(0.0) + 2 * math.pi * CIRCLE_RADIUS / CIRCLE_SPEED
+    """The ramp plus one full turn, rounded up to 10 ms."""
+    return math.ceil((circle_start(0.0) + 2 * math.pi * CIRCLE_RADIUS / CIRCLE_SPEED) * 100) / 100
 
 
 PROFILES: dict[str, tuple[Callable[[float], np.ndarray], float]] = {

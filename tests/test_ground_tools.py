@@ -22,6 +22,13 @@ def test_vtol_fly_writes_log_summary_and_figures(tmp_path):
     assert "figure" in result.stdout
 
 
+def test_a_duration_between_plant_steps_still_ends_the_flight(tmp_path):
+    """1.0011 s is not a whole number of 2.5 ms steps (the plant rounds it down to 400): both processes must still stop together."""
+    result = subprocess.run([VTOL, "fly", "hover", "--duration", "1.0011", "--out", str(tmp_path)],
+                            capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert result.returncode == 0, result.stderr
+
+
 def test_vtol_bad_arguments_give_one_line_and_exit_2():
     for args in (["fly", "loop-the-loop"], ["fly", "accel", "--duration", "0"], []):
         result = subprocess.run([VTOL, *args], capture_output=True, text=True, timeout=60)
