@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import socket
 import statistics
 import subprocess
 import sys
@@ -23,17 +22,12 @@ import numpy as np
 from aircraft.actuators import command_to_pwm, pwm_to_command
 from aircraft.airframe import load_airframe
 from aircraft.wrench import body_wrench
+from ground_tools.lockstep_flight import free_udp_port
 from sim_bridge.plant import Plant, Spawn, hover_command
 from sim_bridge.sensors import SensorSuite
 from transport.geodesy import Home, LocalGeodetic
 from transport.mavlink import Link
 from transport.plant_link import PlantLinkClient
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def median_us(function, repeats: int = 5000) -> float:

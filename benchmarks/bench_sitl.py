@@ -9,41 +9,15 @@ Prints the median real-time factor over the repeats, and each process's own work
 from __future__ import annotations
 
 import argparse
-import json
-import socket
 import statistics
-import subprocess
-import sys
 
 from autopilot.setpoint_profiles import PROFILES
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+from ground_tools.lockstep_flight import fly_lockstep
 
 
 def run_once(profile: str, duration: float, controller: str) -> dict[str, float]:
-    port = str(free_udp_port())
-    plant = subprocess.Popen(
-        [sys.executable, "-m", "sim_bridge", "--port", port, "--spawn-alt", "100", "--no-zenoh",
-         "--duration", str(duration), "--summary"],
-        stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
-    )  # fmt: skip
-    try:
-        autopilot = subprocess.run(
-            [sys.executable, "-m", "autopilot", "--sim-port", port, "--spawn-alt", "100", "--profile", profile,
-             "--duration", str(duration), "--controller", controller, "--summary", "--no-zenoh"],
-            capture_output=True, text=True, timeout=900, check=True,
-        )  # fmt: skip
-        plant_out, _ = plant.communicate(timeout=60)
-    finally:
-        if plant.poll() is None:
-            plant.kill()
-            plant.wait()
-    ap = json.loads(autopilot.stdout.strip().splitlines()[-1])
-    pl = json.loads(plant_out.strip().splitlines()[-1])
+    flight = fly_lockstep(profile, duration, controller=controller)
+    ap, pl = flight.autopilot, flight.plant
     return {
         "real_time_factor": pl["real_time_factor"],
         "plant_us_per_step": pl["busy_time_s"] / pl["steps"] * 1e6,

@@ -9,55 +9,31 @@ with the autopilot's internal set-point source, and writes the flight log and fi
 from __future__ import annotations
 
 import json
-import socket
-import subprocess
 import sys
 from pathlib import Path
 
 from autopilot.setpoint_profiles import PROFILES
 from ground_tools.figures import plot_flight, read_log
+from ground_tools.lockstep_flight import FlightFailed, fly_lockstep
 from transport.cli import OneLineArgumentParser, fail, positive_float
 
 PROG = "vtol"
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def fly(profile: str, controller: str, out: Path, duration: float, spawn_alt: float) -> int:
     run_dir = out / profile / controller
     run_dir.mkdir(parents=True, exist_ok=True)
     log_path = run_dir / "flight.csv"
-    port = str(free_udp_port())
-    plant = subprocess.Popen(
-        [sys.executable, "-m", "sim_bridge", "--port", port, "--spawn-alt", str(spawn_alt), "--no-zenoh",
-         "--duration", str(duration), "--summary"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
+    print(f"{PROG}: flying '{profile}' ({duration:g} s simulated) with the {controller} controller...",
+          file=sys.stderr, flush=True)  # fmt: skip
     try:
-        print(f"{PROG}: flying '{profile}' ({duration:g} s simulated) with the {controller} controller...",
-              file=sys.stderr, flush=True)  # fmt: skip
-        autopilot = subprocess.run(
-            [sys.executable, "-m", "autopilot", "--sim-port", port, "--spawn-alt", str(spawn_alt),
-             "--profile", profile, "--duration", str(duration), "--controller", controller,
-             "--log", str(log_path), "--summary", "--no-zenoh"],
-            capture_output=True, text=True,
-        )  # fmt: skip
-        plant_out, plant_err = plant.communicate(timeout=120)
-    finally:
-        if plant.poll() is None:
-            plant.kill()
-            plant.wait()
-    if autopilot.returncode != 0 or plant.returncode != 0:
-        fail(PROG, f"the flight failed: {autopilot.stderr.strip() or plant_err.strip()}")
-    summary = {"autopilot": json.loads(autopilot.stdout.strip().splitlines()[-1]),
-               "plant": json.loads(plant_out.strip().splitlines()[-1])}  # fmt: skip
+        flight = fly_lockstep(profile, duration, controller=controller, spawn_alt=spawn_alt, log_path=log_path)
+    except FlightFailed as exc:
+        fail(PROG, f"the flight failed: {exc}")
+    summary = {"autopilot": flight.autopilot, "plant": flight.plant}
     (run_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
     figures = plot_flight(read_log(log_path), run_dir, f"{profile}, {controller}")
-    print(f"{PROG}: {summary['plant']['sim_time_s']:g} s flown at {summary['plant']['real_time_factor']}x real time")
+    print(f"{PROG}: {flight.plant['sim_time_s']:g} s flown at {flight.plant['real_time_factor']}x real time")
     print(f"{PROG}: log {log_path}")
     for figure in figures:
         print(f"{PROG}: figure {figure}")

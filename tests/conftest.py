@@ -14,18 +14,13 @@ from dataclasses import dataclass, field
 import pytest
 
 from aircraft.airframe import Airframe, load_airframe
+from ground_tools.lockstep_flight import free_udp_port
 from transport.plant_link import PlantLinkClient, PlantSample
 
 
 @pytest.fixture(scope="session")
 def airframe() -> Airframe:
     return load_airframe()
-
-
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def free_tcp_port() -> int:

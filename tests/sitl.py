@@ -3,15 +3,12 @@
 from __future__ import annotations
 
 import csv
-import json
-import subprocess
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from tests.conftest import free_udp_port
+from ground_tools.lockstep_flight import fly_lockstep
 
 
 @dataclass
@@ -35,33 +32,9 @@ class Flight:
 
 def fly(tmp_path: Path, profile: str, duration: float, *autopilot_args: str, spawn_alt: float = 100.0) -> Flight:
     """Plant spawned hovering at spawn_alt, the autopilot flying `profile` for `duration` simulated seconds."""
-    port = free_udp_port()
     log_path = tmp_path / f"{profile}.csv"
-    plant = subprocess.Popen(
-        [sys.executable, "-m", "sim_bridge", "--port", str(port), "--spawn-alt", str(spawn_alt), "--no-zenoh",
-         "--duration", str(duration), "--lockstep-timeout", "0.5", "--summary"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
-    try:
-        autopilot = subprocess.run(
-            [sys.executable, "-m", "autopilot", "--sim-port", str(port), "--spawn-alt", str(spawn_alt),
-             "--profile", profile, "--duration", str(duration), "--log", str(log_path), "--summary",
-             "--no-zenoh", *autopilot_args],
-            capture_output=True, text=True, timeout=600,
-        )  # fmt: skip
-        plant_out, plant_err = plant.communicate(timeout=120)
-    finally:
-        if plant.poll() is None:
-            plant.kill()
-            plant.wait()
-    assert autopilot.returncode == 0, autopilot.stderr
-    assert plant.returncode == 0, plant_err
+    flight = fly_lockstep(profile, duration, spawn_alt=spawn_alt, log_path=log_path, autopilot_args=autopilot_args)
     with open(log_path, newline="") as handle:
         rows = list(csv.DictReader(handle))
     columns = {name: np.array([float(row[name]) for row in rows]) for name in rows[0] if name != "mode"}
-    return Flight(
-        log=columns,
-        modes=[row["mode"] for row in rows],
-        autopilot=json.loads(autopilot.stdout.strip().splitlines()[-1]),
-        plant=json.loads(plant_out.strip().splitlines()[-1]),
-    )
+    return Flight(log=columns, modes=[row["mode"] for row in rows], autopilot=flight.autopilot, plant=flight.plant)

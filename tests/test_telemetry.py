@@ -9,7 +9,8 @@ import time
 
 import zenoh
 
-from tests.conftest import free_tcp_port, free_udp_port
+from ground_tools.lockstep_flight import free_udp_port
+from tests.conftest import free_tcp_port
 from transport.telemetry import control_key, decode_plant_state, plant_state_key
 from transport.zenoh_bus import session_config
 
