@@ -67,3 +67,12 @@ def quaternion_from_euler(roll: float, pitch: float, yaw: float) -> tuple[float,
         cr * sp * cy + sr * cp * sy,
         cr * cp * sy - sr * sp * cy,
     )
+
+
+def rotation_rows(w: float, x: float, y: float, z: float) -> tuple[tuple[float, float, float], ...]:
+    """R_IB of a unit quaternion as three row tuples, in plain Python for per-step code (no CasADi, no numpy)."""
+    return (
+        (1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)),
+        (2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)),
+        (2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)),
+    )

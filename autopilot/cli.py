@@ -4,14 +4,21 @@ from __future__ import annotations
 
 import argparse
 import json
-import signal
 import sys
 
 from aircraft.airframe import AirframeError, load_airframe
 from autopilot.flight_controller import FlightController
 from autopilot.plant_loop import PlantLoop, ScheduledFailure
 from autopilot.setpoint_profiles import PROFILES
-from transport.cli import OneLineArgumentParser, bounded_int, fail, finite_float, nonnegative_float, positive_float
+from transport.cli import (
+    OneLineArgumentParser,
+    bounded_int,
+    fail,
+    finite_float,
+    nonnegative_float,
+    positive_float,
+    stop_on_signals,
+)
 from transport.plant_link import PlantLinkClient
 from transport.ports import Ports
 from transport.zenoh_bus import open_session
@@ -70,9 +77,7 @@ def main(argv: list[str] | None = None) -> int:
     ports = Ports(args.instance)
     port = args.sim_port if args.sim_port is not None else ports.plant
     profile, _ = PROFILES[args.profile]
-    stop_requested: list[int] = []
-    signal.signal(signal.SIGINT, lambda signum, frame: stop_requested.append(signum))
-    signal.signal(signal.SIGTERM, lambda signum, frame: stop_requested.append(signum))
+    stop_requested = stop_on_signals()
     controller = FlightController(airframe)
     client = PlantLinkClient(port, system_id=args.sysid)
     try:
@@ -86,7 +91,7 @@ def main(argv: list[str] | None = None) -> int:
         airframe, controller, client, profile,
         armed=args.spawn_alt > 0, duration_s=args.duration, failures=args.failure, log=log,
         zenoh_session=session, system_id=args.sysid,
-        should_stop=lambda: bool(stop_requested),
+        should_stop=stop_requested,
     )  # fmt: skip
     print(f"{PROG}: {args.controller} controller, plant link udp 127.0.0.1:{port}", file=sys.stderr, flush=True)
     try:

@@ -81,10 +81,6 @@ class PidVelocityController:
         self.yaw_hold: float | None = None
         self.previous_course_sp: float | None = None
 
-    def reset(self) -> None:
-        """Forget integrators and phase (e.g. when this controller takes over from the MPC)."""
-        self.__init__(self.airframe, self.p, self.dt)  # type: ignore[misc]
-
     # ---- phase logic -----------------------------------------------------------------------------------
     def _switch(self, phase: str) -> None:
         if phase != self.phase:

@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from aircraft.frames import rotation_rows
 from transport.geodesy import LocalGeodetic
 
 
@@ -34,18 +35,12 @@ class VehicleState:
 
     def rotation(self) -> np.ndarray:
         """R_IB (body -> NED)."""
-        w, x, y, z = self.quaternion
-        return np.array(
-            [
-                [1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-            ]
-        )
+        return np.array(rotation_rows(*self.quaternion.tolist()))
 
 
 def euler_from_quaternion(w: float, x: float, y: float, z: float) -> tuple[float, float, float]:
-    """ZYX Euler angles (roll, pitch, yaw) in rad."""
+    """ZYX Euler angles (roll, pitch, yaw) in rad; plain-Python twin of aircraft.frames.euler_from_quaternion
+    (which builds CasADi expressions) for the 400 Hz state update."""
     roll = math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y))
     pitch = math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x))))
     yaw = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))

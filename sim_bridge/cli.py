@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import signal
 import socket
 import sys
 
@@ -19,6 +18,7 @@ from transport.cli import (
     float_triple,
     nonnegative_float,
     positive_float,
+    stop_on_signals,
 )
 from transport.geodesy import Home, LocalGeodetic
 from transport.mavlink import Link
@@ -102,18 +102,12 @@ def main(argv: list[str] | None = None) -> int:
     if not args.no_zenoh:
         session = open_session(args.zenoh_listen or [ports.zenoh_plant], args.zenoh_connect, PROG)
 
-    stop_requested = []
-
-    def request_stop(signum: int, frame: object) -> None:
-        stop_requested.append(signum)
-
-    signal.signal(signal.SIGINT, request_stop)
-    signal.signal(signal.SIGTERM, request_stop)
+    stop_requested = stop_on_signals()
     server = PlantServer(
         plant, sock, link, sensors,
         lockstep=not args.realtime, speed=args.speed, lockstep_timeout_s=args.lockstep_timeout,
         peer_lost_after=args.peer_lost_after,
-        duration_s=args.duration, zenoh_session=session, should_stop=lambda: bool(stop_requested),
+        duration_s=args.duration, zenoh_session=session, should_stop=stop_requested,
     )  # fmt: skip
     mode = f"real time x{args.speed:g}" if args.realtime else "lockstep"
     print(f"{PROG}: {airframe.name}, {mode}, listening on udp {LOOPBACK}:{port}", file=sys.stderr, flush=True)

@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 
+from aircraft.frames import rotation_rows
 from sim_bridge.plant import DT_USEC, Plant
 from transport.geodesy import LocalGeodetic
 from transport.mavlink import Link, mavlink
@@ -66,7 +67,8 @@ class SensorSuite:
                 )
             )
         ]  # fmt: skip
-        mx, my, mz = _body_from_ned((qw, qx, qy, qz), MAG_FIELD_NED_GAUSS)
+        rows = rotation_rows(qw, qx, qy, qz)
+        mx, my, mz = (sum(rows[i][j] * MAG_FIELD_NED_GAUSS[i] for i in range(3)) for j in range(3))  # R^T b
         baro = isa_pressure_hpa(alt)
         diff = 0.5 * plant.airframe.air_density * airspeed * airspeed / 100.0
         if self.rng is not None:
@@ -103,17 +105,6 @@ class SensorSuite:
                 )
             )
         return b"".join(frames)
-
-
-def _body_from_ned(quaternion: tuple[float, float, float, float], v: tuple[float, float, float]) -> tuple[float, ...]:
-    """R_IB^T v for a unit quaternion (w, x, y, z): a NED vector in body axes."""
-    w, x, y, z = quaternion
-    vn, ve, vd = v
-    return (
-        (1 - 2 * (y * y + z * z)) * vn + 2 * (x * y + w * z) * ve + 2 * (x * z - w * y) * vd,
-        2 * (x * y - w * z) * vn + (1 - 2 * (x * x + z * z)) * ve + 2 * (y * z + w * x) * vd,
-        2 * (x * z + w * y) * vn + 2 * (y * z - w * x) * ve + (1 - 2 * (x * x + y * y)) * vd,
-    )
 
 
 def _clip_int16(value: float) -> int:

@@ -7,7 +7,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import signal
 import sys
+from collections.abc import Callable
 from typing import NoReturn
 
 
@@ -71,3 +73,11 @@ def float_triple(text: str) -> tuple[float, float, float]:
         raise argparse.ArgumentTypeError(f"expected three comma-separated numbers: {text!r}")
     a, b, c = (finite_float(part) for part in parts)
     return a, b, c
+
+
+def stop_on_signals() -> Callable[[], bool]:
+    """Install SIGINT/SIGTERM handlers that only record the request; returns `stop_requested()` for the loop."""
+    received: list[int] = []
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda number, frame: received.append(number))
+    return lambda: bool(received)
