@@ -67,8 +67,9 @@ class SensorSuite:
                 )
             )
         ]  # fmt: skip
-        rows = rotation_rows(qw, qx, qy, qz)
-        mx, my, mz = (sum(rows[i][j] * MAG_FIELD_NED_GAUSS[i] for i in range(3)) for j in range(3))  # R^T b
+        (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = rotation_rows(qw, qx, qy, qz)
+        bn, be, bd = MAG_FIELD_NED_GAUSS
+        mx, my, mz = r00 * bn + r10 * be + r20 * bd, r01 * bn + r11 * be + r21 * bd, r02 * bn + r12 * be + r22 * bd
         baro = isa_pressure_hpa(alt)
         diff = 0.5 * plant.airframe.air_density * airspeed * airspeed / 100.0
         if self.rng is not None:
