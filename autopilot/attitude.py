@@ -1,7 +1,8 @@
 """The attitude loop (SPEC section 4.1, paper "State Update"), defined once for the autopilot and the MPC.
 
 P on attitude to a rate set-point, PD on rates to an angular-acceleration demand:
-    rate_sp   = K_att (Psi_sp - Psi)                         (angles wrapped, paper eq. for Psi_dot_sp)
+    rate_sp   = K_att (Psi_sp - Psi)                         (yaw wrapped, paper eq. for Psi_dot_sp; limited
+                                                              smoothly to |rate| <= pi)
     accel_des = K_p (rate_sp - rate) + K_d (rate_prev - rate)   (paper eq. for tau)
 in ZYX Euler-angle space (Psi = roll, pitch, yaw). The MPC predicts Psi_ddot = accel_des with exactly this law;
 the autopilot maps it to body axes (omega_dot = E(Psi) Psi_ddot) and to a torque
@@ -47,8 +48,10 @@ def attitude_law(
     """Euler-angle acceleration demand (rad/s^2) of the attitude loop (SPEC 4.1)."""
     k_att, k_p, k_d = (ca.DM(g) for g in (gains.attitude, gains.rate_p, gains.rate_d))
     error = ca.vertcat(euler_sp[0] - euler[0], euler_sp[1] - euler[1], wrap_angle(euler_sp[2] - euler[2]))
+    # Smooth rate limit (limit tanh(x / limit)): equal to the P law for small errors, bounded by the limit, and
+    # with a gradient everywhere (a hard clamp left the MPC's QP blind to the set-point when saturated).
     limit = ca.DM(gains.max_rate)
-    rate_sp = ca.fmin(ca.fmax(k_att * error, -limit), limit)
+    rate_sp = limit * ca.tanh(k_att * error / limit)
     return k_p * (rate_sp - euler_rate) + k_d * (euler_rate_prev - euler_rate)
 
 

@@ -18,6 +18,7 @@ from aircraft.airframe import Airframe
 from autopilot.actuator_health import ActuatorHealth, ServoEstimate
 from autopilot.allocation import ControlAllocator
 from autopilot.attitude import AttitudeController
+from autopilot.mpc_controller import MpcVelocityController
 from autopilot.pid_baseline import PidVelocityController
 from autopilot.vehicle_state import VehicleState
 from autopilot.velocity_command import VelocityCommand
@@ -37,13 +38,19 @@ MOMENT_WEIGHTS = (100.0, 100.0, 1.0)
 class FlightController:
     """Velocity set-point in, physical actuator commands out (thrust fractions, tilts rad, deflections)."""
 
-    def __init__(self, airframe: Airframe, velocity_controller: PidVelocityController | None = None) -> None:
+    def __init__(self, airframe: Airframe, controller: str = "pid") -> None:
+        """controller: "mpc" (the unified MPC, with the PID as its back-up) or "pid" (the baseline alone)."""
+        if controller not in ("mpc", "pid"):
+            raise ValueError(f"controller must be 'mpc' or 'pid', got {controller!r}")
         self.airframe = airframe
         hover = airframe.hover_thrust_per_rotor / airframe.thrust_max
         self.allocator = ControlAllocator(airframe, u_initial=[hover] * 4 + [0.0] * 4)
         self.attitude = AttitudeController(airframe)
-        self.velocity_controller = velocity_controller or PidVelocityController(airframe, dt=VELOCITY_PERIOD_USEC / 1e6)
         self.servos = ServoEstimate(airframe)
+        self.pid = PidVelocityController(airframe, dt=VELOCITY_PERIOD_USEC / 1e6)
+        self.mpc = MpcVelocityController(airframe, self.allocator, self.servos) if controller == "mpc" else None
+        self.velocity_controller: PidVelocityController | MpcVelocityController = self.mpc or self.pid
+        self.fell_back_to_pid = False
         self.health = ActuatorHealth(airframe, self.allocator, self.servos)
         self.velocity_command = VelocityCommand()
         self.velocity_setpoint = np.zeros(3)
@@ -89,8 +96,12 @@ class FlightController:
             self._next_velocity_usec = self._next_attitude_usec = self._servo_time_usec = t
         if t >= self._next_velocity_usec:
             self._next_velocity_usec += VELOCITY_PERIOD_USEC
-            mean_tilt = float(np.mean(self.servos.tilt))
-            self.velocity_command = self.velocity_controller.update(state, self.velocity_setpoint, mean_tilt)
+            self.velocity_command = self.velocity_controller.update(state, self.velocity_setpoint, self.servos.tilt)
+            if self.mpc is not None and self.mpc.fallback_requested and not self.fell_back_to_pid:
+                # Paper: the PID is the MPC's back-up after repeated failed solves.
+                self.fell_back_to_pid = True
+                self.velocity_controller = self.pid
+                self.velocity_command = self.pid.update(state, self.velocity_setpoint, self.servos.tilt)
         if t < self._next_attitude_usec:
             return False
         self._next_attitude_usec += ATTITUDE_PERIOD_USEC

@@ -169,10 +169,11 @@ class PidVelocityController:
         return acceleration, pitch, roll
 
     # ---- the controller ----------------------------------------------------------------------------------
-    def update(self, state: VehicleState, v_sp: np.ndarray, mean_tilt: float) -> VelocityCommand:
-        """One 100 Hz step. `mean_tilt` is the autopilot's estimate of the rotors' present mean tilt (rad)."""
+    def update(self, state: VehicleState, v_sp: np.ndarray, tilts: np.ndarray) -> VelocityCommand:
+        """One 100 Hz step. `tilts` is the autopilot's estimate of the rotors' present tilts (rad)."""
         p = self.p
         a = self.airframe
+        mean_tilt = float(np.mean(tilts))
         speed_sp = math.hypot(v_sp[0], v_sp[1])
         self._update_phase(state, speed_sp, mean_tilt)
         yaw_sp = self._yaw_setpoint(state, v_sp)

@@ -1,0 +1,123 @@
+"""The unified velocity MPC as the autopilot's velocity controller (VT_CTRL = 1, `--controller mpc`).
+
+Each 100 Hz tick: the state x0 from the vehicle (velocity, the servo estimate's tilts, Euler angles and
+rates, the previous tick's rates), the failure-aware bounds from what the allocator and the servo estimate
+know, one RTI solve, and the first stage of the plan handed on: the attitude set-point to the attitude
+loop, the tilts to the servos, the planned body force (rotors + wing) to the allocator. No mode logic.
+
+A failed solve flies on the shifted previous plan; after MAX_FAILURES in a row the controller asks the
+flight controller to fall back to the PID baseline (paper), which it reports.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from aircraft.airframe import Airframe
+from autopilot.allocation import ControlAllocator
+from autopilot.actuator_health import ServoEstimate
+from autopilot.mpc import MpcSolution, RtiSolver, planned_force_function
+from autopilot.mpc_model import CHI, NP, NX, PSI_D, THRUST, MpcLimits, yaw_reference
+from autopilot.vehicle_state import VehicleState
+from autopilot.velocity_command import VelocityCommand
+
+MAX_FAILURES = 3
+LEVENBERG = 0.1  # Marquardt damping of each RTI step (mpc.py)
+WARM_UP_ITERATIONS = 10  # RTI iterations at the first state, so the first plan is converged
+TILT_LEAD_STAGES = 3  # the servos lag ~30 ms: command the plan's tilt 3 stages (30 ms) ahead
+
+
+def euler_rates(euler: np.ndarray, body_rates: np.ndarray) -> np.ndarray:
+    """Psi_dot = E(Psi)^-1 omega for ZYX Euler angles (autopilot.attitude.euler_rate_matrix, numerically)."""
+    phi, theta = euler[0], euler[1]
+    sf, cf, ct, tt = math.sin(phi), math.cos(phi), math.cos(theta), math.tan(theta)
+    p, q, r = body_rates
+    return np.array([p + sf * tt * q + cf * tt * r, cf * q - sf * r, (sf * q + cf * r) / ct])
+
+
+class MpcVelocityController:
+    """Velocity set-point -> VelocityCommand through the unified MPC."""
+
+    def __init__(
+        self,
+        airframe: Airframe,
+        allocator: ControlAllocator,
+        servos: ServoEstimate,
+        horizon: int = 25,
+        dt: float = 0.01,
+        limits: MpcLimits = MpcLimits(),
+    ) -> None:
+        self.airframe = airframe
+        self.allocator = allocator
+        self.servos = servos
+        self.limits = limits
+        self.solver = RtiSolver(airframe, horizon, dt, limits)
+        self.solver.levenberg = LEVENBERG
+        self.force_function = planned_force_function(airframe)
+        self.params = np.zeros((NP, horizon + 1))
+        self.previous_rates: np.ndarray | None = None
+        self.mode_switches = 0  # the MPC has no modes; kept for the same counters as the PID
+        self.failures_in_row = 0
+        self.solves_failed = 0
+        self.solve_times_s: list[float] = []
+        self.fallback_requested = False
+        self.last_solution: MpcSolution | None = None
+
+    def _bounds_from_health(self) -> None:
+        thrust_max = np.minimum(self.limits.thrust_max, self.allocator.upper[0:4] * self.airframe.thrust_max)
+        thrust_max = np.where(self.allocator.effectiveness[0:4] > 0, thrust_max, 0.0)
+        self.solver.set_actuator_limits(thrust_max, self.servos.stuck)
+
+    def update(self, state: VehicleState, v_sp: np.ndarray, tilts: np.ndarray) -> VelocityCommand:
+        rates = euler_rates(state.euler, state.body_rates)
+        previous = rates if self.previous_rates is None else self.previous_rates
+        self.previous_rates = rates
+        x0 = np.concatenate((state.velocity_ned, tilts, state.euler, rates, previous))
+        self._bounds_from_health()
+        solver = self.solver
+        self.params[0:3, :] = v_sp[:, None]
+        self.params[3, :] = yaw_reference(v_sp[0], v_sp[1], float(state.euler[2]))
+        if not solver.initialised:
+            solver.initialise(x0, self.airframe.hover_thrust_per_rotor)
+            for _ in range(WARM_UP_ITERATIONS):
+                solver.solve(x0, self.params)
+        else:
+            solver.shift()
+        solution = solver.solve(x0, self.params)
+        self.solve_times_s.append(solution.solve_time_s)
+        self.last_solution = solution
+        if solution.ok:
+            self.failures_in_row = 0
+        else:  # fly on the shifted previous plan (already in the solver's guess)
+            self.failures_in_row += 1
+            self.solves_failed += 1
+            if self.failures_in_row >= MAX_FAILURES:
+                self.fallback_requested = True
+        states, inputs = solver.states(), solver.inputs()
+        u0 = inputs[0]
+        command = VelocityCommand(mode="MPC")
+        command.euler_sp[:] = u0[PSI_D]
+        command.tilt_sp[:] = states[min(TILT_LEAD_STAGES, solver.horizon)][CHI]
+        command.force_sp_body[:] = np.asarray(self.force_function(states[0], u0)).ravel()
+        command.force_weights[:] = 1.0
+        return command
+
+
+def solution_summary(solution: MpcSolution) -> dict:
+    """Telemetry payload of one solve (SPEC 6): predicted velocities and tilts, solve time, iterations, status."""
+    return {
+        "ok": solution.ok,
+        "status": solution.status,
+        "solve_time_ms": solution.solve_time_s * 1e3,
+        "qp_iterations": solution.iterations,
+        "cost": solution.cost,
+        "predicted_velocity": solution.x[:, 0:3].tolist(),
+        "predicted_tilt": solution.x[:, 3:7].tolist(),
+        "thrust": solution.u[0][THRUST].tolist(),
+        "attitude_sp": solution.u[0][PSI_D].tolist(),
+    }
+
+
+assert NX == 16
