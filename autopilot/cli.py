@@ -46,7 +46,7 @@ def build_parser() -> OneLineArgumentParser:
     parser = OneLineArgumentParser(prog=PROG, description="Tilt-rotor VTOL autopilot: flies the plant over MAVLink.")
     parser.add_argument("--instance", type=bounded_int(0, 999), default=0, help="shift every port by I")
     parser.add_argument("--sim-port", type=bounded_int(1, 65535), help="the plant's UDP port (default 4560+I)")
-    parser.add_argument("--controller", choices=("pid",), default="pid",
+    parser.add_argument("--controller", choices=("mpc", "pid"), default="pid",
                         help="velocity controller: pid (the PX4-style baseline; the MPC arrives with issue 5)")
     parser.add_argument("--airframe", metavar="FILE", help="airframe TOML for the controllers' model")
     parser.add_argument("--spawn-alt", type=nonnegative_float, default=0.0, metavar="M",
@@ -78,7 +78,7 @@ def main(argv: list[str] | None = None) -> int:
     port = args.sim_port if args.sim_port is not None else ports.plant
     profile, _ = PROFILES[args.profile]
     stop_requested = stop_on_signals()
-    controller = FlightController(airframe)
+    controller = FlightController(airframe, args.controller)
     client = PlantLinkClient(port, system_id=args.sysid)
     try:
         log = open(args.log, "w", newline="") if args.log else None

@@ -149,6 +149,21 @@ def build_qp_functions(
     return qp_data, step
 
 
+@dataclass(frozen=True)
+class StageModel:
+    """The stage and terminal residuals with their weights bound (for the reference NLP)."""
+
+    airframe: Airframe
+    weights: MpcWeights
+    soft: SoftTiltCost
+
+    def stage_residual(self, x: ca.SX, u: ca.SX, p: ca.SX) -> ca.SX:
+        return stage_residual(self.airframe, self.weights, self.soft, x, u, p)
+
+    def terminal_residual(self, x: ca.SX, p: ca.SX) -> ca.SX:
+        return terminal_residual(self.weights, x, p)
+
+
 def planned_force_function(airframe: Airframe) -> ca.Function:
     """Body force (N) the plan asks of rotors + wing at a stage: the allocator's force set-point."""
     x, u = ca.SX.sym("x", NX), ca.SX.sym("u", NU)
@@ -176,6 +191,7 @@ class RtiSolver:
         self.dt = dt
         self.limits = limits
         qp_data, self.step_function = build_qp_functions(airframe, horizon, dt, gains, weights, soft)
+        self.model = StageModel(airframe, weights, soft)
         self.qp_data = compiled(qp_data, "vtol-autopilot") if compile_model else qp_data
         n = horizon
         self.n_w = NX * (n + 1) + NU * n
@@ -277,3 +293,39 @@ class RtiSolver:
             ok, str(stats.get("return_status", "")), elapsed, int(stats.get("iter_count", -1)),
             self.states(), self.inputs(), float(cost),
         )  # fmt: skip
+
+
+def solve_reference_nlp(solver: RtiSolver, x0: np.ndarray, params: np.ndarray, tol: float = 1e-10) -> np.ndarray:
+    """The same NLP solved the paper's way: built afresh and solved to convergence by IPOPT from a cold start.
+
+    Same dynamics, cost (sum of the squared residuals) and constraints as the RTI; returns the optimal w.
+    Used by the agreement test and by the benchmark's "paper's way" figure (whose time includes the build).
+    """
+    n, stride = solver.horizon, NX + NU
+    w = ca.SX.sym("w", solver.n_w)
+    xs = [w[k * stride : k * stride + NX] for k in range(n + 1)]
+    us = [w[k * stride + NX : (k + 1) * stride] for k in range(n)]
+    model = solver.model
+    cost = 0
+    constraints = [xs[0] - x0]
+    lbg, ubg = [0.0] * NX, [0.0] * NX
+    for k in range(n):
+        cost += ca.sumsqr(model.stage_residual(xs[k], us[k], params[:, k]))
+        constraints.append(solver.step_function(xs[k], us[k]) - xs[k + 1])
+        lbg += [0.0] * NX
+        ubg += [0.0] * NX
+        constraints.append(us[k][PSI_D_INDEX] - xs[k][PSI_INDEX])
+        lbg.append(-math.pi / 2)
+        ubg.append(math.pi / 2)
+    cost += ca.sumsqr(model.terminal_residual(xs[n], params[:, n]))
+    nlp = ca.nlpsol(
+        "paper_nlp", "ipopt", {"x": w, "f": cost, "g": ca.vertcat(*constraints)},
+        {"ipopt.print_level": 0, "print_time": False, "ipopt.tol": tol, "ipopt.max_iter": 500},
+    )  # fmt: skip
+    cold = np.zeros(solver.n_w)
+    for k in range(n + 1):
+        cold[k * stride : k * stride + NX] = x0
+    result = nlp(x0=cold, lbx=solver.lbw, ubx=solver.ubw, lbg=lbg, ubg=ubg)
+    if not nlp.stats()["success"]:
+        raise RuntimeError(f"IPOPT did not converge: {nlp.stats()['return_status']}")
+    return np.asarray(result["x"]).ravel()

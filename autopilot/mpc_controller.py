@@ -79,6 +79,7 @@ class MpcVelocityController:
         solver = self.solver
         self.params[0:3, :] = v_sp[:, None]
         self.params[3, :] = yaw_reference(v_sp[0], v_sp[1], float(state.euler[2]))
+        self.params[4:8, :] = np.isnan(self.servos.stuck)[:, None]
         if not solver.initialised:
             solver.initialise(x0, self.airframe.hover_thrust_per_rotor)
             for _ in range(WARM_UP_ITERATIONS):

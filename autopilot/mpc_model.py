@@ -40,7 +40,7 @@ from autopilot.attitude import DEFAULT_GAINS, AttitudeGains, attitude_law, wrap_
 NX, NU = 16, 11
 V, CHI, PSI, PSI_DOT, PSI_DOT_PREV = slice(0, 3), slice(3, 7), slice(7, 10), slice(10, 13), slice(13, 16)
 CHI_DOT, THRUST, PSI_D = slice(0, 4), slice(4, 8), slice(8, 11)
-NP = 4  # parameters: v_sp (3), psi_ref
+NP = 8  # parameters: v_sp (3), psi_ref, free_tilt (4: 1 for a working servo, 0 for a stuck one)
 
 
 @dataclass(frozen=True)
@@ -124,10 +124,12 @@ def stage_residual(
     airframe: Airframe, weights: MpcWeights, soft: SoftTiltCost, x: ca.SX, u: ca.SX, p: ca.SX
 ) -> ca.SX:
     """Residual r with |r|^2 = the stage cost (Gauss-Newton form)."""
-    v_sp, psi_ref = p[0:3], p[3]
+    v_sp, psi_ref, free_tilt = p[0:3], p[3], p[4:8]
     euler = x[PSI]
     forward_speed = (rotation_from_euler(euler).T @ x[V])[0]
-    mean_tilt_deg = ca.sum1(x[CHI]) / 4 * (180 / math.pi)
+    # Mean over the servos that work: a stuck servo's tilt is not the controller's to choose, and counting it
+    # would pin the cost at its cap (e.g. a servo stuck at 60 deg in a hover) and ruin the QP's conditioning.
+    mean_tilt_deg = ca.dot(free_tilt, x[CHI]) / ca.fmax(ca.sum1(free_tilt), 1) * (180 / math.pi)
     # Thrust is weighed beyond the share of the weight the wing cannot carry at this stage's airspeed (see the
     # module docstring): T_ref = m g / 4 (1 - e(V)), no mode switch, from the shared model's e(V).
     airspeed = ca.sqrt(ca.sumsqr(x[V]) + 1e-6)

@@ -30,10 +30,14 @@ class Flight:
         return {name: column[mask] for name, column in self.log.items()}
 
 
-def fly(tmp_path: Path, profile: str, duration: float, *autopilot_args: str, spawn_alt: float = 100.0) -> Flight:
+def fly(
+    tmp_path: Path, profile: str, duration: float, *autopilot_args: str, spawn_alt: float = 100.0,
+    controller: str = "pid",
+) -> Flight:
     """Plant spawned hovering at spawn_alt, the autopilot flying `profile` for `duration` simulated seconds."""
-    log_path = tmp_path / f"{profile}.csv"
-    flight = fly_lockstep(profile, duration, spawn_alt=spawn_alt, log_path=log_path, autopilot_args=autopilot_args)
+    log_path = tmp_path / f"{profile}-{controller}.csv"
+    flight = fly_lockstep(profile, duration, controller=controller, spawn_alt=spawn_alt, log_path=log_path,
+                          autopilot_args=autopilot_args)  # fmt: skip
     with open(log_path, newline="") as handle:
         rows = list(csv.DictReader(handle))
     columns = {name: np.array([float(row[name]) for row in rows]) for name in rows[0] if name != "mode"}
