@@ -64,6 +64,7 @@ class MpcVelocityController:
         self.solve_times_s: list[float] = []
         self.fallback_requested = False
         self.last_solution: MpcSolution | None = None
+        self.last_x0 = np.zeros(NX)
 
     def _bounds_from_health(self) -> None:
         thrust_max = np.minimum(self.limits.thrust_max, self.allocator.upper[0:4] * self.airframe.thrust_max)
@@ -75,6 +76,7 @@ class MpcVelocityController:
         previous = rates if self.previous_rates is None else self.previous_rates
         self.previous_rates = rates
         x0 = np.concatenate((state.velocity_ned, tilts, state.euler, rates, previous))
+        self.last_x0 = x0
         self._bounds_from_health()
         solver = self.solver
         self.params[0:3, :] = v_sp[:, None]
