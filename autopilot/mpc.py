@@ -198,7 +198,7 @@ class RtiSolver:
         options = {
             "N": n, "nx": [NX] * (n + 1), "nu": [NU] * n + [0], "ng": [1] * n + [0],
             "error_on_fail": False,
-            "hpipm": {"mode": "speed", "iter_max": 50, "res_g_max": 1e-5, "res_b_max": 1e-7, "res_d_max": 1e-7, "res_m_max": 1e-7},
+            "hpipm": {"mode": "speed_abs", "iter_max": 50, "res_g_max": 1e-5, "res_b_max": 1e-7, "res_d_max": 1e-7, "res_m_max": 1e-7},
         }  # fmt: skip
         self.qp = ca.conic(
             "mpc_qp", "hpipm", {"h": qp_data.sparsity_out("H"), "a": qp_data.sparsity_out("A")}, options
