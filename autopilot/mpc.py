@@ -185,7 +185,10 @@ class RtiSolver:
         weights: MpcWeights = MpcWeights(),
         soft: SoftTiltCost = SoftTiltCost(),
         compile_model: bool = True,
+        qp_tolerance: float = 1e-5,
     ) -> None:
+        """qp_tolerance: HPIPM's stationarity tolerance (feasibility and complementarity 100x tighter, at least
+        1e-8); 1e-5 for real time, 1e-8 to reproduce a converged NLP solution exactly."""
         self.airframe = airframe
         self.horizon = horizon
         self.dt = dt
@@ -195,10 +198,12 @@ class RtiSolver:
         self.qp_data = compiled(qp_data, "vtol-autopilot") if compile_model else qp_data
         n = horizon
         self.n_w = NX * (n + 1) + NU * n
+        feasibility = max(qp_tolerance / 100, 1e-8)
         options = {
             "N": n, "nx": [NX] * (n + 1), "nu": [NU] * n + [0], "ng": [1] * n + [0],
             "error_on_fail": False,
-            "hpipm": {"mode": "speed_abs", "iter_max": 50, "res_g_max": 1e-5, "res_b_max": 1e-7, "res_d_max": 1e-7, "res_m_max": 1e-7},
+            "hpipm": {"mode": "speed_abs", "iter_max": 50, "res_g_max": qp_tolerance,
+                      "res_b_max": feasibility, "res_d_max": feasibility, "res_m_max": feasibility},
         }  # fmt: skip
         self.qp = ca.conic(
             "mpc_qp", "hpipm", {"h": qp_data.sparsity_out("H"), "a": qp_data.sparsity_out("A")}, options

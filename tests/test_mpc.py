@@ -36,7 +36,7 @@ def test_soft_tilt_cost_keeps_rotors_up_at_low_speed_and_frees_them_at_high_spee
 
 @pytest.fixture(scope="module")
 def solver(airframe) -> RtiSolver:
-    return RtiSolver(airframe)
+    return RtiSolver(airframe, qp_tolerance=1e-8)  # tight, to compare with a converged NLP
 
 
 def converge(solver: RtiSolver, x0: np.ndarray, params: np.ndarray, iterations: int = 60) -> None:
@@ -56,7 +56,7 @@ def test_iterated_rti_reaches_the_optimum_of_the_same_nlp_solved_by_ipopt(solver
     solver.set_actuator_limits(np.full(4, 23.0), np.full(4, np.nan))
     converge(solver, x0, params)
     reference = solve_reference_nlp(solver, x0, params)
-    assert np.abs(solver.w - reference).max() < 1e-3
+    assert np.abs(solver.w - reference).max() < 1e-4  # measured 1.3e-5: IPOPT relaxes its bounds by ~1e-8 relative
 
 
 def test_failures_enter_the_plan_as_bounds(solver):
