@@ -18,7 +18,7 @@ from aircraft.airframe import Airframe
 from autopilot.actuator_health import ActuatorHealth, ServoEstimate
 from autopilot.allocation import ControlAllocator
 from autopilot.attitude import AttitudeController
-from autopilot.mpc_controller import MpcVelocityController
+from autopilot.mpc_controller import MpcVelocityController, solve_statistics
 from autopilot.pid_baseline import PidVelocityController
 from autopilot.vehicle_state import VehicleState
 from autopilot.velocity_command import VelocityCommand
@@ -51,6 +51,7 @@ class FlightController:
         self.mpc = MpcVelocityController(airframe, self.allocator, self.servos) if controller == "mpc" else None
         self.velocity_controller: PidVelocityController | MpcVelocityController = self.mpc or self.pid
         self.fell_back_to_pid = False
+        self.events: list[str] = []  # what the vehicle should announce (STATUSTEXT), taken by pop_events()
         self.health = ActuatorHealth(airframe, self.allocator, self.servos)
         self.velocity_command = VelocityCommand()
         self.velocity_setpoint = np.zeros(3)
@@ -78,6 +79,15 @@ class FlightController:
         self.velocity_setpoint[:] = velocity_ned
         return True
 
+    def pop_events(self) -> list[str]:
+        """Events since the last call (the MPC falling back to the PID), for STATUSTEXT."""
+        events, self.events = self.events, []
+        return events
+
+    def controller_statistics(self) -> dict:
+        """The MPC's solver metrics (SPEC 7) when it flies, else empty."""
+        return {} if self.mpc is None else {**solve_statistics(self.mpc), "fell_back_to_pid": self.fell_back_to_pid}
+
     def restart_clock(self) -> None:
         """The plant's clock went back (a new plant run): schedule the tasks afresh from the next step."""
         self._next_velocity_usec = None
@@ -101,6 +111,7 @@ class FlightController:
                 # Paper: the PID is the MPC's back-up after repeated failed solves.
                 self.fell_back_to_pid = True
                 self.velocity_controller = self.pid
+                self.events.append(f"MPC: {self.mpc.failures_in_row} failed solves in a row, PID back-up flying")
                 self.velocity_command = self.pid.update(state, self.velocity_setpoint, self.servos.tilt)
         if t < self._next_attitude_usec:
             return False

@@ -211,8 +211,7 @@ class RtiSolver:
         self.w = np.zeros(self.n_w)
         self.params = np.zeros((NP, n + 1))
         self.lbw, self.ubw = self._nominal_bounds()
-        self.thrust_max = np.full(4, limits.thrust_max)
-        self.tilt_fixed = np.full(4, np.nan)
+        self._limits_key: np.ndarray | None = None
         self.initialised = False
         self.levenberg = 1.0
 
@@ -236,14 +235,26 @@ class RtiSolver:
     def _stack(self, x_part: np.ndarray, u_part: np.ndarray) -> np.ndarray:
         return np.concatenate([np.concatenate((x_part, u_part))] * self.horizon + [x_part])
 
-    def set_actuator_limits(self, thrust_max: np.ndarray, tilt_fixed: np.ndarray) -> None:
-        """Failure awareness (SPEC 4.3): per-rotor thrust ceilings (N) and stuck tilts (rad, NaN = free)."""
-        if np.array_equal(thrust_max, self.thrust_max) and np.array_equal(tilt_fixed, self.tilt_fixed, equal_nan=True):
+    def set_actuator_limits(
+        self,
+        thrust_max: np.ndarray,
+        tilt_fixed: np.ndarray,
+        thrust_min: np.ndarray | None = None,
+        tilt_rate_scale: np.ndarray | None = None,
+    ) -> None:
+        """Failure awareness (SPEC 4.3): per-rotor thrust ceilings and floors (N; a stuck motor has both at its
+        thrust), stuck tilts (rad, NaN = free) and per-servo tilt-rate fractions (a slowed servo)."""
+        thrust_min = np.zeros(4) if thrust_min is None else thrust_min
+        tilt_rate_scale = np.ones(4) if tilt_rate_scale is None else tilt_rate_scale
+        key = np.concatenate((thrust_max, tilt_fixed, thrust_min, tilt_rate_scale))
+        if self._limits_key is not None and np.array_equal(key, self._limits_key, equal_nan=True):
             return
-        self.thrust_max[:] = thrust_max
-        self.tilt_fixed[:] = tilt_fixed
+        self._limits_key = key
         (x_lb, x_ub), (u_lb, u_ub) = (b.copy() for b in self._x_bounds), (b.copy() for b in self._u_bounds)
         u_ub[THRUST] = np.minimum(u_ub[THRUST], thrust_max)
+        u_lb[THRUST] = np.minimum(np.maximum(u_lb[THRUST], thrust_min), u_ub[THRUST])
+        u_lb[CHI_DOT] = u_lb[CHI_DOT] * tilt_rate_scale
+        u_ub[CHI_DOT] = u_ub[CHI_DOT] * tilt_rate_scale
         stuck = ~np.isnan(tilt_fixed)
         x_lb[3:7] = np.where(stuck, tilt_fixed, x_lb[3:7])
         x_ub[3:7] = np.where(stuck, tilt_fixed, x_ub[3:7])

@@ -67,9 +67,12 @@ class MpcVelocityController:
         self.last_x0 = np.zeros(NX)
 
     def _bounds_from_health(self) -> None:
-        thrust_max = np.minimum(self.limits.thrust_max, self.allocator.upper[0:4] * self.airframe.thrust_max)
-        thrust_max = np.where(self.allocator.effectiveness[0:4] > 0, thrust_max, 0.0)
-        self.solver.set_actuator_limits(thrust_max, self.servos.stuck)
+        """What the allocator and the servo estimate know of failures, as the MPC's bounds (SPEC 4.3)."""
+        t_max = self.airframe.thrust_max
+        working = self.allocator.effectiveness[0:4] > 0
+        thrust_max = np.where(working, np.minimum(self.limits.thrust_max, self.allocator.upper[0:4] * t_max), 0.0)
+        thrust_min = np.where(working, self.allocator.lower[0:4] * t_max, 0.0)
+        self.solver.set_actuator_limits(thrust_max, self.servos.stuck, thrust_min, self.servos.rate_scale)
 
     def update(self, state: VehicleState, v_sp: np.ndarray, tilts: np.ndarray) -> VelocityCommand:
         rates = euler_rates(state.euler, state.body_rates)
@@ -106,6 +109,19 @@ class MpcVelocityController:
         command.force_sp_body[:] = np.asarray(self.force_function(states[0], u0)).ravel()
         command.force_weights[:] = 1.0
         return command
+
+
+def solve_statistics(controller: MpcVelocityController) -> dict:
+    """SPEC 7's solver metrics: solve time median / p99 / max (ms) and the count of failed solves."""
+    times = np.array(controller.solve_times_s) * 1e3
+    if times.size == 0:
+        return {"solve_ms_median": None, "solve_ms_p99": None, "solve_ms_max": None, "solves_failed": 0}
+    return {
+        "solve_ms_median": float(np.median(times)),
+        "solve_ms_p99": float(np.percentile(times, 99)),
+        "solve_ms_max": float(times.max()),
+        "solves_failed": controller.solves_failed,
+    }
 
 
 def solution_summary(solution: MpcSolution) -> dict:

@@ -73,3 +73,17 @@ def test_failures_enter_the_plan_as_bounds(solver):
     assert np.abs(inputs[:, 1]).max() < 1e-9  # and no tilt rate planned for it
     assert np.all(np.isfinite(solver.w))
     solver.set_actuator_limits(np.full(4, 23.0), np.full(4, np.nan))
+
+
+def test_a_stuck_motor_and_a_slow_servo_enter_the_plan_too(solver):
+    x0 = np.zeros(NX)
+    params = np.zeros((NP, solver.horizon + 1))
+    params[0, :] = 3.0
+    params[4:8, :] = 1.0
+    solver.set_actuator_limits(np.array([12.0, 23.0, 23.0, 23.0]), np.full(4, np.nan),
+                               thrust_min=np.array([12.0, 0.0, 0.0, 0.0]), tilt_rate_scale=np.array([1, 0.5, 1, 1]))
+    converge(solver, x0, params, iterations=20)
+    inputs = solver.inputs()
+    assert inputs[:, 4] == pytest.approx(12.0, abs=1e-6)  # motor 1 stuck at 12 N
+    assert np.abs(inputs[:, 1]).max() <= math.pi / 8 + 1e-9  # servo 2 at half its tilt rate
+    solver.set_actuator_limits(np.full(4, 23.0), np.full(4, np.nan))
