@@ -1,9 +1,11 @@
 """`vtol`: ground tools (SPEC section 1).
 
     vtol fly PROFILE [--controller pid] [--out DIR] [--instance I]
+    vtol up [--instance I] [--controller mpc|pid] [--spawn-alt M] [--speed F] [--params FILE] [--no-zenoh]
 
 `fly` starts the plant and the autopilot in lockstep on free ports, flies one of the paper's velocity profiles
 with the autopilot's internal set-point source, and writes the flight log and figures to DIR/PROFILE/.
+`up` starts the plant in real time and the autopilot for a ground station (ground_tools/up.py).
 """
 
 from __future__ import annotations
@@ -15,7 +17,8 @@ from pathlib import Path
 from autopilot.setpoint_profiles import PROFILES
 from ground_tools.figures import plot_flight, read_log
 from ground_tools.lockstep_flight import FlightFailed, fly_lockstep
-from transport.cli import OneLineArgumentParser, fail, positive_float
+from ground_tools.up import up
+from transport.cli import OneLineArgumentParser, bounded_int, fail, nonnegative_float, positive_float
 
 PROG = "vtol"
 
@@ -45,11 +48,22 @@ def main(argv: list[str] | None = None) -> int:
     commands = parser.add_subparsers(dest="command", required=True, parser_class=OneLineArgumentParser)
     fly_parser = commands.add_parser("fly", help="fly a paper velocity profile in lockstep and plot it")
     fly_parser.add_argument("profile", choices=sorted(PROFILES))
-    fly_parser.add_argument("--controller", choices=("pid",), default="pid")
+    fly_parser.add_argument("--controller", choices=("mpc", "pid"), default="pid")
     fly_parser.add_argument("--out", default="runs", metavar="DIR", help="output folder (default ./runs)")
     fly_parser.add_argument("--duration", type=positive_float, metavar="S", help="default: the profile's")
     fly_parser.add_argument("--spawn-alt", type=positive_float, default=100.0, metavar="M")
+    up_parser = commands.add_parser("up", help="start the plant (real time) and the autopilot for a ground station")
+    up_parser.add_argument("--instance", type=bounded_int(0, 999), default=0, help="shift every port by I")
+    up_parser.add_argument("--controller", choices=("mpc", "pid"), help="default: the VT_CTRL parameter")
+    up_parser.add_argument("--spawn-alt", type=nonnegative_float, default=0.0, metavar="M",
+                           help="start hovering at M metres, armed, in Hold (default: on the ground, disarmed)")
+    up_parser.add_argument("--speed", type=positive_float, default=1.0, metavar="F",
+                           help="simulated seconds per wall second (default 1)")
+    up_parser.add_argument("--params", metavar="FILE", help="the autopilot's parameter file")
+    up_parser.add_argument("--no-zenoh", action="store_true", help="no zenoh telemetry")
     args = parser.parse_args(argv)
+    if args.command == "up":
+        return up(args)
     duration = args.duration or PROFILES[args.profile][1]
     return fly(args.profile, args.controller, Path(args.out), duration, args.spawn_alt)
 

@@ -43,6 +43,10 @@ def fly_lockstep(
 ) -> LockstepFlight:
     """Fly `profile` for `duration_s` simulated seconds from a hover at `spawn_alt`; raises FlightFailed."""
     port = str(free_udp_port())
+    # The autopilot's ground-station links on free ports (nobody listens on the remote ones), so flights can run
+    # beside a `vtol up` or each other.
+    link_ports = ("--gcs-port", str(free_udp_port()), "--gcs-remote-port", str(free_udp_port()),
+                  "--api-port", str(free_udp_port()), "--api-remote-port", str(free_udp_port()))  # fmt: skip
     plant = subprocess.Popen(
         [sys.executable, "-m", "sim_bridge", "--port", port, "--spawn-alt", str(spawn_alt), "--no-zenoh",
          "--duration", str(duration_s), "--summary"],
@@ -53,7 +57,7 @@ def fly_lockstep(
         autopilot = subprocess.run(
             [sys.executable, "-m", "autopilot", "--sim-port", port, "--spawn-alt", str(spawn_alt),
              "--profile", profile, "--duration", str(duration_s), "--controller", controller, "--summary",
-             "--no-zenoh", *log_args, *autopilot_args],
+             "--no-zenoh", "--quiet", *link_ports, *log_args, *autopilot_args],
             capture_output=True, text=True, timeout=timeout_s,
         )  # fmt: skip
         plant_out, plant_err = plant.communicate(timeout=120)

@@ -18,6 +18,18 @@ from ground_tools.lockstep_flight import free_udp_port
 from transport.plant_link import PlantLinkClient, PlantSample
 
 
+@pytest.fixture(scope="session", autouse=True)
+def isolated_parameter_files(tmp_path_factory) -> Iterator[None]:
+    """Autopilots started by the tests keep their default parameter file in a temporary folder, not the user's."""
+    previous = os.environ.get("XDG_STATE_HOME")
+    os.environ["XDG_STATE_HOME"] = str(tmp_path_factory.mktemp("state"))
+    yield
+    if previous is None:
+        os.environ.pop("XDG_STATE_HOME", None)
+    else:
+        os.environ["XDG_STATE_HOME"] = previous
+
+
 @pytest.fixture(scope="session")
 def airframe() -> Airframe:
     return load_airframe()

@@ -1,4 +1,4 @@
-"""zenoh telemetry while flying: a loopback subscriber receives plant truth and the autopilot's control samples."""
+"""zenoh telemetry while flying: a loopback subscriber receives plant truth, control samples and MPC solutions."""
 
 from __future__ import annotations
 
@@ -11,27 +11,30 @@ import zenoh
 
 from ground_tools.lockstep_flight import free_udp_port
 from tests.conftest import free_tcp_port
-from transport.telemetry import control_key, decode_plant_state, plant_state_key
+from transport.telemetry import control_key, decode_plant_state, mpc_key, plant_state_key
 from transport.zenoh_bus import session_config
 
 
-def test_subscriber_receives_plant_truth_and_autopilot_control(tmp_path):
+def fly_with_subscriber(controller: str, duration: str, *keys: str) -> dict[str, list]:
+    """Plant + autopilot (lockstep, accel profile) with zenoh on loopback; what a subscriber got per key."""
     plant_endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
     autopilot_endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
     port = str(free_udp_port())
-    states, controls = [], []
+    received: dict[str, list] = {key: [] for key in keys}
     session = zenoh.open(session_config(listen=[], connect=[plant_endpoint, autopilot_endpoint]))
-    session.declare_subscriber(plant_state_key(1), lambda s: states.append(decode_plant_state(bytes(s.payload))))
-    session.declare_subscriber(control_key(1), lambda s: controls.append(json.loads(bytes(s.payload))))
+    for key in keys:
+        decode = decode_plant_state if key == plant_state_key(1) else json.loads
+        session.declare_subscriber(key, lambda s, k=key, d=decode: received[k].append(d(bytes(s.payload))))
     plant = subprocess.Popen(
-        [sys.executable, "-m", "sim_bridge", "--port", port, "--spawn-alt", "100", "--duration", "20",
+        [sys.executable, "-m", "sim_bridge", "--port", port, "--spawn-alt", "100", "--duration", duration,
          "--zenoh-listen", plant_endpoint], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
     )  # fmt: skip
     try:
         time.sleep(1.0)  # let the subscriber's session reach the plant's endpoint before it steps
         autopilot = subprocess.run(
             [sys.executable, "-m", "autopilot", "--sim-port", port, "--spawn-alt", "100", "--profile", "accel",
-             "--duration", "20", "--zenoh-listen", autopilot_endpoint], capture_output=True, text=True, timeout=300,
+             "--controller", controller, "--duration", duration, "--zenoh-listen", autopilot_endpoint],
+            capture_output=True, text=True, timeout=300,
         )  # fmt: skip
         assert autopilot.returncode == 0, autopilot.stderr
         plant.wait(timeout=60)
@@ -41,8 +44,22 @@ def test_subscriber_receives_plant_truth_and_autopilot_control(tmp_path):
             plant.kill()
             plant.wait()
         session.close()
+    return received
+
+
+def test_subscriber_receives_plant_truth_and_autopilot_control(tmp_path):
+    received = fly_with_subscriber("pid", "20", plant_state_key(1), control_key(1))
+    states, controls = received[plant_state_key(1)], received[control_key(1)]
     assert len(states) > 1000 and len(controls) > 100
     assert max(s["vn"] for s in states) > 25.0  # the truth shows the flight
     modes = {c["mode"] for c in controls}
     assert {"TRANSITION_FW", "FW"} <= modes  # (the subscriber reaches the autopilot a few seconds in)
     assert all(len(c["u"]) == 8 and len(c["tilt_cmd"]) == 4 for c in controls)
+
+
+def test_subscriber_receives_the_mpc_solutions(tmp_path):
+    received = fly_with_subscriber("mpc", "10", plant_state_key(1), mpc_key(1))
+    solutions = received[mpc_key(1)]
+    assert len(received[plant_state_key(1)]) > 1000 and len(solutions) > 100
+    assert all(s["ok"] and len(s["predicted_velocity"]) == 26 and len(s["predicted_tilt"][0]) == 4 for s in solutions)
+    assert all(0 < s["solve_time_ms"] < 100 and s["qp_iterations"] > 0 for s in solutions)

@@ -5,6 +5,9 @@
 `vtol/<sysid>/autopilot/control`: at the velocity controller's 100 Hz, a JSON object with the time, the
 controller's mode, the velocity set-point, the attitude set-point, the tilt commands, the allocated actuators
 u (8), the wrench set-point and the allocation's residual (see `encode_control`).
+`vtol/<sysid>/autopilot/mpc`: after each MPC solve (100 Hz, MPC flying), JSON: `t`, `ok`, `status`, `solve_time_ms`,
+`qp_iterations`, `cost`, `predicted_velocity` (N+1 x 3, NED m/s), `predicted_tilt` (N+1 x 4, rad), `thrust`
+(4, N, first stage), `attitude_sp` (3, rad, first stage).
 """
 
 from __future__ import annotations
@@ -80,3 +83,11 @@ def encode_control(
             "residual": residual.tolist(),
         }
     ).encode()
+
+
+def mpc_key(system_id: int) -> str:
+    return f"vtol/{system_id}/autopilot/mpc"
+
+
+def encode_mpc_solution(t: float, summary: dict) -> bytes:
+    return json.dumps({"t": t, **summary}).encode()

@@ -1,0 +1,347 @@
+"""Arming, flight modes and their transitions, as PX4's commander does them (SPEC section 5), in simulation time.
+
+Modes (PX4 custom modes): Hold (AUTO.LOITER), Takeoff (AUTO.TAKEOFF), Land (AUTO.LAND), Offboard. Each one's
+position logic is in navigator.py; the result is a velocity set-point for the flight controller.
+
+On the ground the flight controller does not run: disarmed, the rotors are off; armed, they idle until a
+takeoff (Takeoff mode, or an Offboard set-point that climbs). A takeoff starts a fresh flight controller, so
+nothing integrated on the ground carries into the flight. A detected landing stops the controller again and
+disarms after COM_DISARM_LAND.
+
+Every request answers (MAV_RESULT, reason); a reason goes to the ground station as STATUSTEXT.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from autopilot.navigator import LandDetector, Navigator
+from autopilot.parameters import ParameterStore
+from autopilot.vehicle_state import VehicleState
+from transport.mavlink import mavlink
+
+ACCEPTED = mavlink.MAV_RESULT_ACCEPTED
+TEMPORARILY_REJECTED = mavlink.MAV_RESULT_TEMPORARILY_REJECTED
+DENIED = mavlink.MAV_RESULT_DENIED
+UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
+
+HOLD, TAKEOFF, LAND, OFFBOARD = "Hold", "Takeoff", "Land", "Offboard"
+PX4_MAIN_AUTO, PX4_MAIN_OFFBOARD = 4, 6
+PX4_AUTO_TAKEOFF, PX4_AUTO_LOITER, PX4_AUTO_LAND = 2, 3, 6
+PX4_MODES = {  # mode -> (main mode, sub mode)
+    HOLD: (PX4_MAIN_AUTO, PX4_AUTO_LOITER),
+    TAKEOFF: (PX4_MAIN_AUTO, PX4_AUTO_TAKEOFF),
+    LAND: (PX4_MAIN_AUTO, PX4_AUTO_LAND),
+    OFFBOARD: (PX4_MAIN_OFFBOARD, 0),
+}
+PX4_MAIN_NAMES = {1: "MANUAL", 2: "ALTCTL", 3: "POSCTL", 4: "AUTO", 5: "ACRO", 6: "OFFBOARD", 7: "STABILIZED",
+                  8: "RATTITUDE"}  # fmt: skip
+PX4_AUTO_NAMES = {1: "READY", 2: "TAKEOFF", 3: "LOITER", 4: "MISSION", 5: "RTL", 6: "LAND", 7: "RTGS", 8: "FOLLOW",
+                  9: "PRECLAND"}  # fmt: skip
+FORCE_MAGIC = 21196  # MAV_CMD_COMPONENT_ARM_DISARM param2: skip the checks (PX4)
+
+LANDED_UNDEFINED = mavlink.MAV_LANDED_STATE_UNDEFINED
+ON_GROUND = mavlink.MAV_LANDED_STATE_ON_GROUND
+IN_AIR = mavlink.MAV_LANDED_STATE_IN_AIR
+TAKING_OFF = mavlink.MAV_LANDED_STATE_TAKEOFF
+LANDING = mavlink.MAV_LANDED_STATE_LANDING
+
+MAX_LEVEL_TILT = math.radians(30.0)  # arming on the ground: roll and pitch within this
+OFFBOARD_TAKEOFF_CLIMB = 0.3  # m/s: an Offboard set-point climbing faster than this lifts off from the ground
+VTOL_FW, VTOL_MC = mavlink.MAV_VTOL_STATE_FW, mavlink.MAV_VTOL_STATE_MC  # 4, 3
+
+Reply = tuple[int, str | None]
+
+
+def custom_mode(mode: str) -> int:
+    main, sub = PX4_MODES[mode]
+    return (main << 16) | (sub << 24)
+
+
+def mode_from_px4(main: int, sub: int) -> str | None:
+    for mode, (m, s) in PX4_MODES.items():
+        if m == main and (s == sub or mode == OFFBOARD):
+            return mode
+    return None
+
+
+def px4_mode_name(main: int, sub: int) -> str:
+    name = PX4_MAIN_NAMES.get(main, f"main mode {main}")
+    if main == PX4_MAIN_AUTO:
+        name += "." + PX4_AUTO_NAMES.get(sub, f"sub mode {sub}")
+    return name
+
+
+class Commander:
+    """The vehicle's arming state, mode and ground/air state; velocity set-points at 100 Hz."""
+
+    def __init__(
+        self,
+        params: ParameterStore,
+        hover_fraction: float,
+        *,
+        armed: bool,
+        in_air: bool,
+        say: Callable[[int, str], None] = lambda severity, text: None,
+        profile: Callable[[float], np.ndarray] | None = None,
+    ) -> None:
+        self.params = params
+        self.navigator = Navigator(params)
+        self.land_detector = LandDetector(hover_fraction)
+        self.say = say
+        self.profile = profile
+        self.armed = armed
+        self.on_ground = not in_air
+        self.mode = OFFBOARD if profile is not None else HOLD
+        self.transition_target = VTOL_MC
+        self.started = False
+        self.controller_reset = False  # a takeoff began: the loop starts a fresh flight controller
+        self.state_changed = True  # arming or mode changed: the vehicle sends a HEARTBEAT now
+        self.offboard_velocity = np.zeros(3)
+        self.offboard_usec: int | None = None
+        self.now_usec = 0
+        self._start_usec = 0
+        self._armed_on_ground_usec: int | None = None
+        self._landed_usec: int | None = None
+        self.failsafes = 0
+
+    # ---- state ---------------------------------------------------------------------------------------------
+    @property
+    def flying(self) -> bool:
+        """The flight controller runs (armed and off the ground)."""
+        return self.armed and not self.on_ground
+
+    @property
+    def landed_state(self) -> int:
+        if not self.started:
+            return LANDED_UNDEFINED
+        if self.on_ground:
+            return ON_GROUND
+        if self.mode == TAKEOFF:
+            return TAKING_OFF
+        if self.mode == LAND:
+            return LANDING
+        return IN_AIR
+
+    def _set_mode(self, mode: str, state: VehicleState, reason: str | None = None) -> None:
+        if mode == HOLD:
+            self.navigator.start_hold(state)
+            self.transition_target = VTOL_MC
+        elif mode == LAND:
+            self.navigator.start_land(state)
+            self.land_detector.reset()
+            self.transition_target = VTOL_MC
+        if mode != self.mode:
+            self.mode = mode
+            self.state_changed = True
+            if reason:
+                self.say(mavlink.MAV_SEVERITY_INFO, reason)
+
+    def _set_armed(self, armed: bool, text: str) -> None:
+        self.armed = armed
+        self.state_changed = True
+        if armed:
+            self._armed_on_ground_usec = self.now_usec
+        else:
+            self.on_ground = True  # unpowered, the vehicle ends on the ground
+            self._landed_usec = None
+        self.say(mavlink.MAV_SEVERITY_INFO, text)
+
+    def start(self, state: VehicleState) -> None:
+        """The first valid state: a vehicle spawned in the air holds where it is."""
+        self.started = True
+        self.now_usec = self._start_usec = state.time_usec
+        if self.flying and self.profile is None:
+            self.navigator.start_hold(state)
+        if self.armed:
+            self._armed_on_ground_usec = state.time_usec
+
+    def restart(self, state: VehicleState) -> None:
+        """The plant's clock went back (a new plant run): time-stamped things start afresh."""
+        self.now_usec = self._start_usec = state.time_usec
+        self.offboard_usec = None
+        self._landed_usec = None
+        if self.armed:
+            self._armed_on_ground_usec = state.time_usec
+        if self.profile is None and self.flying:
+            self.navigator.start_hold(state)
+
+    def _profile_refusal(self) -> Reply | None:
+        if self.profile is not None:
+            return TEMPORARILY_REJECTED, "flying the internal --profile: flight commands are off"
+        return None
+
+    # ---- requests (commands) ---------------------------------------------------------------------------------
+    def arm(self, state: VehicleState, force: bool = False) -> Reply:
+        if (refusal := self._profile_refusal()) is not None:
+            return refusal
+        if self.armed:
+            return ACCEPTED, None
+        if not self.started or not state.valid:
+            return TEMPORARILY_REJECTED, "Arming denied: no vehicle state from the plant yet"
+        roll, pitch = float(state.euler[0]), float(state.euler[1])
+        if not force and (abs(roll) > MAX_LEVEL_TILT or abs(pitch) > MAX_LEVEL_TILT):
+            return DENIED, (f"Arming denied: not level (roll {math.degrees(roll):.0f}, "
+                            f"pitch {math.degrees(pitch):.0f} deg)")  # fmt: skip
+        self._set_armed(True, "Armed")
+        if self.mode == OFFBOARD and not self._offboard_fresh():
+            self._set_mode(HOLD, state)
+        return ACCEPTED, None
+
+    def disarm(self, state: VehicleState, force: bool = False) -> Reply:
+        if (refusal := self._profile_refusal()) is not None:
+            return refusal
+        if not self.armed:
+            return ACCEPTED, None
+        if not self.on_ground and not force:
+            return DENIED, f"Disarming denied: in the air (param2 = {FORCE_MAGIC} forces it)"
+        self._set_armed(False, "Disarmed" + (" in the air (forced)" if not self.on_ground else ""))
+        return ACCEPTED, None
+
+    def _offboard_fresh(self) -> bool:
+        if self.offboard_usec is None:
+            return False
+        return self.now_usec - self.offboard_usec <= self.params["COM_OF_LOSS_T"] * 1e6
+
+    def set_mode(self, mode: str, state: VehicleState) -> Reply:
+        if (refusal := self._profile_refusal()) is not None:
+            return refusal
+        if not self.started:
+            return TEMPORARILY_REJECTED, f"{mode} denied: no vehicle state from the plant yet"
+        if mode == self.mode:
+            return ACCEPTED, None
+        if mode == OFFBOARD and not self._offboard_fresh():
+            return TEMPORARILY_REJECTED, (f"Offboard denied: no set-point in the last "
+                                          f"{self.params['COM_OF_LOSS_T']:g} s")  # fmt: skip
+        if mode == TAKEOFF:
+            return self.takeoff(state, None)
+        if mode == LAND and self.on_ground:
+            self._set_mode(LAND, state)
+            return ACCEPTED, None
+        self._set_mode(mode, state)
+        return ACCEPTED, None
+
+    def takeoff(self, state: VehicleState, altitude_above_home: float | None) -> Reply:
+        """Climb to `altitude_above_home` (None: MIS_TAKEOFF_ALT) over the current position, then Hold."""
+        if (refusal := self._profile_refusal()) is not None:
+            return refusal
+        if not self.started:
+            return TEMPORARILY_REJECTED, "Takeoff denied: no vehicle state from the plant yet"
+        if altitude_above_home is None:
+            altitude_above_home = self.params["MIS_TAKEOFF_ALT"]
+        elif not 1.0 <= altitude_above_home <= 1000.0:
+            return DENIED, f"Takeoff denied: altitude {altitude_above_home:.1f} m above home not in 1..1000 m"
+        self.navigator.start_takeoff(state, -altitude_above_home)
+        if self.mode != TAKEOFF:
+            self.mode = TAKEOFF
+            self.state_changed = True
+        if self.armed and self.on_ground:
+            self._lift_off()
+        if not self.armed:
+            self.say(mavlink.MAV_SEVERITY_INFO, f"Takeoff to {altitude_above_home:.1f} m: waiting for arming")
+        else:
+            self.say(mavlink.MAV_SEVERITY_INFO, f"Takeoff to {altitude_above_home:.1f} m")
+        return ACCEPTED, None
+
+    def land(self, state: VehicleState) -> Reply:
+        if (refusal := self._profile_refusal()) is not None:
+            return refusal
+        if not self.started:
+            return TEMPORARILY_REJECTED, "Land denied: no vehicle state from the plant yet"
+        self._set_mode(LAND, state, "Landing")
+        return ACCEPTED, None
+
+    def transition(self, target: int, state: VehicleState) -> Reply:
+        """MAV_CMD_DO_VTOL_TRANSITION: in Hold, to FW circles at cruise speed, to MC brakes and hovers."""
+        if (refusal := self._profile_refusal()) is not None:
+            return refusal
+        if target not in (VTOL_FW, VTOL_MC):
+            return DENIED, f"Transition denied: param1 must be {VTOL_MC} (MC) or {VTOL_FW} (FW)"
+        if not self.flying:
+            return TEMPORARILY_REJECTED, "Transition denied: not flying"
+        if self.mode == OFFBOARD:
+            return TEMPORARILY_REJECTED, "Transition denied: in Offboard the set-points choose the phase"
+        if self.mode != HOLD:
+            return TEMPORARILY_REJECTED, f"Transition denied: in {self.mode} (switch to Hold first)"
+        if target == self.transition_target:
+            return ACCEPTED, None
+        self.transition_target = target
+        if target == VTOL_FW:
+            self.navigator.start_fixed_wing_hold(state)
+            self.say(mavlink.MAV_SEVERITY_INFO, "Transition to fixed wing: circling at "
+                     f"{self.params['FW_AIRSPD_TRIM']:g} m/s")  # fmt: skip
+        else:
+            self.navigator.start_hold(state, down=self.navigator.hold_down)
+            self.say(mavlink.MAV_SEVERITY_INFO, "Transition to multicopter: braking to a hover")
+        return ACCEPTED, None
+
+    def offboard_setpoint(self, velocity_ned: np.ndarray) -> None:
+        """A (finite, clamped) velocity set-point from a client, received now."""
+        self.offboard_velocity = velocity_ned
+        self.offboard_usec = self.now_usec
+
+    # ---- 100 Hz -------------------------------------------------------------------------------------------------
+    def _lift_off(self) -> None:
+        self.on_ground = False
+        self.controller_reset = True
+        self._armed_on_ground_usec = None
+        self._landed_usec = None
+        self.state_changed = True
+
+    def tick(self, state: VehicleState, time_usec: int, mean_thrust_fraction: float) -> np.ndarray | None:
+        """Mode logic at 100 Hz; the velocity set-point while flying (None on the ground)."""
+        self.now_usec = time_usec
+        p = self.params
+        if self.profile is not None:
+            return self.profile((time_usec - self._start_usec) / 1e6) if self.flying else None
+        if self.mode == OFFBOARD and not self._offboard_fresh():
+            self.failsafes += 1
+            self._set_mode(HOLD, state, f"Offboard lost: no set-point for {p['COM_OF_LOSS_T']:g} s, Hold")
+            if self.flying:
+                self.say(mavlink.MAV_SEVERITY_WARNING, "Failsafe: Hold")
+        if not self.armed:
+            return None
+        if self.on_ground:
+            return self._on_ground(state, time_usec)
+        if self.mode == TAKEOFF:
+            if self.navigator.takeoff_done(state):
+                self._set_mode(HOLD, state, "Takeoff complete: Hold")
+                self.navigator.hold_xy = self.navigator.takeoff_xy.copy()
+                self.navigator.hold_down = self.navigator.takeoff_down
+            else:
+                return self.navigator.takeoff(state)
+        if self.mode == OFFBOARD:
+            setpoint = self.offboard_velocity
+        elif self.mode == LAND:
+            setpoint = self.navigator.land(state)
+        else:
+            setpoint = self.navigator.hold(state)
+        if self.mode in (LAND, OFFBOARD) and self.land_detector.update(state, mean_thrust_fraction, time_usec,
+                                                                       float(setpoint[2])):  # fmt: skip
+            self.on_ground = True
+            self._landed_usec = time_usec
+            self.state_changed = True
+            self.say(mavlink.MAV_SEVERITY_INFO, "Landing detected")
+            return None
+        if self.mode not in (LAND, OFFBOARD):
+            self.land_detector.reset()
+        return setpoint
+
+    def _on_ground(self, state: VehicleState, time_usec: int) -> None:
+        p = self.params
+        if self._landed_usec is not None and time_usec - self._landed_usec >= p["COM_DISARM_LAND"] * 1e6:
+            self._set_armed(False, "Disarmed after landing")
+            return None
+        if self._landed_usec is None and self._armed_on_ground_usec is not None and p["COM_DISARM_PRFLT"] >= 0 \
+                and time_usec - self._armed_on_ground_usec >= p["COM_DISARM_PRFLT"] * 1e6:  # fmt: skip
+            self._set_armed(False, f"Disarmed: no takeoff within {p['COM_DISARM_PRFLT']:g} s")
+            return None
+        if self.mode == TAKEOFF or (self.mode == OFFBOARD and self.offboard_velocity[2] < -OFFBOARD_TAKEOFF_CLIMB):
+            self._lift_off()
+            if self.mode == TAKEOFF:
+                return self.navigator.takeoff(state)
+            return self.offboard_velocity
+        return None

@@ -1,0 +1,330 @@
+"""The autopilot's parameters (SPEC section 5): PX4 names where PX4 has the parameter, PX4's bytewise MAVLink
+encoding, and a parameter file that is written atomically and read back at start.
+
+Encoding (MAVLink PARAM_VALUE / PARAM_SET, MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE): a REAL32 parameter
+travels as its float value; an INT32 parameter travels as the four bytes of the int32 reinterpreted as the
+float field (PX4's encoding; 1 is sent as the float 1.4e-45, not 1.0).
+
+The file is JSON, only the values that differ from their default:
+
+    {"format": "tiltrotor-sitl parameters", "version": 1, "parameters": {"SYS_FAILURE_EN": 1}}
+
+It is replaced atomically (temporary file in the same folder, fsync, os.replace, fsync of the folder), so a
+crash or kill -9 at any moment leaves either the old or the new file, never a broken one. Writes happen on a
+background thread so the control loop never waits for the disk.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import struct
+import sys
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+FILE_FORMAT = "tiltrotor-sitl parameters"
+FILE_VERSION = 1
+
+INT32, REAL32 = "INT32", "REAL32"
+MAV_PARAM_TYPE_INT32 = 6
+MAV_PARAM_TYPE_REAL32 = 9
+MAV_TYPE_OF = {INT32: MAV_PARAM_TYPE_INT32, REAL32: MAV_PARAM_TYPE_REAL32}
+
+
+@dataclass(frozen=True)
+class ParameterDefinition:
+    name: str
+    kind: str  # INT32 or REAL32
+    default: float
+    minimum: float
+    maximum: float
+    unit: str
+    description: str
+    px4: bool = True  # False: this project's own parameter (PX4 has no such one)
+
+
+P = ParameterDefinition
+DEFINITIONS: tuple[ParameterDefinition, ...] = (
+    P("MAV_SYS_ID", INT32, 1, 1, 250, "", "MAVLink system id of the vehicle (at the next start; --sysid overrides)"),
+    P("VT_CTRL", INT32, 1, 0, 1, "", "velocity controller: 0 PID baseline, 1 unified MPC (at the next start or "
+      "takeoff from the ground; --controller overrides at start)", px4=False),
+    P("SYS_FAILURE_EN", INT32, 0, 0, 1, "", "1 enables MAV_CMD_INJECT_FAILURE"),
+    P("SYS_FAILURE_DLY", REAL32, 0.0, 0.0, 60.0, "s", "delay before the controllers learn of an injected failure",
+      px4=False),
+    P("COM_OF_LOSS_T", REAL32, 1.0, 0.1, 60.0, "s", "offboard set-point loss timeout: then Hold"),
+    P("COM_DISARM_LAND", REAL32, 2.0, 0.0, 20.0, "s", "disarm this long after a landing is detected"),
+    P("COM_DISARM_PRFLT", REAL32, 10.0, -1.0, 300.0, "s", "disarm when armed on the ground without taking off for "
+      "this long (negative: never)"),
+    P("MIS_TAKEOFF_ALT", REAL32, 2.5, 1.0, 1000.0, "m", "takeoff altitude above home"),
+    P("MPC_TKO_SPEED", REAL32, 1.5, 0.5, 5.0, "m/s", "takeoff climb speed"),
+    P("MPC_Z_VEL_MAX_UP", REAL32, 3.0, 0.5, 8.0, "m/s", "fastest climb when holding or returning to an altitude"),
+    P("MPC_Z_VEL_MAX_DN", REAL32, 1.5, 0.5, 4.0, "m/s", "fastest descent (landing above MPC_LAND_ALT2)"),
+    P("MPC_LAND_SPEED", REAL32, 0.7, 0.2, 3.0, "m/s", "landing descent speed below MPC_LAND_ALT2"),
+    P("MPC_LAND_ALT2", REAL32, 5.0, 0.0, 100.0, "m", "below this height above home land at MPC_LAND_SPEED"),
+    P("MPC_XY_CRUISE", REAL32, 5.0, 0.5, 12.0, "m/s", "fastest horizontal speed when returning to a hold point"),
+    P("MPC_XY_P", REAL32, 0.95, 0.0, 2.0, "1/s", "horizontal position gain (Hold, Takeoff, Land)"),
+    P("MPC_Z_P", REAL32, 1.0, 0.0, 2.0, "1/s", "vertical position gain (Hold, Takeoff)"),
+    P("VT_ARSP_BLEND", REAL32, 13.5, 5.0, 40.0, "m/s", "PID baseline: airspeed where MC/FW blending starts"),
+    P("VT_ARSP_TRANS", REAL32, 23.0, 5.0, 40.0, "m/s", "PID baseline: airspeed where the transition completes"),
+    P("FW_AIRSPD_TRIM", REAL32, 26.0, 21.0, 30.0, "m/s", "cruise speed of the fixed-wing Hold (loiter) after a "
+      "transition to fixed wing"),
+    P("NAV_LOITER_RAD", REAL32, 250.0, 100.0, 2000.0, "m", "radius of the fixed-wing Hold circle"),
+)
+del P
+
+BY_NAME = {definition.name: definition for definition in DEFINITIONS}
+
+
+class ParameterFileError(ValueError):
+    """The parameter file cannot be used (not JSON, wrong shape, bad value)."""
+
+
+class ParameterRejected(ValueError):
+    """A PARAM_SET that cannot be applied; the message says why."""
+
+
+def encode_value(definition: ParameterDefinition, value: float) -> float:
+    """The float that carries `value` in PARAM_VALUE.param_value (PX4 bytewise encoding for INT32)."""
+    if definition.kind == INT32:
+        return struct.unpack("<f", struct.pack("<i", int(value)))[0]
+    return float(value)
+
+
+def decode_value(definition: ParameterDefinition, param_value: float) -> float:
+    """The value a PARAM_SET.param_value carries (PX4 bytewise encoding for INT32)."""
+    if definition.kind == INT32:
+        return float(struct.unpack("<i", struct.pack("<f", param_value))[0])
+    return float(struct.unpack("<f", struct.pack("<f", param_value))[0])  # what a float32 can hold
+
+
+def default_parameter_path(instance: int) -> Path:
+    """$XDG_STATE_HOME/tiltrotor-sitl/params-<instance>.json (~/.local/state when XDG_STATE_HOME is unset)."""
+    base = os.environ.get("XDG_STATE_HOME") or os.path.join(os.path.expanduser("~"), ".local", "state")
+    return Path(base) / "tiltrotor-sitl" / f"params-{instance}.json"
+
+
+def _format_value(definition: ParameterDefinition, value: float) -> str:
+    return str(int(value)) if definition.kind == INT32 else f"{value:g}"
+
+
+class ParameterStore:
+    """Values by name, in a fixed order (param_index), persisted to `path` (None: not persisted)."""
+
+    def __init__(self, path: Path | None = None, definitions: tuple[ParameterDefinition, ...] = DEFINITIONS) -> None:
+        self.definitions = definitions
+        self.index = {d.name: i for i, d in enumerate(definitions)}
+        self.values: dict[str, float] = {d.name: float(d.default) for d in definitions}
+        self.path = path
+        self.warnings: list[str] = []
+        self._writer = _BackgroundWriter(path) if path is not None else None
+
+    # ---- access ------------------------------------------------------------------------------------------
+    def __getitem__(self, name: str) -> float:
+        return self.values[name]
+
+    def get_int(self, name: str) -> int:
+        return int(self.values[name])
+
+    def __len__(self) -> int:
+        return len(self.definitions)
+
+    def definition(self, name: str) -> ParameterDefinition | None:
+        return BY_NAME.get(name) if name in self.index else None
+
+    # ---- changes -----------------------------------------------------------------------------------------
+    def check(self, name: str, value: float) -> ParameterDefinition:
+        """Raise ParameterRejected unless `value` is acceptable for `name`."""
+        definition = self.definition(name)
+        if definition is None:
+            raise ParameterRejected(f"unknown parameter {name!r}")
+        if not math.isfinite(value):
+            raise ParameterRejected(f"{name}: {value} is not a finite number")
+        if definition.kind == INT32 and value != int(value):
+            raise ParameterRejected(f"{name}: {value} is not an integer")
+        if not definition.minimum <= value <= definition.maximum:
+            raise ParameterRejected(f"{name}: {_format_value(definition, value)} outside "
+                                    f"{_format_value(definition, definition.minimum)}.."
+                                    f"{_format_value(definition, definition.maximum)}")  # fmt: skip
+        blend = value if name == "VT_ARSP_BLEND" else self.values["VT_ARSP_BLEND"]
+        trans = value if name == "VT_ARSP_TRANS" else self.values["VT_ARSP_TRANS"]
+        if name in ("VT_ARSP_BLEND", "VT_ARSP_TRANS") and blend >= trans:
+            raise ParameterRejected(f"{name}: VT_ARSP_BLEND ({blend:g}) must stay below VT_ARSP_TRANS ({trans:g})")
+        return definition
+
+    def set(self, name: str, value: float) -> bool:
+        """Set a value (checked); True when it changed. The file is rewritten in the background."""
+        definition = self.check(name, value)
+        value = float(int(value)) if definition.kind == INT32 else float(value)
+        if self.values[name] == value:
+            return False
+        self.values[name] = value
+        self.save()
+        return True
+
+    # ---- persistence -------------------------------------------------------------------------------------
+    def non_default(self) -> dict[str, int | float]:
+        changed: dict[str, int | float] = {}
+        for d in self.definitions:
+            value = self.values[d.name]
+            if value != float(d.default):
+                changed[d.name] = int(value) if d.kind == INT32 else value
+        return changed
+
+    def document(self) -> str:
+        return json.dumps({"format": FILE_FORMAT, "version": FILE_VERSION, "parameters": self.non_default()},
+                          indent=1, sort_keys=True) + "\n"  # fmt: skip
+
+    def save(self) -> None:
+        if self._writer is not None:
+            self._writer.submit(self.document())
+
+    @property
+    def write_error(self) -> str | None:
+        """The last write's error (None: it worked, or nothing was written yet)."""
+        return None if self._writer is None else self._writer.last_error
+
+    def flush(self, timeout_s: float = 10.0) -> str | None:
+        """Wait for pending writes; returns the last write error (or None)."""
+        if self._writer is None:
+            return None
+        return self._writer.flush(timeout_s)
+
+    def load(self) -> None:
+        """Read the file if it exists (a missing file means all defaults); raise ParameterFileError if broken."""
+        if self.path is None:
+            return
+        _remove_stale_temporaries(self.path)
+        try:
+            text = self.path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            return
+        except (OSError, UnicodeDecodeError) as exc:
+            raise ParameterFileError(f"cannot read the parameter file {self.path}: {exc}") from None
+        where = f"parameter file {self.path}"
+        try:
+            document = json.loads(text)
+        except ValueError as exc:
+            raise ParameterFileError(f"{where} is not valid JSON ({exc})") from None
+        if not isinstance(document, dict) or document.get("format") != FILE_FORMAT:
+            raise ParameterFileError(f"{where}: not a tiltrotor-sitl parameter file (no \"format\": \"{FILE_FORMAT}\")")
+        if document.get("version") != FILE_VERSION:
+            raise ParameterFileError(f"{where}: version {document.get('version')!r}, expected {FILE_VERSION}")
+        parameters = document.get("parameters")
+        if not isinstance(parameters, dict):
+            raise ParameterFileError(f"{where}: \"parameters\" must be an object of NAME: value")
+        loaded: dict[str, float] = {}
+        for name, value in parameters.items():
+            if name not in self.index:
+                self.warnings.append(f"{where}: unknown parameter {name!r} ignored")
+                continue
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ParameterFileError(f"{where}: {name} = {value!r} is not a number")
+            try:
+                self.check(name, float(value))
+            except ParameterRejected as exc:
+                raise ParameterFileError(f"{where}: {exc}") from None
+            loaded[name] = float(value)
+        self.values.update(loaded)
+        if self.values["VT_ARSP_BLEND"] >= self.values["VT_ARSP_TRANS"]:
+            raise ParameterFileError(f"{where}: VT_ARSP_BLEND must be below VT_ARSP_TRANS")
+
+
+def _remove_stale_temporaries(path: Path) -> None:
+    """Temporary files left by a writer that was killed mid-write (the real file is intact)."""
+    try:
+        for stale in path.parent.glob(f".{path.name}.*.tmp"):
+            try:
+                stale.unlink()
+            except OSError:
+                pass
+    except OSError:
+        pass
+
+
+def write_atomically(path: Path, text: str) -> None:
+    """Replace `path` with `text`: temporary file, fsync, rename over, fsync the folder."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.parent / f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp"
+    data = text.encode("utf-8")
+    fd = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+    try:
+        view = memoryview(data)
+        while view:
+            written = os.write(fd, view)
+            view = view[written:]
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+    try:
+        os.replace(temporary, path)
+    except OSError:
+        temporary.unlink(missing_ok=True)
+        raise
+    try:
+        folder = os.open(path.parent, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(folder)
+    except OSError:
+        pass
+    finally:
+        os.close(folder)
+
+
+class _BackgroundWriter:
+    """Writes the newest submitted document on a daemon thread (older unwritten ones are skipped)."""
+
+    def __init__(self, path: Path) -> None:
+        self.path = path
+        self._condition = threading.Condition()
+        self._pending: str | None = None
+        self._busy = False
+        self.last_error: str | None = None
+        self.writes = 0
+        self._thread: threading.Thread | None = None
+
+    def submit(self, text: str) -> None:
+        with self._condition:
+            self._pending = text
+            if self._thread is None:
+                self._thread = threading.Thread(target=self._run, name="parameter-writer", daemon=True)
+                self._thread.start()
+            self._condition.notify_all()
+
+    def _run(self) -> None:
+        while True:
+            with self._condition:
+                while self._pending is None:
+                    self._condition.wait()
+                text, self._pending = self._pending, None
+                self._busy = True
+            try:
+                write_atomically(self.path, text)
+                error = None
+            except OSError as exc:
+                error = f"cannot write the parameter file {self.path}: {exc.strerror or exc}"
+                print(f"vtol-autopilot: {error}", file=sys.stderr, flush=True)
+            with self._condition:
+                self._busy = False
+                self.last_error = error
+                self.writes += 1
+                self._condition.notify_all()
+
+    def flush(self, timeout_s: float) -> str | None:
+        with self._condition:
+            self._condition.wait_for(lambda: self._pending is None and not self._busy, timeout=timeout_s)
+            return self.last_error
+
+
+def describe(definitions: tuple[ParameterDefinition, ...] = DEFINITIONS) -> list[dict[str, Any]]:
+    """The table of parameters (for docs and --help-params)."""
+    return [
+        {"name": d.name, "type": d.kind, "default": d.default, "min": d.minimum, "max": d.maximum, "unit": d.unit,
+         "description": d.description, "px4": d.px4}
+        for d in definitions
+    ]  # fmt: skip

@@ -1,0 +1,169 @@
+"""A pymavlink ground station for the tests: what a user's script does with `mavutil`, plus the simulation
+clock read from the vehicle's telemetry (time_boot_ms), so a test can wait in simulated seconds."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from typing import Any
+
+from pymavlink import mavutil
+
+from transport.mavlink import mavlink
+
+TIMED = ("ATTITUDE", "ATTITUDE_QUATERNION", "LOCAL_POSITION_NED", "GLOBAL_POSITION_INT", "SYSTEM_TIME")
+HOLD = (4 << 16) | (3 << 24)
+TAKEOFF = (4 << 16) | (2 << 24)
+LAND = (4 << 16) | (6 << 24)
+OFFBOARD = 6 << 16
+MODE_NAMES = {HOLD: "Hold", TAKEOFF: "Takeoff", LAND: "Land", OFFBOARD: "Offboard"}
+VELOCITY_MASK = 0x9C7  # what MAVSDK sends: velocity and yaw used
+
+
+class GroundStation:
+    """mavutil 'udpin' connection on 127.0.0.1:port: the vehicle sends there, we answer its address."""
+
+    def __init__(self, port: int, system_id: int = 255, component_id: int = 190) -> None:
+        self.conn = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=system_id,
+                                               source_component=component_id, dialect="common")  # fmt: skip
+        self.latest: dict[str, Any] = {}
+        self.statustexts: list[str] = []
+        self._chunks: dict[int, dict[int, str]] = {}
+        self.acks: list[Any] = []
+        self.heartbeats: list[tuple[float, Any]] = []  # (sim time, HEARTBEAT)
+        self.param_values: list[Any] = []
+        self.time_boot_ms = 0
+        self._last_heartbeat = 0.0
+
+    def close(self) -> None:
+        self.conn.close()
+
+    # ---- receiving ----------------------------------------------------------------------------------------
+    def _note(self, message: Any) -> None:
+        kind = message.get_type()
+        if kind == "BAD_DATA":
+            return
+        self.latest[kind] = message
+        if kind in TIMED:
+            self.time_boot_ms = message.time_boot_ms
+        elif kind == "STATUSTEXT":
+            if message.id == 0:
+                self.statustexts.append(message.text)
+            else:  # a chunk of a longer text: the last one is shorter than 50 bytes
+                parts = self._chunks.setdefault(message.id, {})
+                parts[message.chunk_seq] = message.text
+                if len(message.text) < 50:
+                    self.statustexts.append("".join(parts[i] for i in sorted(parts)))
+                    del self._chunks[message.id]
+        elif kind == "COMMAND_ACK":
+            self.acks.append(message)
+        elif kind == "HEARTBEAT" and message.get_srcComponent() == 1:
+            self.heartbeats.append((self.sim_time, message))
+        elif kind == "PARAM_VALUE":
+            self.param_values.append(message)
+
+    def pump(self, timeout_s: float = 0.05) -> None:
+        """Handle everything that arrives within timeout_s (wall); a HEARTBEAT each wall second, as GCSs do."""
+        deadline = time.monotonic() + timeout_s
+        if deadline - self._last_heartbeat > 1.0 and "HEARTBEAT" in self.latest:
+            self.heartbeat()
+        while True:
+            message = self.conn.recv_match(blocking=True, timeout=max(0.0, deadline - time.monotonic()))
+            if message is None:
+                return
+            self._note(message)
+            if time.monotonic() >= deadline:
+                return
+
+    @property
+    def sim_time(self) -> float:
+        return self.time_boot_ms / 1000.0
+
+    def wait(self, predicate: Callable[[], bool], what: str, timeout_s: float = 30.0,
+             every: Callable[[], None] | None = None) -> None:  # fmt: skip
+        """Pump until predicate() holds (wall timeout); `every` runs at each turn (e.g. to stream set-points)."""
+        deadline = time.monotonic() + timeout_s
+        while not predicate():
+            if time.monotonic() > deadline:
+                raise AssertionError(f"timed out waiting for {what}; last STATUSTEXT: {self.statustexts[-5:]}")
+            if every is not None:
+                every()
+            self.pump(0.02)
+
+    def wait_sim(self, seconds: float, every: Callable[[], None] | None = None, timeout_s: float = 60.0) -> None:
+        until = self.sim_time + seconds
+        self.wait(lambda: self.sim_time >= until, f"{seconds} simulated seconds", timeout_s, every)
+
+    def connect(self, timeout_s: float = 60.0) -> None:
+        """Wait for the vehicle's HEARTBEAT, and say ours so it answers us."""
+        self.wait(lambda: "HEARTBEAT" in self.latest, "the vehicle's HEARTBEAT", timeout_s)
+        self.heartbeat()
+        self.wait(lambda: "ATTITUDE" in self.latest, "telemetry", timeout_s, every=self.heartbeat)
+
+    # ---- state ----------------------------------------------------------------------------------------------
+    @property
+    def mode(self) -> int:
+        return self.latest["HEARTBEAT"].custom_mode
+
+    @property
+    def armed(self) -> bool:
+        return bool(self.latest["HEARTBEAT"].base_mode & mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+
+    @property
+    def altitude(self) -> float:
+        return -self.latest["LOCAL_POSITION_NED"].z
+
+    @property
+    def velocity(self) -> tuple[float, float, float]:
+        p = self.latest["LOCAL_POSITION_NED"]
+        return p.vx, p.vy, p.vz
+
+    @property
+    def landed_state(self) -> int:
+        return self.latest["EXTENDED_SYS_STATE"].landed_state
+
+    # ---- sending ---------------------------------------------------------------------------------------------
+    def heartbeat(self) -> None:
+        self._last_heartbeat = time.monotonic()
+        self.conn.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
+
+    def command(self, command: int, *params: float, timeout_s: float = 10.0) -> Any:
+        """COMMAND_LONG to 1/1; the COMMAND_ACK for it."""
+        p = list(params) + [0.0] * (7 - len(params))
+        start = len(self.acks)
+        self.conn.mav.command_long_send(1, 1, command, 0, *p)
+        found: list[Any] = []
+
+        def acked() -> bool:
+            found.extend(a for a in self.acks[start:] if a.command == command)
+            return bool(found)
+
+        self.wait(acked, f"COMMAND_ACK for {command}", timeout_s)
+        return found[0]
+
+    def set_mode(self, custom_mode: int) -> Any:
+        return self.command(mavlink.MAV_CMD_DO_SET_MODE, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+                            (custom_mode >> 16) & 0xFF, (custom_mode >> 24) & 0xFF)  # fmt: skip
+
+    def velocity_setpoint(self, vn: float, ve: float, vd: float) -> None:
+        self.conn.mav.set_position_target_local_ned_send(
+            self.time_boot_ms, 1, 1, mavlink.MAV_FRAME_LOCAL_NED, VELOCITY_MASK, 0, 0, 0, vn, ve, vd, 0, 0, 0, 0.0, 0
+        )
+
+    def param_set(self, name: str, value: float, kind: int) -> Any:
+        """PARAM_SET (value already in its wire encoding); the PARAM_VALUE that answers it."""
+        start = len(self.param_values)
+        self.conn.mav.param_set_send(1, 1, name.encode(), value, kind)
+        found: list[Any] = []
+
+        def answered() -> bool:
+            found.extend(p for p in self.param_values[start:] if p.param_id == name)
+            return bool(found)
+
+        self.wait(answered, f"PARAM_VALUE {name}", 10.0)
+        return found[0]
+
+
+def distance(a: tuple[float, float], b: tuple[float, float]) -> float:
+    return math.hypot(a[0] - b[0], a[1] - b[1])

@@ -1,0 +1,139 @@
+"""The commander's rules in simulation time, without processes: arming checks, mode entry, the Offboard loss
+failsafe, takeoff to Hold, touchdown and the automatic disarms (SPEC 5)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from autopilot.commander import (
+    ACCEPTED,
+    DENIED,
+    HOLD,
+    LAND,
+    OFFBOARD,
+    TAKEOFF,
+    TEMPORARILY_REJECTED,
+    Commander,
+    custom_mode,
+    mode_from_px4,
+)
+from autopilot.parameters import ParameterStore
+from autopilot.vehicle_state import VehicleState
+from transport.mavlink import mavlink as M
+
+HOVER = 0.69
+
+
+def state_at(t_s: float, down: float = 0.0, velocity=(0.0, 0.0, 0.0), roll: float = 0.0) -> VehicleState:
+    state = VehicleState(time_usec=int(round(t_s * 1e6)), valid=True)
+    state.position_ned[:] = (0.0, 0.0, down)
+    state.velocity_ned[:] = velocity
+    state.euler[0] = roll
+    return state
+
+
+def new_commander(in_air: bool = False, **params) -> tuple[Commander, list[str]]:
+    store = ParameterStore(None)
+    for name, value in params.items():
+        store.set(name, value)
+    said: list[str] = []
+    commander = Commander(store, HOVER, armed=in_air, in_air=in_air, say=lambda severity, text: said.append(text))
+    commander.start(state_at(0.0, down=-50.0 if in_air else 0.0))
+    return commander, said
+
+
+def test_px4_custom_modes_round_trip():
+    assert custom_mode(HOLD) == (4 << 16) | (3 << 24) and custom_mode(OFFBOARD) == 6 << 16
+    for mode in (HOLD, TAKEOFF, LAND, OFFBOARD):
+        value = custom_mode(mode)
+        assert mode_from_px4((value >> 16) & 0xFF, (value >> 24) & 0xFF) == mode
+    assert mode_from_px4(3, 0) is None and mode_from_px4(4, 4) is None  # POSCTL, MISSION
+
+
+def test_arming_checks_and_disarming_in_the_air():
+    commander, _ = new_commander()
+    assert commander.arm(state_at(0.0, roll=math.radians(45)))[0] == DENIED
+    assert commander.arm(state_at(0.0))[0] == ACCEPTED and commander.armed and not commander.flying
+    assert commander.disarm(state_at(0.0))[0] == ACCEPTED and not commander.armed
+    flying, _ = new_commander(in_air=True)
+    result, reason = flying.disarm(state_at(0.0, -50.0))
+    assert result == DENIED and "21196" in reason
+    assert flying.disarm(state_at(0.0, -50.0), force=True)[0] == ACCEPTED and not flying.armed
+
+
+def test_offboard_needs_a_fresh_set_point_and_fails_safe_to_hold_after_com_of_loss_t():
+    commander, said = new_commander(in_air=True, COM_OF_LOSS_T=0.5)
+    state = state_at(1.0, -50.0)
+    commander.tick(state, state.time_usec, HOVER)
+    assert commander.set_mode(OFFBOARD, state)[0] == TEMPORARILY_REJECTED
+    commander.offboard_setpoint(np.array([3.0, 0.0, 0.0]))
+    assert commander.set_mode(OFFBOARD, state)[0] == ACCEPTED and commander.mode == OFFBOARD
+    t = 1.0
+    while commander.mode == OFFBOARD:
+        t += 0.01
+        setpoint = commander.tick(state_at(t, -50.0), int(round(t * 1e6)), HOVER)
+        if commander.mode == OFFBOARD:
+            assert list(setpoint) == [3.0, 0.0, 0.0]
+    assert t == pytest.approx(1.5, abs=0.011)  # Hold once the last set-point is COM_OF_LOSS_T old
+    assert commander.mode == HOLD and any("Offboard lost" in text for text in said)
+    assert commander.state_changed  # a HEARTBEAT goes out now
+
+
+def test_takeoff_climbs_to_the_altitude_then_holds_there():
+    commander, said = new_commander(MIS_TAKEOFF_ALT=10.0)
+    assert commander.takeoff(state_at(0.0), None)[0] == ACCEPTED and commander.mode == TAKEOFF
+    assert not commander.flying  # disarmed: waiting for arming
+    commander.arm(state_at(0.0))
+    setpoint = commander.tick(state_at(0.01), 10_000, HOVER)  # lifts off at the next 100 Hz tick
+    assert commander.flying and commander.controller_reset
+    assert setpoint[2] == pytest.approx(-1.5)  # MPC_TKO_SPEED
+    assert commander.landed_state == M.MAV_LANDED_STATE_TAKEOFF
+    setpoint = commander.tick(state_at(5.0, down=-9.8), 5_000_000, HOVER)
+    assert commander.mode == HOLD and "Takeoff complete: Hold" in said
+    assert setpoint[2] == pytest.approx(-0.2)  # holds the takeoff altitude (P on the 0.2 m left)
+    assert commander.landed_state == M.MAV_LANDED_STATE_IN_AIR
+
+
+def test_land_detects_touchdown_and_disarms_after_com_disarm_land():
+    commander, said = new_commander(in_air=True, COM_DISARM_LAND=1.0)
+    assert commander.land(state_at(0.0, -50.0))[0] == ACCEPTED
+    assert commander.tick(state_at(0.01, -50.0), 10_000, HOVER)[2] == pytest.approx(1.5)  # MPC_Z_VEL_MAX_DN
+    assert commander.tick(state_at(0.02, -3.0), 20_000, HOVER)[2] == pytest.approx(0.7)  # below MPC_LAND_ALT2
+    t = 1.0
+    while commander.flying:  # on the ground: stopped, thrust unloading
+        t += 0.01
+        commander.tick(state_at(t, -0.2), int(round(t * 1e6)), 0.4 * HOVER)
+    assert t == pytest.approx(1.5, abs=0.02) and "Landing detected" in said and commander.armed
+    while commander.armed:
+        t += 0.01
+        commander.tick(state_at(t, -0.2), int(round(t * 1e6)), 0.0)
+    assert t == pytest.approx(2.5, abs=0.02) and "Disarmed after landing" in said
+    assert commander.landed_state == M.MAV_LANDED_STATE_ON_GROUND
+
+
+def test_armed_on_the_ground_without_a_takeoff_disarms_after_com_disarm_prflt():
+    commander, said = new_commander(COM_DISARM_PRFLT=2.0)
+    commander.arm(state_at(0.0))
+    t = 0.0
+    while commander.armed:
+        t += 0.01
+        assert commander.tick(state_at(t), int(round(t * 1e6)), 0.0) is None
+    assert t == pytest.approx(2.0, abs=0.02) and any("no takeoff" in text for text in said)
+
+
+def test_the_transition_command_in_hold_circles_and_comes_back_to_a_hover():
+    commander, _ = new_commander(in_air=True)
+    state = state_at(0.0, -50.0)
+    assert commander.transition(7, state)[0] == DENIED
+    assert commander.transition(M.MAV_VTOL_STATE_FW, state)[0] == ACCEPTED
+    setpoint = commander.tick(state_at(0.01, -50.0), 10_000, HOVER)
+    assert math.hypot(setpoint[0], setpoint[1]) == pytest.approx(26.0)  # FW_AIRSPD_TRIM
+    assert commander.transition(M.MAV_VTOL_STATE_MC, state)[0] == ACCEPTED
+    moving = state_at(0.02, -50.0, velocity=(20.0, 0.0, 0.0))
+    assert list(commander.tick(moving, 20_000, HOVER)[0:2]) == [0.0, 0.0]  # brake first
+    commander.offboard_setpoint(np.zeros(3))
+    commander.set_mode(OFFBOARD, state)
+    assert commander.transition(M.MAV_VTOL_STATE_FW, state)[0] == TEMPORARILY_REJECTED

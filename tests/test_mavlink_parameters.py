@@ -1,0 +1,211 @@
+"""Parameters (SPEC 5, 8): PX4 bytewise encoding, list/read/set over MAVLink with refusals, a parameter file that
+survives a restart and is never broken by a kill -9 in the middle of a write."""
+
+from __future__ import annotations
+
+import json
+import math
+import random
+import signal
+import struct
+import subprocess
+import sys
+import time
+
+import pytest
+
+from autopilot.parameters import (
+    BY_NAME,
+    DEFINITIONS,
+    MAV_PARAM_TYPE_INT32,
+    MAV_PARAM_TYPE_REAL32,
+    ParameterFileError,
+    ParameterRejected,
+    ParameterStore,
+    decode_value,
+    encode_value,
+)
+from tests.mavlink_sitl import start_sitl
+
+
+def as_int32_bytes(value: int) -> float:
+    return struct.unpack("<f", struct.pack("<i", value))[0]
+
+
+def test_int32_travels_bytewise_and_real32_as_is():
+    failure_en = BY_NAME["SYS_FAILURE_EN"]
+    assert encode_value(failure_en, 1) == as_int32_bytes(1) != 1.0
+    assert decode_value(failure_en, as_int32_bytes(1)) == 1
+    assert decode_value(failure_en, 1.0) == 1065353216  # a C-cast 1.0 is not 1 in PX4's encoding
+    takeoff = BY_NAME["MIS_TAKEOFF_ALT"]
+    assert encode_value(takeoff, 12.5) == 12.5 and decode_value(takeoff, 12.5) == 12.5
+    assert len({d.name for d in DEFINITIONS}) == len(DEFINITIONS)
+    assert all(len(d.name) <= 16 for d in DEFINITIONS)
+
+
+@pytest.mark.parametrize(
+    "name, value, why",
+    [
+        ("NO_SUCH_PARAM", 1.0, "unknown"),
+        ("COM_OF_LOSS_T", math.nan, "finite"),
+        ("COM_OF_LOSS_T", math.inf, "finite"),
+        ("SYS_FAILURE_EN", 0.5, "integer"),
+        ("SYS_FAILURE_EN", 1065353216, "outside"),
+        ("MIS_TAKEOFF_ALT", -5.0, "outside"),
+        ("VT_ARSP_BLEND", 30.0, "below VT_ARSP_TRANS"),
+    ],
+)
+def test_bad_values_are_refused_with_a_reason(name, value, why):
+    store = ParameterStore(None)
+    with pytest.raises(ParameterRejected, match=why):
+        store.set(name, value)
+    assert store.non_default() == {}
+
+
+def test_the_file_holds_changed_values_and_is_read_back(tmp_path):
+    path = tmp_path / "state" / "params.json"
+    store = ParameterStore(path)
+    assert store.set("MIS_TAKEOFF_ALT", 20.0) and store.set("SYS_FAILURE_EN", 1)
+    assert not store.set("SYS_FAILURE_EN", 1)  # unchanged
+    assert store.flush() is None
+    document = json.loads(path.read_text())
+    assert document["parameters"] == {"MIS_TAKEOFF_ALT": 20.0, "SYS_FAILURE_EN": 1}
+    again = ParameterStore(path)
+    again.load()
+    assert again["MIS_TAKEOFF_ALT"] == 20.0 and again.get_int("SYS_FAILURE_EN") == 1
+    assert not list(path.parent.glob(".*.tmp"))
+
+
+BROKEN_FILES = {
+    "not_json": "{ this is not json",
+    "truncated": '{"format": "tiltrotor-sitl parameters", "version": 1, "parameters": {"MIS_TAKE',
+    "wrong_format": '{"format": "something else", "version": 1, "parameters": {}}',
+    "wrong_version": '{"format": "tiltrotor-sitl parameters", "version": 7, "parameters": {}}',
+    "not_an_object": '{"format": "tiltrotor-sitl parameters", "version": 1, "parameters": [1, 2]}',
+    "string_value": '{"format": "tiltrotor-sitl parameters", "version": 1, "parameters": {"MIS_TAKEOFF_ALT": "20"}}',
+    "out_of_range": '{"format": "tiltrotor-sitl parameters", "version": 1, "parameters": {"SYS_FAILURE_EN": 7}}',
+    "binary": "\x00\xff\xfe garbage",
+}
+
+
+@pytest.mark.parametrize("case", sorted(BROKEN_FILES))
+def test_a_broken_parameter_file_is_refused(tmp_path, case):
+    path = tmp_path / "params.json"
+    path.write_text(BROKEN_FILES[case], encoding="latin-1")
+    with pytest.raises(ParameterFileError):
+        ParameterStore(path).load()
+
+
+def test_the_autopilot_refuses_a_broken_parameter_file_with_one_line_and_exit_2(tmp_path):
+    path = tmp_path / "params.json"
+    path.write_text(BROKEN_FILES["truncated"])
+    result = subprocess.run([sys.executable, "-m", "autopilot", "--params", str(path), "--no-zenoh"],
+                            capture_output=True, text=True, timeout=60)  # fmt: skip
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("vtol-autopilot: error:") and str(path) in lines[0]
+
+
+WRITER = """
+import sys
+from pathlib import Path
+from autopilot.parameters import write_atomically
+path = Path(sys.argv[1])
+documents = [('{"n": %d, "pad": "' % i) + "x" * 200_000 + '"}' for i in range(2)]
+print("ready", flush=True)
+i = 0
+while True:
+    write_atomically(path, documents[i % 2])
+    i += 1
+"""
+
+
+def test_kill_9_in_the_middle_of_writes_never_leaves_a_broken_file(tmp_path):
+    """A process rewriting a 200 kB file as fast as it can is killed at random moments: the file is always whole."""
+    path = tmp_path / "params.json"
+    rng = random.Random(4)
+    interrupted = 0
+    for _ in range(8):
+        writer = subprocess.Popen([sys.executable, "-c", WRITER, str(path)], stdout=subprocess.PIPE, text=True)
+        try:
+            assert writer.stdout.readline().strip() == "ready"
+            time.sleep(rng.uniform(0.02, 0.15))
+        finally:
+            writer.send_signal(signal.SIGKILL)
+            writer.wait(timeout=20)
+        document = json.loads(path.read_text())  # never partial
+        assert document["n"] in (0, 1) and len(document["pad"]) == 200_000
+        stale = list(tmp_path.glob(".params.json.*.tmp"))
+        interrupted += bool(stale)
+        for temporary in stale:
+            temporary.unlink()
+    assert interrupted >= 1  # the kills did land in the middle of writes (the temporary file was left behind)
+
+
+def test_parameters_over_mavlink_survive_a_restart_and_a_kill_9(tmp_path):
+    params_path = tmp_path / "params.json"
+    sitl = start_sitl(params_path, spawn_alt=30.0, speed=4.0, autopilot_args=("--controller", "pid"))
+    gs = sitl.gs
+    try:
+        gs.connect()
+        # The whole list: correct count and every index once, INT32 values bytewise.
+        gs.conn.mav.param_request_list_send(1, 1)
+        gs.wait(lambda: len({p.param_index for p in gs.param_values}) == len(DEFINITIONS), "the parameter list")
+        values = {p.param_id: p for p in gs.param_values}
+        assert {p.param_count for p in gs.param_values} == {len(DEFINITIONS)}
+        assert sorted(p.param_index for p in values.values()) == list(range(len(DEFINITIONS)))
+        assert values["SYS_FAILURE_EN"].param_type == MAV_PARAM_TYPE_INT32
+        assert values["MAV_SYS_ID"].param_value == as_int32_bytes(1)
+        loss = values["COM_OF_LOSS_T"]
+        assert loss.param_type == MAV_PARAM_TYPE_REAL32 and loss.param_value == 1.0
+
+        # Set: echoed with the same name, type and value.
+        echo = gs.param_set("MIS_TAKEOFF_ALT", 12.5, MAV_PARAM_TYPE_REAL32)
+        assert (echo.param_id, echo.param_type, echo.param_value) == ("MIS_TAKEOFF_ALT", MAV_PARAM_TYPE_REAL32, 12.5)
+        assert echo.param_index == values["MIS_TAKEOFF_ALT"].param_index
+        echo = gs.param_set("SYS_FAILURE_EN", as_int32_bytes(1), MAV_PARAM_TYPE_INT32)
+        assert echo.param_value == as_int32_bytes(1)
+
+        # Refusals: the unchanged value comes back, with a STATUSTEXT why.
+        echo = gs.param_set("SYS_FAILURE_EN", 0.0, MAV_PARAM_TYPE_REAL32)  # wrong type
+        assert echo.param_value == as_int32_bytes(1) and echo.param_type == MAV_PARAM_TYPE_INT32
+        echo = gs.param_set("COM_OF_LOSS_T", 1e9, MAV_PARAM_TYPE_REAL32)  # out of range
+        assert echo.param_value == 1.0
+        echo = gs.param_set("COM_OF_LOSS_T", math.nan, MAV_PARAM_TYPE_REAL32)
+        assert echo.param_value == 1.0
+        gs.conn.mav.param_set_send(1, 1, b"NO_SUCH_PARAM", 1.0, MAV_PARAM_TYPE_REAL32)
+        gs.wait(lambda: any("NO_SUCH_PARAM" in t for t in gs.statustexts), "the unknown-name refusal")
+        assert any("SYS_FAILURE_EN: type 9" in t for t in gs.statustexts)
+        assert any("COM_OF_LOSS_T" in t and "outside" in t for t in gs.statustexts)
+
+        # Read by name and by index.
+        count = len(gs.param_values)
+        gs.conn.mav.param_request_read_send(1, 1, b"MIS_TAKEOFF_ALT", -1)
+        gs.conn.mav.param_request_read_send(1, 1, b"", values["SYS_FAILURE_EN"].param_index)
+        gs.wait(lambda: len(gs.param_values) >= count + 2, "two PARAM_VALUEs")
+        read = {p.param_id: p.param_value for p in gs.param_values[count:]}
+        assert read == {"MIS_TAKEOFF_ALT": 12.5, "SYS_FAILURE_EN": as_int32_bytes(1)}
+
+        # A burst of changes, then kill -9 while the file is being rewritten: the file is whole.
+        for i in range(300):
+            gs.conn.mav.param_set_send(1, 1, b"MPC_XY_CRUISE", 2.0 + (i % 7), MAV_PARAM_TYPE_REAL32)
+        gs.pump(0.05)
+        sitl.autopilot.send_signal(signal.SIGKILL)
+        sitl.autopilot.wait(timeout=20)
+        saved = json.loads(params_path.read_text())["parameters"]
+        assert saved["MIS_TAKEOFF_ALT"] == 12.5 and saved["SYS_FAILURE_EN"] == 1
+
+        # A new autopilot on the same file and ports has the values.
+        sitl.autopilot = subprocess.Popen(sitl.autopilot_command("--controller", "pid", "--spawn-alt", "30"),
+                                          stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)  # fmt: skip
+        gs.param_values.clear()
+        gs.latest.pop("HEARTBEAT", None)
+        gs.wait(lambda: "HEARTBEAT" in gs.latest, "the restarted autopilot", timeout_s=60)
+        gs.conn.mav.param_request_read_send(1, 1, b"MIS_TAKEOFF_ALT", -1)
+        gs.conn.mav.param_request_read_send(1, 1, b"SYS_FAILURE_EN", -1)
+        gs.wait(lambda: {p.param_id for p in gs.param_values} >= {"MIS_TAKEOFF_ALT", "SYS_FAILURE_EN"}, "values",
+                every=lambda: gs.conn.mav.param_request_read_send(1, 1, b"MIS_TAKEOFF_ALT", -1))  # fmt: skip
+        read = {p.param_id: p.param_value for p in gs.param_values}
+        assert read["MIS_TAKEOFF_ALT"] == 12.5 and read["SYS_FAILURE_EN"] == as_int32_bytes(1)
+    finally:
+        sitl.kill()
