@@ -1,6 +1,6 @@
 """`vtol`: ground tools (SPEC section 1).
 
-    vtol fly PROFILE [--controller pid] [--out DIR] [--instance I]
+    vtol fly PROFILE [--controller pid|mpc] [--out DIR]
     vtol up [--instance I] [--controller mpc|pid] [--spawn-alt M] [--speed F] [--params FILE] [--no-zenoh]
 
 `fly` starts the plant and the autopilot in lockstep on free ports, flies one of the paper's velocity profiles
