@@ -32,6 +32,9 @@ def test_mpc_accelerates_to_cruise_smoothly_within_the_limits(accel_flights):
     assert np.abs(np.diff(mean_tilt)).max() < 1.0
     assert set(flight.modes) == {"MPC"} and flight.autopilot["mode_switches"] == 0
     assert flight.autopilot["allocation_fallbacks"] == 0
+    solver = flight.autopilot["controller"]
+    assert solver["solves_failed"] == 0 and not solver["fell_back_to_pid"]
+    assert solver["solve_ms_p99"] < 10.0  # inside the 10 ms budget of the 100 Hz loop
 
 
 def test_mpc_beats_the_pid_baseline_on_the_acceleration_test(accel_flights):
