@@ -31,6 +31,13 @@ def free_udp_port() -> int:
         return s.getsockname()[1]
 
 
+def free_link_ports() -> tuple[str, ...]:
+    """vtol-autopilot options putting its ground-station links on free ports (nobody listens on the remote
+    ones), so an autopilot can run beside a `vtol up` or another one."""
+    return ("--gcs-port", str(free_udp_port()), "--gcs-remote-port", str(free_udp_port()),
+            "--api-port", str(free_udp_port()), "--api-remote-port", str(free_udp_port()))  # fmt: skip
+
+
 def fly_lockstep(
     profile: str,
     duration_s: float,
@@ -43,10 +50,7 @@ def fly_lockstep(
 ) -> LockstepFlight:
     """Fly `profile` for `duration_s` simulated seconds from a hover at `spawn_alt`; raises FlightFailed."""
     port = str(free_udp_port())
-    # The autopilot's ground-station links on free ports (nobody listens on the remote ones), so flights can run
-    # beside a `vtol up` or each other.
-    link_ports = ("--gcs-port", str(free_udp_port()), "--gcs-remote-port", str(free_udp_port()),
-                  "--api-port", str(free_udp_port()), "--api-remote-port", str(free_udp_port()))  # fmt: skip
+    link_ports = free_link_ports()
     plant = subprocess.Popen(
         [sys.executable, "-m", "sim_bridge", "--port", port, "--spawn-alt", str(spawn_alt), "--no-zenoh",
          "--duration", str(duration_s), "--summary"],

@@ -30,7 +30,7 @@ from transport.mavlink import (
     Link,
     mavlink,
 )
-from transport.udp import receive
+from transport.udp import SPIN_WINDOW_S, receive
 from transport.telemetry import encode_event, encode_plant_state, plant_events_key, plant_state_key
 
 USEC_WRAP = 1 << 32
@@ -171,7 +171,9 @@ class PlantServer:
             waiting_since = time.monotonic()
             if waiting_since >= deadline:
                 return
-            received = receive(self.sock, deadline)
+            # Spin only in lockstep, where the answer comes within ~100 us; in real time the next event is a
+            # wall-clock deadline milliseconds away, and spinning would burn a core for nothing.
+            received = receive(self.sock, deadline, spin_s=SPIN_WINDOW_S if self.lockstep else 0.0)
             self.wait_time_s += time.monotonic() - waiting_since
             if received is not None:
                 self._handle_datagram(*received)

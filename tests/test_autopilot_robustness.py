@@ -13,6 +13,7 @@ import time
 
 import pytest
 
+from ground_tools.lockstep_flight import free_link_ports
 from transport.mavlink import Link, mavlink
 from transport.udp import receive
 
@@ -65,7 +66,7 @@ def autopilot_with_fake_plant():
     plant = FakePlant()
     process = subprocess.Popen(
         [sys.executable, "-m", "autopilot", "--sim-port", str(plant.port), "--spawn-alt", "100", "--summary",
-         "--no-zenoh"],
+         "--no-zenoh", *free_link_ports()],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
     plant.wait_for_autopilot()

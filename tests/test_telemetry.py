@@ -9,7 +9,7 @@ import time
 
 import zenoh
 
-from ground_tools.lockstep_flight import free_udp_port
+from ground_tools.lockstep_flight import free_link_ports, free_udp_port
 from tests.conftest import free_tcp_port
 from transport.telemetry import control_key, decode_plant_state, mpc_key, plant_state_key
 from transport.zenoh_bus import session_config
@@ -33,7 +33,8 @@ def fly_with_subscriber(controller: str, duration: str, *keys: str) -> dict[str,
         time.sleep(1.0)  # let the subscriber's session reach the plant's endpoint before it steps
         autopilot = subprocess.run(
             [sys.executable, "-m", "autopilot", "--sim-port", port, "--spawn-alt", "100", "--profile", "accel",
-             "--controller", controller, "--duration", duration, "--zenoh-listen", autopilot_endpoint],
+             "--controller", controller, "--duration", duration, "--zenoh-listen", autopilot_endpoint,
+             *free_link_ports()],
             capture_output=True, text=True, timeout=300,
         )  # fmt: skip
         assert autopilot.returncode == 0, autopilot.stderr

@@ -13,7 +13,7 @@ from typing import Any
 
 from transport.mavlink import Link, mavlink
 from transport.ports import LOOPBACK
-from transport.udp import receive
+from transport.udp import SPIN_WINDOW_S, receive
 
 USEC_WRAP = 1 << 32
 
@@ -39,6 +39,7 @@ class PlantLinkClient:
         self.sock.setblocking(False)
         self.link = Link(system_id, component_id)
         self.received_other: list[Any] = []
+        self._spin_s = SPIN_WINDOW_S
 
     def close(self) -> None:
         self.sock.close()
@@ -59,9 +60,10 @@ class PlantLinkClient:
 
     def receive_step(self, timeout_s: float = 2.0) -> PlantSample | None:
         """The next step's state (messages in between are collected in `received_other`); None on timeout."""
-        deadline = time.monotonic() + timeout_s
+        started = time.monotonic()
+        deadline = started + timeout_s
         while True:
-            received = receive(self.sock, deadline)
+            received = receive(self.sock, deadline, spin_s=self._spin_s)
             if received is None:
                 if time.monotonic() >= deadline:
                     return None
@@ -79,6 +81,9 @@ class PlantLinkClient:
                 else:
                     self.received_other.append(message)
             if sample is not None:
+                # Spin for the next state only while states come quickly (lockstep, ~100 us apart); a plant
+                # paced to the wall clock (states milliseconds apart) is waited for without burning a core.
+                self._spin_s = SPIN_WINDOW_S if time.monotonic() - started < SPIN_WINDOW_S / 2 else 0.0
                 return sample
 
     def send_pwm(self, time_usec: int, pwm: list[int]) -> None:
