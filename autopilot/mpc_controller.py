@@ -138,5 +138,3 @@ def solution_summary(solution: MpcSolution) -> dict:
         "attitude_sp": solution.u[0][PSI_D].tolist(),
     }
 
-
-assert NX == 16

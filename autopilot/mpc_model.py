@@ -36,6 +36,7 @@ from aircraft.airframe import Airframe
 from aircraft.frames import rotation_from_euler
 from aircraft.wrench import body_wrench
 from autopilot.attitude import DEFAULT_GAINS, AttitudeGains, attitude_law, wrap_angle
+from autopilot.velocity_command import setpoint_course
 
 NX, NU = 16, 11
 V, CHI, PSI, PSI_DOT, PSI_DOT_PREV = slice(0, 3), slice(3, 7), slice(7, 10), slice(10, 13), slice(13, 16)
@@ -152,11 +153,11 @@ def terminal_residual(weights: MpcWeights, x: ca.SX, p: ca.SX) -> ca.SX:
 
 
 def yaw_reference(v_sp_north: float, v_sp_east: float, yaw_now: float) -> float:
-    """psi_ref: the set-point's course when its horizontal part exceeds 3 m/s, else the current yaw (SPEC 4.3);
-    unwrapped to within pi of the current yaw so that the plan never turns the long way round."""
-    if math.hypot(v_sp_north, v_sp_east) <= 3.0:
+    """psi_ref: the set-point's course (autopilot.velocity_command.setpoint_course), else the current yaw
+    (SPEC 4.3); unwrapped to within pi of the current yaw so that the plan never turns the long way round."""
+    course = setpoint_course(v_sp_north, v_sp_east)
+    if course is None:
         return yaw_now
-    course = math.atan2(v_sp_east, v_sp_north)
     return yaw_now + math.atan2(math.sin(course - yaw_now), math.cos(course - yaw_now))
 
 

@@ -23,11 +23,10 @@ import numpy as np
 from aircraft.airframe import Airframe
 from autopilot.attitude import DEFAULT_GAINS
 from autopilot.vehicle_state import VehicleState
-from autopilot.velocity_command import VelocityCommand
+from autopilot.velocity_command import VelocityCommand, setpoint_course
 
 MC, TRANSITION_FW, FW, TRANSITION_MC = "MC", "TRANSITION_FW", "FW", "TRANSITION_MC"
 YAW_ATTITUDE_GAIN = DEFAULT_GAINS.attitude[2]
-YAW_FROM_COURSE_SPEED = 3.0  # m/s: above this horizontal set-point speed the nose follows its course (as the MPC)
 
 
 @dataclass(frozen=True)
@@ -107,10 +106,10 @@ class PidVelocityController:
 
     # ---- helpers -----------------------------------------------------------------------------------------
     def _yaw_setpoint(self, state: VehicleState, v_sp: np.ndarray) -> float:
-        speed_sp = math.hypot(v_sp[0], v_sp[1])
-        if speed_sp > YAW_FROM_COURSE_SPEED:
+        course = setpoint_course(v_sp[0], v_sp[1])
+        if course is not None:
             self.yaw_hold = None
-            return math.atan2(v_sp[1], v_sp[0])
+            return course
         if self.yaw_hold is None:
             self.yaw_hold = float(state.euler[2])
         return self.yaw_hold

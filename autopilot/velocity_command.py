@@ -2,9 +2,20 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
+
+YAW_FROM_COURSE_SPEED = 3.0  # m/s: above this horizontal set-point speed the nose follows the set-point's course
+
+
+def setpoint_course(v_sp_north: float, v_sp_east: float) -> float | None:
+    """The course (rad) both velocity controllers point the nose along (SPEC 4.3: psi_ref), or None when the
+    horizontal set-point is too slow to have one (then the controller keeps its yaw)."""
+    if math.hypot(v_sp_north, v_sp_east) <= YAW_FROM_COURSE_SPEED:
+        return None
+    return math.atan2(v_sp_east, v_sp_north)
 
 
 @dataclass
