@@ -70,6 +70,10 @@ def build_parser() -> OneLineArgumentParser:
     parser.add_argument("--profile", choices=sorted(PROFILES),
                         help="fly an internal velocity set-point profile (SPEC section 7) from the first step "
                              "instead of taking commands")  # fmt: skip
+    parser.add_argument("--offboard-lockstep", action="store_true",
+                        help="deterministic scripted flights: Offboard set-points take effect at their time_boot_ms "
+                             "stamp, and the simulation (in every mode, from the first step) advances only as far "
+                             "as a client's stamped set-points reach (docs/mavlink.md)")  # fmt: skip
     parser.add_argument("--duration", type=positive_float, metavar="S", help="stop after S simulated seconds")
     parser.add_argument("--failure", type=scheduled_failure, action="append", default=[],
                         metavar="T,UNIT,TYPE,INSTANCE[,VALUE]",
@@ -95,6 +99,8 @@ def open_link(name: str, bind_port: int, remote_port: int, system_id: int) -> Gr
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    if args.profile and args.offboard_lockstep:
+        fail(PROG, "--profile flies the internal set-points: it does not go with --offboard-lockstep")
     try:
         airframe = load_airframe(args.airframe)
     except AirframeError as exc:
@@ -117,7 +123,7 @@ def main(argv: list[str] | None = None) -> int:
     in_air = args.spawn_alt > 0
     profile = PROFILES[args.profile][0] if args.profile else None
     commander = Commander(params, airframe.hover_thrust_per_rotor / airframe.thrust_max, armed=in_air, in_air=in_air,
-                          profile=profile)  # fmt: skip
+                          profile=profile, stamped_setpoints=args.offboard_lockstep)  # fmt: skip
     client = PlantLinkClient(sim_port, system_id=system_id)
     try:
         log = open(args.log, "w", newline="") if args.log else None

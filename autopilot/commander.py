@@ -20,6 +20,7 @@ import numpy as np
 
 from autopilot.navigator import LandDetector, Navigator
 from autopilot.parameters import ParameterStore
+from autopilot.stamped_setpoints import StampedSetpoints
 from autopilot.vehicle_state import VehicleState
 from transport.mavlink import mavlink
 
@@ -87,6 +88,7 @@ class Commander:
         in_air: bool,
         say: Callable[[int, str], None] = lambda severity, text: None,
         profile: Callable[[float], np.ndarray] | None = None,
+        stamped_setpoints: bool = False,
     ) -> None:
         self.params = params
         self.navigator = Navigator(params)
@@ -102,6 +104,8 @@ class Commander:
         self.state_changed = True  # arming or mode changed: the vehicle sends a HEARTBEAT now
         self.offboard_velocity = np.zeros(3)
         self.offboard_usec: int | None = None
+        # --offboard-lockstep: set-points take effect at their time_boot_ms stamp (stamped_setpoints.py)
+        self.stamped = StampedSetpoints() if stamped_setpoints else None
         self.now_usec = 0
         self._start_usec = 0
         self._armed_on_ground_usec: int | None = None
@@ -163,6 +167,8 @@ class Commander:
         """The plant's clock went back (a new plant run): time-stamped things start afresh."""
         self.now_usec = self._start_usec = state.time_usec
         self.offboard_usec = None
+        if self.stamped is not None:
+            self.stamped.clear()
         self._landed_usec = None
         if self.armed:
             self._armed_on_ground_usec = state.time_usec
@@ -278,10 +284,18 @@ class Commander:
             self.say(mavlink.MAV_SEVERITY_INFO, "Transition to multicopter: braking to a hover")
         return ACCEPTED, None
 
-    def offboard_setpoint(self, velocity_ned: np.ndarray) -> None:
-        """A (finite, clamped) velocity set-point from a client, received now."""
+    def offboard_setpoint(self, velocity_ned: np.ndarray, stamp_ms: int | None = None) -> None:
+        """A (finite, clamped) velocity set-point from a client, received now. With stamped set-points
+        (--offboard-lockstep) it takes effect when the simulation reaches `stamp_ms` (its time_boot_ms)."""
+        if self.stamped is not None and stamp_ms is not None:
+            self.stamped.add(stamp_ms, velocity_ned)
+            return
         self.offboard_velocity = velocity_ned
         self.offboard_usec = self.now_usec
+
+    def setpoints_cover(self, time_usec: int) -> bool:
+        """--offboard-lockstep: the client's set-points reach this simulation time (True without the option)."""
+        return self.stamped is None or self.stamped.covers(time_usec)
 
     # ---- 100 Hz -------------------------------------------------------------------------------------------------
     def _lift_off(self) -> None:
@@ -295,6 +309,9 @@ class Commander:
         """Mode logic at 100 Hz; the velocity set-point while flying (None on the ground)."""
         self.now_usec = time_usec
         p = self.params
+        if self.stamped is not None and (due := self.stamped.due(time_usec)) is not None:
+            self.offboard_velocity = due
+            self.offboard_usec = time_usec
         if self.profile is not None:
             return self.profile((time_usec - self._start_usec) / 1e6) if self.flying else None
         if self.mode == OFFBOARD and not self._offboard_fresh():

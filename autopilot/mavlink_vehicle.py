@@ -52,6 +52,9 @@ IDLE_INTERVAL_USEC = 500_000  # until a client speaks on a link, no stream runs 
 NOTICE_PERIOD_USEC = 1_000_000  # the same refusal is said at most once per simulated second,
 NOTICES_PER_PERIOD = 20  # and at most this many refusals in all (a flood of varied junk cannot flood the links)
 INJECTION_TIMEOUT_USEC = 1_000_000  # the plant must acknowledge a forwarded failure within this
+HOLD_POLL_MS = 100  # --offboard-lockstep: a held step waits for datagrams this long between checks for a stop,
+HOLD_RESEND_S = 1.0  # says where the simulation stands again after this long without an answer,
+HOLD_NOTICE_S = 5.0  # and tells the terminal once after this long
 SETPOINT_LIMITS = np.array([30.0, 30.0, 10.0])  # m/s: the MPC's velocity envelope (SPEC 4.3)
 COMP_ID = 1
 FORCE = cmd.FORCE_MAGIC
@@ -254,6 +257,8 @@ class MavlinkVehicle:
         self.pwm: list[int] = [0] * 12
         self.setpoints_dropped = 0
         self.setpoints_clamped = 0
+        self.holds = 0  # --offboard-lockstep: steps held for set-points, and the wall time spent holding
+        self.hold_wall_s = 0.0
         self._last_notice: dict[str, int] = {}
         self._notice_window_usec = 0
         self._notices_in_window = 0
@@ -301,6 +306,42 @@ class MavlinkVehicle:
                 self._send_due_streams(link, time_usec)
             if link.out:
                 link.flush()
+
+    def hold_for_setpoints(self, time_usec: int, state: VehicleState, hil: Any, should_stop: Callable[[], bool]) -> None:
+        """--offboard-lockstep: while no stamped set-point covers `time_usec`, hold here (the plant waits for this
+        step's answer) and serve the links. Each wait starts with a SYSTEM_TIME (time_boot_ms = now) on every
+        link, which tells a scripted client where the simulation stands; it is repeated each HOLD_RESEND_S."""
+        if self.commander.setpoints_cover(time_usec):
+            return
+        self.now_usec = self.commander.now_usec = time_usec
+        self.state, self.hil = state, hil
+        self.holds += 1
+        waiting_since = sent = time.monotonic()
+        said = False
+        self._send_system_time()
+        while not self.commander.setpoints_cover(time_usec) and not should_stop():
+            ready = self._poll.poll(HOLD_POLL_MS)
+            for fd, _ in ready:
+                link = self._by_fd[fd]
+                for data, sender in link.receive(time.perf_counter() + HOLD_POLL_MS / 1000):
+                    self._handle_datagram(link, data, sender)
+            for link in self.links:
+                if link.out:
+                    link.flush()
+            now = time.monotonic()
+            if not ready and now - sent >= HOLD_RESEND_S:
+                self._send_system_time()
+                sent = now
+                if not said and now - waiting_since >= HOLD_NOTICE_S:
+                    said = True
+                    print(f"vtol-autopilot: --offboard-lockstep: holding the simulation at {time_usec / 1e6:.3f} s "
+                          "until a client streams set-points stamped with time_boot_ms", file=sys.stderr, flush=True)
+        self.hold_wall_s += time.monotonic() - waiting_since
+
+    def _send_system_time(self) -> None:
+        for link in self.links:
+            link.queue(self._system_time(link))
+            link.flush()
 
     def restart(self, time_usec: int) -> None:
         """The simulation clock went back: restart the stream schedules."""
@@ -559,7 +600,7 @@ class MavlinkVehicle:
             yaw = float(self.state.euler[2])
             c, s = math.cos(yaw), math.sin(yaw)
             velocity = np.array([c * velocity[0] - s * velocity[1], s * velocity[0] + c * velocity[1], velocity[2]])
-        self._accept_setpoint(velocity)
+        self._accept_setpoint(velocity, message.time_boot_ms)
 
     def _on_position_target_global(self, link: GroundLink, message: Any) -> None:
         if not self._for_us(message.target_system, message.target_component):
@@ -569,7 +610,7 @@ class MavlinkVehicle:
             return
         velocity = self._setpoint_velocity(message)
         if velocity is not None:
-            self._accept_setpoint(velocity)
+            self._accept_setpoint(velocity, message.time_boot_ms)
 
     def _setpoint_velocity(self, message: Any) -> np.ndarray | None:
         mask = message.type_mask
@@ -589,12 +630,12 @@ class MavlinkVehicle:
         self.setpoints_dropped += 1
         self.announce(M.MAV_SEVERITY_WARNING, f"Set-point dropped: {why}", key=f"setpoint:{why}")
 
-    def _accept_setpoint(self, velocity: np.ndarray) -> None:
+    def _accept_setpoint(self, velocity: np.ndarray, stamp_ms: int) -> None:
         clamped = np.clip(velocity, -SETPOINT_LIMITS, SETPOINT_LIMITS)
         if not np.array_equal(clamped, velocity):
             self.setpoints_clamped += 1
             self.announce(M.MAV_SEVERITY_WARNING, "Set-point clamped to |v| <= (30, 30, 10) m/s", key="clamped")
-        self.commander.offboard_setpoint(clamped)
+        self.commander.offboard_setpoint(clamped, stamp_ms)
 
     # ---- parameters -----------------------------------------------------------------------------------------------
     def _param_value(self, link: GroundLink, index: int) -> Any:
@@ -855,4 +896,5 @@ class MavlinkVehicle:
             for link in self.links
         } | {"setpoints_dropped": self.setpoints_dropped, "setpoints_clamped": self.setpoints_clamped,
              "notices_suppressed": self.notices_suppressed,
+             "lockstep_holds": self.holds, "lockstep_hold_wall_s": round(self.hold_wall_s, 3),
              "mode": self.commander.mode, "armed": self.commander.armed}  # fmt: skip

@@ -333,6 +333,8 @@ class PlantLoop:
                 if not self.commander.started:
                     self.commander.start(self.state)
             t = (t_usec - self._start_usec) / 1e6
+            if self.vehicle is not None:  # --offboard-lockstep: wait for the client's set-points to reach t
+                self.vehicle.hold_for_setpoints(t_usec, self.state, sample.state, self.should_stop)
             self._inject_due_failures(t)
             self._failures_due(t_usec)
             fixed = self._control(t_usec, t)

@@ -1,11 +1,17 @@
 """`vtol`: ground tools (SPEC section 1).
 
     vtol fly PROFILE [--controller pid|mpc] [--out DIR]
+    vtol scenario NAME|all [--controller mpc|pid|both] [--out DIR] [--instance I] [--no-record] [--no-progress]
     vtol up [--instance I] [--controller mpc|pid] [--spawn-alt M] [--speed F] [--params FILE] [--no-zenoh]
+    vtol record --out FILE.jsonl [--instance I | --connect ENDPOINT ...] [--sysid N|all] [--duration S]
+    vtol watch [--instance I | --connect ENDPOINT ...] [--sysid N] [--duration S] [--snapshot FILE.png] [--text]
 
 `fly` starts the plant and the autopilot in lockstep on free ports, flies one of the paper's velocity profiles
 with the autopilot's internal set-point source, and writes the flight log and figures to DIR/PROFILE/.
+`scenario` flies the paper's experiments through MAVLink in lockstep and writes run folders, figures and a
+report (ground_tools/scenario_command.py).
 `up` starts the plant in real time and the autopilot for a ground station (ground_tools/up.py).
+`record` and `watch` record / show a running vehicle's zenoh telemetry (ground_tools/telemetry_record.py, watch.py).
 """
 
 from __future__ import annotations
@@ -17,7 +23,10 @@ from pathlib import Path
 from autopilot.setpoint_profiles import PROFILES
 from ground_tools.figures import plot_flight, read_log
 from ground_tools.lockstep_flight import FlightFailed, fly_lockstep
+from ground_tools.scenario_command import add_scenario_arguments, scenario
+from ground_tools.telemetry_record import add_record_arguments, record
 from ground_tools.up import up
+from ground_tools.watch import add_watch_arguments, watch
 from transport.cli import OneLineArgumentParser, bounded_int, fail, nonnegative_float, positive_float
 
 PROG = "vtol"
@@ -52,6 +61,8 @@ def main(argv: list[str] | None = None) -> int:
     fly_parser.add_argument("--out", default="runs", metavar="DIR", help="output folder (default ./runs)")
     fly_parser.add_argument("--duration", type=positive_float, metavar="S", help="default: the profile's")
     fly_parser.add_argument("--spawn-alt", type=positive_float, default=100.0, metavar="M")
+    add_scenario_arguments(commands.add_parser("scenario", help="fly a paper experiment through MAVLink, with "
+                                               "metrics, figures and recordings"))
     up_parser = commands.add_parser("up", help="start the plant (real time) and the autopilot for a ground station")
     up_parser.add_argument("--instance", type=bounded_int(0, 999), default=0, help="shift every port by I")
     up_parser.add_argument("--controller", choices=("mpc", "pid"), help="default: the VT_CTRL parameter")
@@ -61,9 +72,17 @@ def main(argv: list[str] | None = None) -> int:
                            help="simulated seconds per wall second (default 1)")
     up_parser.add_argument("--params", metavar="FILE", help="the autopilot's parameter file")
     up_parser.add_argument("--no-zenoh", action="store_true", help="no zenoh telemetry")
+    add_record_arguments(commands.add_parser("record", help="record a vehicle's zenoh telemetry (JSON lines)"))
+    add_watch_arguments(commands.add_parser("watch", help="live view of a vehicle's zenoh telemetry"))
     args = parser.parse_args(argv)
     if args.command == "up":
         return up(args)
+    if args.command == "scenario":
+        return scenario(args)
+    if args.command == "record":
+        return record(args)
+    if args.command == "watch":
+        return watch(args)
     duration = args.duration or PROFILES[args.profile][1]
     return fly(args.profile, args.controller, Path(args.out), duration, args.spawn_alt)
 

@@ -31,6 +31,12 @@ def free_udp_port() -> int:
         return s.getsockname()[1]
 
 
+def free_tcp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
 def free_link_ports() -> tuple[str, ...]:
     """vtol-autopilot options putting its ground-station links on free ports (nobody listens on the remote
     ones), so an autopilot can run beside a `vtol up` or another one."""

@@ -14,6 +14,8 @@ import numpy as np
 REACH_TOLERANCE = 0.5  # m/s: "reached" the target speed when within this of it
 GROUND_CLEARANCE = 1.0  # m: closer than this to the ground counts as ground contact for `survived`
 ATTITUDE_LIMIT_DEG = 60.0  # survived = |roll| and |pitch| stayed below this
+TURN_SETTLE_S = 5.0  # the steady turn (mean bank) starts this long after the circle begins
+FINAL_WINDOW_S = 1.0  # final_speed: mean speed over the last second
 
 
 @dataclass(frozen=True)
@@ -58,15 +60,28 @@ def circle_errors(t: np.ndarray, north: np.ndarray, east: np.ndarray, circle: Ci
     return rms(radial), float(np.abs(radial).max())
 
 
+def mean_bank_deg(t: np.ndarray, roll: np.ndarray, circle: Circle) -> float:
+    """Mean roll (deg) in the steady turn: from TURN_SETTLE_S after the circle begins to the end."""
+    steady = t >= circle.start_s + TURN_SETTLE_S
+    return float(np.degrees(np.mean(roll[steady]))) if np.any(steady) else math.nan
+
+
 def flight_metrics(
-    log: dict[str, np.ndarray], modes: list[str], solver: dict | None = None, circle: Circle | None = None
+    log: dict[str, np.ndarray],
+    modes: list[str],
+    solver: dict | None = None,
+    circle: Circle | None = None,
+    failure_s: float | None = None,
 ) -> dict[str, float | int | bool | None]:
-    """SPEC 7's keys for one run. `solver`: the autopilot's MPC statistics (absent for the PID)."""
+    """SPEC 7's keys for one run, and a few more the scenarios' acceptance needs (`bank_mean_deg`,
+    `alt_loss_max_m`, `final_speed`, `failure_t_s`, `vx_rmse_after_failure`). `solver`: the autopilot's MPC
+    statistics (absent for the PID); `failure_s`: when a failure was injected."""
     t = log["t"]
     altitude = -log["down"]
     roll_deg, pitch_deg = np.degrees(np.abs(log["roll"])), np.degrees(np.abs(log["pitch"]))
     horizontal_sp = np.hypot(log["vn_sp"], log["ve_sp"])
     mean_tilt = np.mean([log[f"tilt_est{i}"] for i in range(1, 5)], axis=0)
+    speed = np.linalg.norm([log["vn"], log["ve"], log["vd"]], axis=0)
     metrics: dict[str, float | int | bool | None] = {
         "vx_rmse": rms(log["vn"] - log["vn_sp"]),
         "vy_rmse": rms(log["ve"] - log["ve_sp"]),
@@ -84,11 +99,20 @@ def flight_metrics(
         "solve_ms_p99": None,
         "solve_ms_max": None,
         "solves_failed": None,
+        "alt_loss_max_m": float(max(0.0, (altitude[0] - altitude).max())),
+        "final_speed": float(np.mean(speed[t >= t[-1] - FINAL_WINDOW_S])),
+        "bank_mean_deg": None,
+        "failure_t_s": failure_s,
+        "vx_rmse_after_failure": None,
         "survived": bool(altitude.min() > GROUND_CLEARANCE and roll_deg.max() < ATTITUDE_LIMIT_DEG
                          and pitch_deg.max() < ATTITUDE_LIMIT_DEG),
     }  # fmt: skip
     if circle is not None:
         metrics["radial_rmse_m"], metrics["radial_max_m"] = circle_errors(t, log["north"], log["east"], circle)
+        metrics["bank_mean_deg"] = mean_bank_deg(t, log["roll"], circle)
+    if failure_s is not None:
+        after = t >= failure_s
+        metrics["vx_rmse_after_failure"] = rms(log["vn"][after] - log["vn_sp"][after])
     if solver:
         for key in ("solve_ms_median", "solve_ms_p99", "solve_ms_max", "solves_failed"):
             metrics[key] = solver.get(key)

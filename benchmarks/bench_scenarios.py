@@ -1,0 +1,68 @@
+"""The full experiment set: `vtol scenario all --controller both`, timed (issue 6: under 10 minutes on 2 cores).
+
+    python benchmarks/bench_scenarios.py [--out DIR] [--no-record]
+
+Runs the command as a user would (a subprocess, default zenoh recording on), then prints the total wall time
+against the 10-minute goal, each run's simulated and wall seconds, its real-time factor and the autopilot's
+lockstep holds, and the MPC's acceptance checks from the report. The run folders and report stay in DIR
+(default: a temporary folder, removed afterwards).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from ground_tools.scenario_report import acceptance, load_runs
+
+GOAL_S = 600.0
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--out", help="keep the runs here (default: a temporary folder)")
+    parser.add_argument("--no-record", action="store_true", help="pass --no-record (no zenoh recording)")
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as scratch:
+        out = Path(args.out) if args.out else Path(scratch)
+        command = [sys.executable, "-m", "ground_tools", "scenario", "all", "--controller", "both", "--out", str(out),
+                   "--no-progress", *(["--no-record"] if args.no_record else [])]  # fmt: skip
+        started = time.perf_counter()
+        result = subprocess.run(command, capture_output=True, text=True)
+        wall = time.perf_counter() - started
+        print(f"vtol scenario all --controller both: {wall:.0f} s wall ({wall / 60:.1f} min; goal < {GOAL_S / 60:.0f} "
+              f"min: {'met' if wall < GOAL_S else 'NOT met'}), exit code {result.returncode}")  # fmt: skip
+        if result.returncode != 0:
+            print(result.stderr[-2000:])
+        runs = load_runs(out)
+        factors = []
+        print(f"{'scenario':15} {'ctrl':4} {'sim s':>6} {'wall s':>7} {'x real time':>11} {'holds':>6}")
+        for name, by in runs.items():
+            for controller, (_, run) in by.items():
+                factor = run["sim_s"] / run["wall_s"]
+                factors.append(factor)
+                holds = run["processes"]["autopilot"].get("links", {}).get("lockstep_holds")
+                print(f"{name:15} {controller:4} {run['sim_s']:6.1f} {run['wall_s']:7.1f} {factor:11.1f} {holds:>6}")
+        if factors:
+            print(f"real-time factor: median {statistics.median(factors):.1f}x over {len(factors)} runs")
+        for name, by in runs.items():
+            if "mpc" in by:
+                pid = by["pid"][0] if "pid" in by else None
+                for text, passed in acceptance(name, by["mpc"][0], pid):
+                    print(f"  {name}: MPC {text}: {'pass' if passed else 'FAIL'}")
+        failed_pid = [name for name, by in runs.items() if "pid" in by and not by["pid"][0]["survived"]]
+        print(f"PID does not survive: {', '.join(failed_pid) or 'none'}")
+        if args.out:
+            print(f"report: {out / 'report.md'}")
+        print(json.dumps({"wall_s": round(wall, 1), "runs": sum(len(by) for by in runs.values())}))
+    return result.returncode
+
+
+if __name__ == "__main__":
+    sys.exit(main())

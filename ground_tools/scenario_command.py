@@ -1,0 +1,108 @@
+"""`vtol scenario NAME|all [--controller mpc|pid|both] [--out DIR] [--instance I] [--no-record]`.
+
+Flies each (scenario, controller) run with a progress bar, writes the run folders and the figures with the
+controllers overlaid, prints the metrics, and for `all` writes `<out>/report.md`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from dataclasses import replace
+from pathlib import Path
+
+from tqdm import tqdm
+
+from ground_tools.figures import read_log
+from ground_tools.lockstep_client import START_MS, ScenarioError
+from ground_tools.lockstep_flight import FlightFailed
+from ground_tools.scenario_figures import plot_scenario
+from ground_tools.scenario_report import acceptance, write_report
+from ground_tools.scenario_run import run_scenario
+from ground_tools.scenarios import SCENARIOS, Scenario
+from transport.cli import bounded_int, positive_float
+
+PROG = "vtol"
+SHOWN = ("survived", "vx_rmse", "vz_max_abs", "pitch_max_abs_deg", "alt_change_max_m", "t_reach_s", "radial_rmse_m",
+         "radial_max_m", "bank_mean_deg", "vx_rmse_after_failure", "solve_ms_median", "solves_failed")  # fmt: skip
+
+
+def add_scenario_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("name", choices=[*SCENARIOS, "all"], help="a paper experiment, or all five")
+    parser.add_argument("--controller", choices=("mpc", "pid", "both"), default="both",
+                        help="velocity controller(s) to fly (default both, overlaid in the figures)")
+    parser.add_argument("--out", default="runs", metavar="DIR", help="output folder (default ./runs)")
+    parser.add_argument("--instance", type=bounded_int(0, 999), metavar="I",
+                        help="use instance I's ports (SPEC 2), e.g. for `vtol watch --instance I`; default: free ports")
+    parser.add_argument("--duration", type=positive_float, metavar="S",
+                        help="fly only the first S seconds of each profile (quick looks, tests; no acceptance checks)")
+    parser.add_argument("--no-record", action="store_true", help="no zenoh telemetry and no recording of it")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def refresh_figures(scenario: Scenario, out: Path) -> list[Path]:
+    """The scenario's figures, every finished controller overlaid, written into each of its run folders."""
+    runs, failures, folders = {}, {}, []
+    for controller in ("mpc", "pid"):
+        folder = out / scenario.name / controller
+        if (folder / "timeseries.csv").is_file() and (folder / "run.json").is_file():
+            runs[controller] = read_log(folder / "timeseries.csv")
+            failure = json.loads((folder / "run.json").read_text()).get("failure")
+            failures[controller] = failure["t_s"] if failure else None
+            folders.append(folder)
+    written = []
+    for folder in folders:
+        written += plot_scenario(scenario, runs, failures, folder)
+    return written
+
+
+def _fly(scenario: Scenario, controller: str, out: Path, args: argparse.Namespace):
+    total = START_MS / 1000.0 + scenario.duration_s
+    bar = tqdm(total=round(total, 2), desc=f"{scenario.name} ({controller})", unit="sim s", leave=True,
+               disable=True if args.no_progress else None, file=sys.stderr,
+               bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]")
+    try:
+        return run_scenario(scenario, controller, out, instance=args.instance, record=not args.no_record,
+                            on_progress=lambda sim_s: bar.update(round(min(sim_s, total) - bar.n, 2)))
+    finally:
+        bar.close()
+
+
+def scenario(args: argparse.Namespace) -> int:
+    out = Path(args.out)
+    names = list(SCENARIOS) if args.name == "all" else [args.name]
+    controllers = ["mpc", "pid"] if args.controller == "both" else [args.controller]
+    started = time.perf_counter()
+    failed = []
+    for name in names:
+        for controller in controllers:
+            flown = SCENARIOS[name]
+            if args.duration is not None:
+                flown = replace(flown, duration_s=min(args.duration, flown.duration_s))
+            try:
+                result = _fly(flown, controller, out, args)
+            except (FlightFailed, ScenarioError) as exc:
+                print(f"{PROG}: {name} with the {controller} failed: {exc}", file=sys.stderr)
+                failed.append(f"{name}/{controller}")
+                continue
+            shown = {key: result.metrics.get(key) for key in SHOWN if result.metrics.get(key) is not None}
+            print(f"{PROG}: {name} ({controller}): {result.sim_s:g} s flown in {result.wall_s:.1f} s; "
+                  + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}" for k, v in shown.items()))
+        figures = refresh_figures(SCENARIOS[name], out)
+        if figures:
+            print(f"{PROG}: {name}: figures in {figures[0].parent.parent}/*/")
+        mpc_metrics = out / name / "mpc" / "metrics.json"
+        if "mpc" in controllers and mpc_metrics.is_file() and args.duration is None:
+            pid_path = out / name / "pid" / "metrics.json"
+            pid = json.loads(pid_path.read_text()) if pid_path.is_file() else None
+            for text, passed in acceptance(name, json.loads(mpc_metrics.read_text()), pid):
+                print(f"{PROG}: {name}: MPC {text}: {'pass' if passed else 'FAIL'}")
+    if args.name == "all":
+        report = write_report(out, time.perf_counter() - started)
+        print(f"{PROG}: report {report}")
+    if failed:
+        print(f"{PROG}: error: {len(failed)} run(s) failed: {', '.join(failed)}", file=sys.stderr)
+        return 1
+    return 0

@@ -1,0 +1,144 @@
+"""Figures like the paper's for one scenario, with every controller's run overlaid (MPC solid, PID dashed).
+
+velocity.png      v_x, v_y (turning scenarios) and v_z with their set-points
+tilt_pitch.png    mean rotor tilt (and servo 1 where it fails) and pitch with its set-point
+roll_yaw.png      roll and yaw with their set-points
+actuators.png     tilt servo and rotor commands, one column per controller
+ground_track.png  north over east, with the intended circle
+A failure's injection time is marked by a vertical line.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # files only: no display needed
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from ground_tools.scenarios import Scenario  # noqa: E402
+
+STYLE = {"mpc": ("tab:blue", "-"), "pid": ("tab:orange", "--")}
+SETPOINT = {"color": "black", "linestyle": ":", "linewidth": 1.0}  # the intended circle
+FIGURE_FILES = ("velocity.png", "tilt_pitch.png", "roll_yaw.png", "actuators.png", "ground_track.png")
+
+
+def _style(controller: str) -> tuple[str, str]:
+    return STYLE.get(controller, ("tab:green", "-."))
+
+
+def _mark_failures(axes, failures: dict[str, float | None]) -> None:
+    for controller, t in failures.items():
+        if t is not None:
+            for axis in axes:
+                axis.axvline(t, color=_style(controller)[0], alpha=0.4, linewidth=0.8)
+
+
+def _time_figure(runs, failures, panels, title: str, path: Path) -> Path:
+    """panels: (ylabel, column or function of a run, set-point column or None)."""
+    figure, axes = plt.subplots(len(panels), 1, figsize=(8, 2.4 * len(panels) + 0.6), sharex=True)
+    axes = np.atleast_1d(axes)
+    for axis, (label, value, setpoint) in zip(axes, panels):
+        for controller, run in runs.items():
+            colour, line = _style(controller)
+            y = value(run) if callable(value) else run[value]
+            axis.plot(run["t"], y, color=colour, linestyle=line, label=controller.upper())
+            if setpoint is not None:
+                sp = setpoint(run) if callable(setpoint) else run[setpoint]
+                axis.plot(run["t"], sp, color=colour, linestyle=":", linewidth=1.0,
+                          label=f"set-point ({controller.upper()})")
+        axis.set_ylabel(label)
+        axis.grid(True, alpha=0.3)
+        axis.legend(loc="best", fontsize="small")
+    _mark_failures(axes, failures)
+    axes[-1].set_xlabel("t (s) from the profile start")
+    figure.suptitle(title)
+    figure.tight_layout()
+    figure.savefig(path, dpi=110)
+    plt.close(figure)
+    return path
+
+
+def _deg(column: str):
+    return lambda run: np.degrees(run[column])
+
+
+def _deg_unwrapped(column: str):
+    return lambda run: np.degrees(np.unwrap(run[column]))
+
+
+def _mean_tilt_deg(run) -> np.ndarray:
+    return np.degrees(np.mean([run[f"tilt_est{i}"] for i in range(1, 5)], axis=0))
+
+
+def plot_scenario(
+    scenario: Scenario, runs: dict[str, dict[str, np.ndarray]], failures: dict[str, float | None], out_dir: Path
+) -> list[Path]:
+    """Write the scenario's figures (every run in `runs` overlaid) to out_dir; returns the files."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    title = f"{scenario.name}: {scenario.summary}"
+    turning = scenario.circle is not None
+    written = [
+        _time_figure(runs, failures, [("v_x (m/s)", "vn", "vn_sp")]
+                     + ([("v_y (m/s)", "ve", "ve_sp")] if turning else [])
+                     + [("v_z (m/s, down)", "vd", "vd_sp")], title, out_dir / "velocity.png"),
+        _time_figure(runs, failures, [("mean tilt (deg)", _mean_tilt_deg, None)]
+                     + ([("servo 1 tilt (deg)", _deg("tilt_est1"), None)] if scenario.failure is not None
+                        and scenario.failure.unit == 102 else [])
+                     + [("pitch (deg)", _deg("pitch"), _deg("pitch_sp"))], title, out_dir / "tilt_pitch.png"),
+        _time_figure(runs, failures, [("roll (deg)", _deg("roll"), _deg("roll_sp")),
+                                      ("yaw (deg)", _deg_unwrapped("yaw"), _deg_unwrapped("yaw_sp"))],
+                     title, out_dir / "roll_yaw.png"),
+    ]  # fmt: skip
+
+    figure, axes = plt.subplots(2, len(runs), figsize=(5 * len(runs) + 1, 6), sharex=True, squeeze=False)
+    for column, (controller, run) in enumerate(runs.items()):
+        for i in range(1, 5):
+            axes[0, column].plot(run["t"], np.degrees(run[f"tilt_cmd{i}"]), label=f"servo {i}")
+            axes[1, column].plot(run["t"], run[f"u{i}"], label=f"rotor {i}")
+        axes[0, column].set_title(controller.upper())
+        axes[0, column].set_ylabel("tilt command (deg)")
+        axes[1, column].set_ylabel("thrust command (fraction)")
+        axes[1, column].set_xlabel("t (s)")
+        for axis in axes[:, column]:
+            axis.grid(True, alpha=0.3)
+            axis.legend(loc="best", fontsize="small")
+        _mark_failures(axes[:, column], {controller: failures.get(controller)})
+    figure.suptitle(title)
+    figure.tight_layout()
+    figure.savefig(out_dir / "actuators.png", dpi=110)
+    plt.close(figure)
+    written.append(out_dir / "actuators.png")
+
+    figure, axis = plt.subplots(figsize=(6.5, 6))
+    for controller, run in runs.items():
+        colour, line = _style(controller)
+        axis.plot(run["east"], run["north"], color=colour, linestyle=line, label=controller.upper())
+        t_fail = failures.get(controller)
+        if t_fail is not None:
+            k = int(np.searchsorted(run["t"], t_fail))
+            if k < run["t"].size:
+                axis.plot(run["east"][k], run["north"][k], "x", color=colour, markersize=10,
+                          label=f"failure ({controller.upper()})")  # fmt: skip
+    if turning:
+        run = next(iter(runs.values()))
+        k = int(np.searchsorted(run["t"], scenario.circle.start_s))
+        k = min(k, run["t"].size - 1)
+        centre_n, centre_e = run["north"][k], run["east"][k] + scenario.circle.radius
+        angle = np.linspace(0.0, 2 * math.pi, 361)
+        axis.plot(centre_e + scenario.circle.radius * np.cos(angle), centre_n + scenario.circle.radius * np.sin(angle),
+                  label="intended circle", **SETPOINT)  # fmt: skip
+    axis.set_xlabel("east (m)")
+    axis.set_ylabel("north (m)")
+    axis.set_aspect("equal", adjustable="datalim")
+    axis.grid(True, alpha=0.3)
+    axis.legend(loc="best", fontsize="small")
+    axis.set_title(f"{scenario.name}: ground track")
+    figure.tight_layout()
+    figure.savefig(out_dir / "ground_track.png", dpi=110)
+    plt.close(figure)
+    written.append(out_dir / "ground_track.png")
+    return written

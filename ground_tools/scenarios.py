@@ -1,0 +1,93 @@
+"""The paper's five experiments (SPEC section 7) as data: profile, duration, failure trigger, what the paper saw.
+
+A failure is injected by the ground station (MAV_CMD_INJECT_FAILURE) the first time its trigger condition is
+seen in the MAVLink telemetry, as a tester at a ground station would.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from autopilot.setpoint_profiles import (
+    CIRCLE_RADIUS,
+    accel,
+    accel_decel,
+    circle,
+    circle_duration,
+    circle_start,
+)
+from ground_tools.metrics import Circle
+
+MOTOR, SERVO = 101, 102  # MAV_CMD_INJECT_FAILURE units (FAILURE_UNIT_SYSTEM_MOTOR, _SERVO)
+OFF, STUCK = 1, 2  # failure types
+
+
+@dataclass(frozen=True)
+class Telemetry:
+    """What the trigger conditions look at: the latest MAVLink telemetry (angles in degrees)."""
+
+    roll_deg: float = 0.0
+    pitch_deg: float = 0.0
+    yaw_deg: float = 0.0
+    tilt_cmd_deg: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)  # from SERVO_OUTPUT_RAW
+
+
+@dataclass(frozen=True)
+class Failure:
+    """MAV_CMD_INJECT_FAILURE's parameters, sent when `condition` first holds."""
+
+    unit: int
+    kind: int
+    instance: int
+    value: float
+    condition: Callable[[Telemetry], bool]
+    trigger: str  # the condition in words
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    profile: Callable[[float], np.ndarray]
+    duration_s: float
+    summary: str
+    paper: str  # the paper's result to compare with
+    circle: Circle | None = None
+    failure: Failure | None = None
+
+
+def servo_reaches(servo: int, angle_deg: float) -> Callable[[Telemetry], bool]:
+    return lambda telemetry: telemetry.tilt_cmd_deg[servo - 1] >= angle_deg
+
+
+def yaw_reaches(angle_deg: float) -> Callable[[Telemetry], bool]:
+    """Yaw at or past `angle_deg` (within the half turn after it, as yaw wraps at 180 deg)."""
+    return lambda telemetry: 0.0 <= (telemetry.yaw_deg - angle_deg) % 360.0 < 180.0
+
+
+CIRCLE = Circle(circle_start(0.0), CIRCLE_RADIUS)
+BANK_THEORY_DEG = math.degrees(math.atan(26.0**2 / (9.80665 * CIRCLE_RADIUS)))
+
+SCENARIOS: dict[str, Scenario] = {
+    s.name: s
+    for s in (
+        Scenario("accel", accel, 25.0, "v_sp = (min(2t, 27.74), 0, 0): hover to cruise",
+                 "reaches 27.74 m/s in ~14 s; near-zero v_z; max pitch -18 deg (MPC) vs -32 deg (PID); "
+                 "tilt rises smoothly 0 -> 90 deg (PID in steps)"),
+        Scenario("accel-decel", accel_decel, 32.0, "v_x to 24 m/s at 2 m/s^2, then back to 0 from t = 15 s",
+                 "smooth both ways; while braking the MPC tilts the rotors back to about -7 deg near t = 22 s, "
+                 "then forward to hover"),
+        Scenario("circle", circle, circle_duration(), "2 m/s^2 to 26 m/s, then one turn of a 250 m circle",
+                 f"steady bank (paper 20 deg; v^2/(gR) gives {BANK_THEORY_DEG:.1f} deg), pitch up, yaw rising "
+                 "steadily, on the 250 m circle", circle=CIRCLE),
+        Scenario("servo-failure", accel, 25.0, "accel with servo 1 stuck at 60 deg once it reaches 60 deg",
+                 "keeps tracking v_x; brief roll/yaw deviation, recovers",
+                 failure=Failure(SERVO, STUCK, 1, 60.0, servo_reaches(1, 60.0), "servo 1 command reaches 60 deg")),
+        Scenario("motor-failure", circle, circle_duration(), "circle with rotor 1 off once the yaw reaches 90 deg",
+                 "the other rotors (rotor 2 most) speed up; small roll/yaw error; stays on the circle",
+                 circle=CIRCLE, failure=Failure(MOTOR, OFF, 1, math.nan, yaw_reaches(90.0), "yaw reaches 90 deg")),
+    )
+}  # fmt: skip

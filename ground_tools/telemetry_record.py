@@ -1,0 +1,296 @@
+"""Record zenoh telemetry (SPEC section 6) to a JSON-lines file: `vtol record` and the scenario runner.
+
+One JSON object per line, in arrival order:
+
+    {"key": "vtol/1/plant/state", "payload": {"t": 0.0025, "north": 0.0, ...}}    plant state, decoded
+    {"key": "vtol/1/autopilot/control", "payload": {"t": 0.01, "mode": "MC", ...}} JSON payloads, parsed
+    {"key": "vtol/1/plant/state", "error": "plant state payload has 3 values, expected 43", "bytes": 24}
+
+A sample that cannot be decoded is written as an error record (never dropped, never fatal) and counted in
+`errors`. zenoh calls the subscriber on its own threads: the callback only queues (key, bytes); one writer
+thread decodes and writes. `stop()` returns once everything received before it is on disk.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import queue
+import re
+import sys
+import threading
+import time
+from collections import Counter
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+from transport.cli import bounded_int, fail, positive_float, stop_on_signals
+from transport.ports import Ports
+from transport.telemetry import PLANT_STATE_FIELDS, decode_plant_state
+from transport.zenoh_bus import session_config
+
+_STOP = object()
+FLUSH_S = 0.5  # the file is flushed at least this often (wall s), so a killed recorder loses little
+
+
+def key_expression(sysid: int | None) -> str:
+    """What the recorder subscribes to: one vehicle's keys, or every vehicle's."""
+    return "vtol/**" if sysid is None else f"vtol/{sysid}/**"
+
+
+def decode_payload(key: str, payload: bytes) -> Any:
+    """A sample's payload as JSON-able data: plant/state -> dict of PLANT_STATE_FIELDS, others parsed as JSON.
+    Raises ValueError (with the reason) if the payload cannot be decoded."""
+    if key.endswith("/plant/state"):
+        if len(payload) != 8 * len(PLANT_STATE_FIELDS):
+            raise ValueError(f"plant state payload has {len(payload)} bytes, expected {8 * len(PLANT_STATE_FIELDS)}")
+        return decode_plant_state(payload)
+    try:
+        return json.loads(payload.decode("utf-8"))
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"not UTF-8: {exc.reason} at byte {exc.start}") from None
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"not JSON: {exc.msg} at character {exc.pos}") from None
+
+
+def encode_record(key: str, payload: bytes) -> tuple[str, bool]:
+    """One recording line (without the newline) and whether the payload decoded."""
+    try:
+        return json.dumps({"key": key, "payload": decode_payload(key, payload)}), True
+    except (ValueError, RecursionError) as exc:
+        return json.dumps({"key": key, "error": str(exc), "bytes": len(payload)}), False
+
+
+def read_recording(path: Path | str) -> Iterator[dict]:
+    """The records of a recording, in order. A last line cut short (recorder killed mid-write) is skipped."""
+    with open(path, encoding="utf-8") as file:
+        for line in file:
+            if not line.endswith("\n"):
+                return
+            if line.strip():
+                yield json.loads(line)
+
+
+class TelemetryRecorder:
+    """Subscribe to `vtol/<sysid>/**` (every vehicle when sysid is None) through a loopback-by-default zenoh
+    peer session that connects to `endpoints`, and write every sample to `path` (JSON lines).
+
+    `counts` (records per key, errors included) and `errors` (undecodable samples per key) grow while
+    recording; `stop()` returns `counts`. Usable as a context manager."""
+
+    def __init__(self, endpoints: list[str], path: Path, sysid: int | None = 1) -> None:
+        self.endpoints = list(endpoints)
+        self.path = Path(path)
+        self.sysid = sysid
+        self.counts: Counter[str] = Counter()
+        self.errors: Counter[str] = Counter()
+        self._queue: queue.SimpleQueue = queue.SimpleQueue()
+        self._lock = threading.Lock()
+        self._accepting = False
+        self._session: Any = None
+        self._subscriber: Any = None
+        self._writer: threading.Thread | None = None
+        self._file: Any = None
+        self._write_error: BaseException | None = None
+        self._stopped = False
+
+    # zenoh thread: keep it short
+    def _on_sample(self, sample: Any) -> None:
+        try:
+            item = (str(sample.key_expr), sample.payload.to_bytes())
+        except Exception as exc:  # never let a bad sample escape into zenoh's thread
+            item = (str(getattr(sample, "key_expr", "?")), exc)
+        with self._lock:
+            if self._accepting:
+                self._queue.put(item)
+
+    def start(self) -> TelemetryRecorder:
+        """Open the output file and the session, subscribe. Raises OSError (file) or zenoh's error (endpoints)."""
+        import zenoh
+
+        if self._writer is not None:
+            raise RuntimeError("the recorder was already started")
+        self._file = open(self.path, "w", encoding="utf-8")
+        try:
+            self._session = zenoh.open(session_config(listen=[], connect=self.endpoints))
+        except BaseException:
+            self._file.close()
+            raise
+        self._accepting = True
+        self._writer = threading.Thread(target=self._write_loop, name="telemetry-recorder", daemon=True)
+        self._writer.start()
+        self._subscriber = self._session.declare_subscriber(key_expression(self.sysid), self._on_sample)
+        return self
+
+    def _write_loop(self) -> None:
+        file = self._file
+        flushed = time.monotonic()
+        while True:
+            try:
+                item = self._queue.get(timeout=FLUSH_S)
+            except queue.Empty:
+                item = None
+            if time.monotonic() - flushed >= FLUSH_S and self._write_error is None:
+                try:
+                    file.flush()
+                except OSError as exc:
+                    self._write_error = exc
+                flushed = time.monotonic()
+            if item is None:
+                continue
+            if item is _STOP:
+                break
+            key, payload = item
+            if isinstance(payload, BaseException):
+                line, ok = json.dumps({"key": key, "error": f"unreadable sample: {payload}", "bytes": 0}), False
+            else:
+                line, ok = encode_record(key, payload)
+            self.counts[key] += 1
+            if not ok:
+                self.errors[key] += 1
+            if self._write_error is None:
+                try:
+                    file.write(line + "\n")
+                except OSError as exc:  # disk full: keep counting, report at stop()
+                    self._write_error = exc
+        if self._write_error is None:
+            try:
+                file.flush()
+            except OSError as exc:
+                self._write_error = exc
+
+    def stop(self) -> dict[str, int]:
+        """Stop receiving, write out everything received so far, close the session and the file; counts per key.
+        Raises the first OSError met while writing, if any (after closing everything)."""
+        if self._writer is None or self._stopped:
+            return dict(self.counts)
+        self._stopped = True
+        with self._lock:
+            self._accepting = False  # whatever a zenoh thread delivers from now on is after stop()
+            self._queue.put(_STOP)
+        try:
+            if self._subscriber is not None:
+                self._subscriber.undeclare()
+            self._session.close()
+        except Exception:
+            pass  # the session is going away in any case; the recording is what matters
+        self._writer.join()
+        try:
+            self._file.close()
+        except OSError as exc:
+            self._write_error = self._write_error or exc
+        self._subscriber = self._session = None
+        if self._write_error is not None:
+            error, self._write_error = self._write_error, None
+            raise error
+        return dict(self.counts)
+
+    def wait_for_peers(self, count: int, timeout_s: float) -> bool:
+        """Wait until the session is connected to `count` peers (e.g. the plant and the autopilot), then a moment
+        for the subscription to reach them; False if that did not happen within timeout_s."""
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            if len(list(self._session.info.peers_zid())) >= count:
+                time.sleep(0.2)
+                return True
+            time.sleep(0.02)
+        return False
+
+    def __enter__(self) -> TelemetryRecorder:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+
+# ---- `vtol record` (and the options `vtol watch` shares) -----------------------------------------------------------
+PROG = "vtol"
+_ENDPOINT = re.compile(r"[A-Za-z][A-Za-z0-9-]*/\S+")
+_HOST_PORT_PROTOCOLS = ("tcp", "udp", "tls", "quic", "ws")
+_PORT = re.compile(r"\S:(\d{1,5})$")
+
+
+def zenoh_endpoint(text: str) -> str:
+    """An argparse type: `<protocol>/<address>`, e.g. tcp/127.0.0.1:7447 (zenoh checks the rest)."""
+    if not _ENDPOINT.fullmatch(text):
+        raise argparse.ArgumentTypeError(f"not a zenoh endpoint <protocol>/<address> (e.g. tcp/127.0.0.1:7447): "
+                                         f"{text!r}")  # fmt: skip
+    protocol, address = text.split("/", 1)
+    if protocol in _HOST_PORT_PROTOCOLS:
+        port = _PORT.search(address.split("?", 1)[0].split("#", 1)[0])
+        if port is None or not 1 <= int(port.group(1)) <= 65535:
+            raise argparse.ArgumentTypeError(f"{protocol} endpoint without a port 1..65535 (<host>:<port>): {text!r}")
+    return text
+
+
+def sysid_or_all(text: str) -> int | None:
+    """An argparse type: a system id 1..255, or `all` (None)."""
+    return None if text == "all" else bounded_int(1, 255)(text)
+
+
+def add_source_arguments(parser: argparse.ArgumentParser, *, allow_all: bool) -> None:
+    """--instance I | --connect ENDPOINT..., --sysid N, --duration S (wall seconds)."""
+    source = parser.add_mutually_exclusive_group()
+    source.add_argument("--instance", type=bounded_int(0, 999), default=0, metavar="I",
+                        help="connect to instance I's plant and autopilot (tcp/127.0.0.1:7447+I and :7547+I)")
+    source.add_argument("--connect", type=zenoh_endpoint, action="append", metavar="ENDPOINT",
+                        help="zenoh endpoint to connect to instead (repeatable), e.g. tcp/<host>:7447")
+    parser.add_argument("--sysid", type=sysid_or_all if allow_all else bounded_int(1, 255), default=1, metavar="N",
+                        help="vehicle system id (default 1)" + ("; 'all' for every vehicle" if allow_all else ""))
+    parser.add_argument("--duration", type=positive_float, metavar="S",
+                        help="stop after S wall-clock seconds (default: at Ctrl-C or SIGTERM)")
+
+
+def add_record_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", required=True, metavar="FILE.jsonl", help="the recording (JSON lines; replaced)")
+    add_source_arguments(parser, allow_all=True)
+
+
+def endpoints_from_args(args: Any) -> list[str]:
+    """--connect's endpoints, or instance I's plant and autopilot endpoints (loopback)."""
+    if args.connect:
+        return list(args.connect)
+    ports = Ports(args.instance)
+    return [ports.zenoh_plant, ports.zenoh_autopilot]
+
+
+def short_error(exc: BaseException) -> str:
+    """zenoh's error text without its source locations, on one line."""
+    text = " ".join(str(exc).split())
+    return re.sub(r" at /\S+?\.rs:\d+\.?", "", text) or type(exc).__name__
+
+
+def record(args: Any) -> int:
+    """`vtol record`: until Ctrl-C, SIGTERM or --duration; prints the samples recorded per key."""
+    endpoints = endpoints_from_args(args)
+    out = Path(args.out)
+    if out.is_dir():
+        fail(PROG, f"--out: {out} is a folder")
+    if not out.parent.is_dir():
+        fail(PROG, f"--out: no such folder: {out.parent}")
+    recorder = TelemetryRecorder(endpoints, out, args.sysid)
+    try:
+        recorder.start()
+    except OSError as exc:
+        fail(PROG, f"cannot write {out}: {exc.strerror or exc}")
+    except Exception as exc:
+        fail(PROG, f"cannot open a zenoh session to {', '.join(endpoints)}: {short_error(exc)}")
+    stop_requested = stop_on_signals()
+    print(f"{PROG}: recording {key_expression(args.sysid)} from {', '.join(endpoints)} to {out}; Ctrl-C stops",
+          file=sys.stderr, flush=True)  # fmt: skip
+    start = time.monotonic()
+    while not stop_requested() and (args.duration is None or time.monotonic() - start < args.duration):
+        time.sleep(0.05)
+    try:
+        counts = recorder.stop()
+    except OSError as exc:
+        fail(PROG, f"writing {out} failed: {exc.strerror or exc} ({sum(recorder.counts.values())} samples received)")
+    for key in sorted(counts):
+        errors = recorder.errors.get(key, 0)
+        print(f"{key}: {counts[key]}" + (f" ({errors} undecodable)" if errors else ""))
+    total = sum(counts.values())
+    if total == 0:
+        print(f"{PROG}: nothing received: is a vehicle publishing on {', '.join(endpoints)}?", file=sys.stderr)
+    print(f"{PROG}: {total} samples in {out}", file=sys.stderr)
+    return 0

@@ -1,0 +1,362 @@
+"""`vtol record` and `vtol watch`: the pure data handling without zenoh, the recorder against an in-process
+publisher on loopback, and both commands against a real plant and autopilot (killed by PID at the end)."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from collections import deque
+
+import numpy as np
+import pytest
+
+from ground_tools import cli
+from ground_tools.lockstep_flight import free_link_ports, free_udp_port
+from ground_tools.telemetry_record import (
+    TelemetryRecorder,
+    decode_payload,
+    encode_record,
+    endpoints_from_args,
+    key_expression,
+    read_recording,
+    short_error,
+)
+from ground_tools.watch import (
+    TelemetryView,
+    build_figure,
+    draw,
+    euler_deg,
+    has_display,
+    new_events,
+    push,
+    run_window,
+    save_snapshot,
+    status_line,
+    time_series,
+)
+from tests.conftest import free_tcp_port, vtol_sim_command
+from transport.telemetry import PLANT_STATE_FIELDS, control_key, encode_control, mpc_key, plant_state_key
+
+VTOL = [sys.executable, "-m", "ground_tools"]
+STATUS = re.compile(r"t=\s*([-\d.]+) s\s+alt=\s*([-\d.]+) m")
+
+
+def plant_payload(t: float = 1.0, down: float = -100.0, vn: float = 0.0, q=(1.0, 0.0, 0.0, 0.0)) -> bytes:
+    values = dict.fromkeys(PLANT_STATE_FIELDS, 0.0)
+    values.update(t=t, down=down, vn=vn, qw=q[0], qx=q[1], qy=q[2], qz=q[3], tilt1=math.radians(30), cmd_thrust1=0.7)
+    return np.array([values[f] for f in PLANT_STATE_FIELDS], dtype="<f8").tobytes()
+
+
+def control_payload(t: float = 1.0, mode: str = "MC") -> bytes:
+    z4 = np.zeros(4)
+    return encode_control(t, mode, np.array([5.0, 0.0, -1.0]), np.array([0.0, math.radians(-10), 0.0]), z4,
+                          np.zeros(8), np.zeros(6), np.zeros(6))  # fmt: skip
+
+
+def mpc_payload(t: float = 1.0, n: int = 26) -> bytes:
+    return json.dumps({"t": t, "ok": True, "status": "solved", "solve_time_ms": 2.5, "qp_iterations": 7,
+                       "cost": 1.0, "predicted_velocity": [[0.1 * k, 0.0, 0.0] for k in range(n)],
+                       "predicted_tilt": [[0.0] * 4] * n, "thrust": [9.0] * 4, "attitude_sp": [0.0] * 3}).encode()
+
+
+# ---- pure functions ------------------------------------------------------------------------------------------------
+def test_decode_payload_and_records():
+    state = decode_payload(plant_state_key(1), plant_payload(down=-100.0))
+    assert state["down"] == -100.0 and len(state) == 43
+    assert decode_payload(control_key(1), control_payload())["mode"] == "MC"
+    line, ok = encode_record(plant_state_key(3), b"\x00" * 24)
+    assert not ok and json.loads(line) == {"key": "vtol/3/plant/state", "bytes": 24,
+                                           "error": "plant state payload has 24 bytes, expected 344"}  # fmt: skip
+    for junk, reason in ((b"\xff\xfe", "not UTF-8"), (b"{nope", "not JSON")):
+        line, ok = encode_record("vtol/1/autopilot/events", junk)
+        assert not ok and json.loads(line)["error"].startswith(reason)
+    line, ok = encode_record(plant_state_key(1), plant_payload())
+    assert ok and json.loads(line)["payload"]["tilt1"] == pytest.approx(math.radians(30))
+
+
+def test_read_recording_skips_a_cut_last_line(tmp_path):
+    path = tmp_path / "r.jsonl"
+    path.write_text('{"key": "a", "payload": 1}\n\n{"key": "b", "payload": [1, 2]}\n{"key": "c", "pay')
+    assert [r["key"] for r in read_recording(path)] == ["a", "b"]
+
+
+def test_key_expression_endpoints_and_errors():
+    assert key_expression(2) == "vtol/2/**" and key_expression(None) == "vtol/**"
+
+    class Args:
+        connect, instance = None, 3
+
+    assert endpoints_from_args(Args) == ["tcp/127.0.0.1:7450", "tcp/127.0.0.1:7550"]
+    Args.connect = ["tcp/10.0.0.2:7447"]
+    assert endpoints_from_args(Args) == ["tcp/10.0.0.2:7447"]
+    assert short_error(ValueError("Unicast not supported for foo protocol at /x/y/lib.rs:183.")) == \
+        "Unicast not supported for foo protocol"  # fmt: skip
+
+
+def test_ring_buffer_keeps_a_window_thins_and_restarts():
+    buffer: deque = deque()
+    for k in range(4001):  # 400 Hz for 10 s
+        push(buffer, {"t": k / 400}, window_s=3.0, min_dt_s=0.02)
+    times = [row["t"] for row in buffer]
+    assert times[-1] == 10.0 and times[0] >= 7.0 and len(times) == pytest.approx(150, abs=2)
+    assert min(np.diff(times)) >= 0.02 - 1e-9
+    assert push(buffer, {"t": 0.5}, window_s=3.0)  # the clock went back: a new run
+    assert [row["t"] for row in buffer] == [0.5]
+
+
+def test_euler_and_view_rows():
+    half = math.radians(30) / 2  # 30 deg roll
+    roll, pitch, yaw = euler_deg(math.cos(half), math.sin(half), 0.0, 0.0)
+    assert (roll, pitch, yaw) == pytest.approx((30.0, 0.0, 0.0))
+    view = TelemetryView(window_s=30.0, plant_min_dt_s=0.0)
+    assert status_line(view).startswith("t=- (no plant state yet)")
+    view.add(plant_state_key(1), plant_payload(t=2.0, down=-100.0, vn=3.0, q=(math.cos(half), math.sin(half), 0, 0)))
+    view.add(control_key(1), control_payload(t=2.0, mode="MPC"))
+    view.add(mpc_key(1), mpc_payload(t=2.0))
+    line = status_line(view)
+    assert re.search(r"alt=\s*100.0 m", line) and "speed=  3.0" in line and "roll=  30.0" in line
+    assert "tilt=  7.5 deg" in line and "mode=MPC" in line and "mpc=2.50 ms" in line
+    series = time_series(view.control, ("vn_sp", "pitch_sp"))
+    assert series["vn_sp"].tolist() == [5.0] and series["pitch_sp"][0] == pytest.approx(-10.0)
+    assert view.last_mpc["predicted_velocity"].shape == (26, 3)
+
+
+def test_view_counts_bad_samples_and_keeps_events():
+    view = TelemetryView()
+    view.add(plant_state_key(1), b"\x00" * 8)
+    view.add(control_key(1), b'{"t": 1}')  # JSON, but not a control sample
+    view.add(mpc_key(1), json.dumps({"t": 1, "ok": True, "solve_time_ms": 1, "predicted_velocity": [1, 2]}).encode())
+    assert sum(view.errors.values()) == 3 and view.last_plant is None and view.last_mpc is None
+    for k in range(25):
+        view.add("vtol/1/plant/events", json.dumps({"t": k, "event": "failure", "text": f"e{k}"}).encode())
+    assert new_events(view, 0)[0].endswith("e5") and len(new_events(view, 0)) == 20  # ring of 20
+    assert new_events(view, 23) == ["t=23.00 s e23", "t=24.00 s e24"] and new_events(view, 25) == []
+
+
+def test_has_display():
+    assert not has_display({}) and has_display({"DISPLAY": ":0"}) and has_display({"WAYLAND_DISPLAY": "wayland-0"})
+
+
+def filled_view() -> TelemetryView:
+    view = TelemetryView()
+    for k in range(400):
+        t = k / 100
+        view.add(plant_state_key(1), plant_payload(t=t, down=-100.0 - t, vn=t))
+        if k % 4 == 0:
+            view.add(control_key(1), control_payload(t=t))
+            view.add(mpc_key(1), mpc_payload(t=t))
+    return view
+
+
+def test_snapshot_writes_a_png(tmp_path):
+    path = tmp_path / "watch.png"
+    save_snapshot(filled_view(), path)
+    assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 20_000
+    save_snapshot(TelemetryView(), tmp_path / "empty.png")  # nothing received yet: still a figure
+    assert (tmp_path / "empty.png").stat().st_size > 10_000
+
+
+def test_window_loop_runs_on_any_backend():
+    """The live window's loop, on Agg (no display here): it drains, draws, and stops when asked."""
+    import warnings
+
+    import matplotlib.pyplot as plt
+
+    plt.switch_backend("Agg")
+    view = filled_view()
+
+    class Feed:
+        drained = 0
+
+        def drain(self, view):
+            self.drained += 1
+            view.add(plant_state_key(1), plant_payload(t=5.0 + self.drained / 10))
+            return 1
+
+    feed = Feed()
+    checks = []
+
+    def stop_requested():  # as if Ctrl-C came before the fourth frame
+        checks.append(1)
+        return len(checks) > 3
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # "FigureCanvasAgg is non-interactive"
+        run_window(plt, feed, view, stop_requested, time.monotonic(), None)
+    assert feed.drained == 3 and view.last_plant["t"] > 5.0 and not plt.get_fignums()
+    from matplotlib.figure import Figure
+
+    artists = build_figure(Figure())
+    draw(artists, view)
+    assert artists["title"].get_text() == status_line(view)
+
+
+# ---- the command line: bad arguments ------------------------------------------------------------------------------
+@pytest.mark.parametrize("argv, message", [
+    (["record"], "the following arguments are required: --out"),
+    (["record", "--out", "x.jsonl", "--connect", "nonsense"], "not a zenoh endpoint"),
+    (["record", "--out", "x.jsonl", "--connect", "tcp/127.0.0.1:"], "tcp endpoint without a port"),
+    (["watch", "--connect", "tcp/127.0.0.1:7447", "--connect", "udp/[::1]:99999"], "udp endpoint without a port"),
+    (["record", "--out", "x.jsonl", "--instance", "1", "--connect", "tcp/127.0.0.1:7447"], "not allowed with"),
+    (["record", "--out", "x.jsonl", "--duration", "-1"], "must be > 0"),
+    (["record", "--out", "x.jsonl", "--sysid", "0"], "must be in 1..255"),
+    (["record", "--out", "/nonexistent-dir/x.jsonl"], "no such folder"),
+    (["watch", "--sysid", "all"], "not an integer"),
+    (["watch", "--duration", "nan"], "must be finite"),
+    (["watch", "--snapshot", "/nonexistent-dir/w.png"], "no such folder"),
+    (["watch", "--snapshot", "w.xyz"], "unknown image format"),
+])  # fmt: skip
+def test_bad_arguments_give_one_line_and_exit_code_2(capsys, argv, message):
+    with pytest.raises(SystemExit) as exit_info:
+        cli.main(argv)
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "error:" in err and message in err, err
+
+
+def test_an_endpoint_zenoh_refuses_gives_one_line_and_exit_code_2(tmp_path):
+    result = subprocess.run([*VTOL, "record", "--out", str(tmp_path / "r.jsonl"), "--connect", "bogus/127.0.0.1:1"],
+                            capture_output=True, text=True, timeout=60)  # fmt: skip
+    assert result.returncode == 2
+    assert result.stderr == "vtol: error: cannot open a zenoh session to bogus/127.0.0.1:1: " \
+                            "Unicast not supported for bogus protocol\n"  # fmt: skip
+
+
+# ---- the recorder on loopback, in process --------------------------------------------------------------------------
+def test_recorder_writes_every_sample_received_before_stop(tmp_path):
+    import zenoh
+
+    from transport.zenoh_bus import session_config
+
+    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
+    path = tmp_path / "rec.jsonl"
+    with zenoh.open(session_config(listen=[endpoint], connect=[])) as publisher:
+        recorder = TelemetryRecorder([endpoint], path, sysid=1)
+        with recorder:
+            deadline = time.monotonic() + 20
+            while not recorder.counts and time.monotonic() < deadline:  # until the recorder's session is through
+                publisher.put("vtol/1/probe", b"{}")
+                time.sleep(0.05)
+            for k in range(500):
+                publisher.put(plant_state_key(1), plant_payload(t=k / 400))
+            publisher.put(control_key(1), control_payload())
+            publisher.put(plant_state_key(1), b"short")
+            publisher.put(plant_state_key(2), plant_payload())  # another vehicle: not recorded
+            deadline = time.monotonic() + 20
+            while recorder.counts[plant_state_key(1)] < 501 and time.monotonic() < deadline:
+                time.sleep(0.02)
+        counts = recorder.stop()  # a second stop is harmless
+    assert counts[plant_state_key(1)] == 501 and counts[control_key(1)] == 1 and plant_state_key(2) not in counts
+    assert recorder.errors == {plant_state_key(1): 1}
+    records = list(read_recording(path))
+    assert len(records) == sum(counts.values())  # all of it on disk
+    states = [r["payload"] for r in records if r["key"] == plant_state_key(1) and "payload" in r]
+    assert [s["t"] for s in states] == [k / 400 for k in range(500)]  # in order, none lost
+    errors = [r for r in records if "error" in r]
+    assert errors == [{"key": plant_state_key(1), "bytes": 5, "error": "plant state payload has 5 bytes, expected 344"}]
+
+
+# ---- against a real plant and autopilot ----------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def vehicle(tmp_path_factory):
+    """vtol-sim (real time, hovering at 100 m) and vtol-autopilot (PID) with zenoh on free loopback ports;
+    yields their endpoints. Real time x1: on a loaded 2-core machine an autopilot that cannot keep up with a
+    faster real-time plant (x5 PID, x2 MPC were seen) lets the vehicle fall, and the tests check ~100 m."""
+    folder = tmp_path_factory.mktemp("vehicle")
+    port = str(free_udp_port())
+    plant_endpoint, autopilot_endpoint = (f"tcp/127.0.0.1:{free_tcp_port()}" for _ in range(2))
+    processes = []
+    try:
+        with open(folder / "plant.err", "w") as plant_err, open(folder / "autopilot.err", "w") as autopilot_err:
+            processes.append(subprocess.Popen(
+                vtol_sim_command("--port", port, "--spawn-alt", "100", "--realtime", "--speed", "1",
+                                 "--zenoh-listen", plant_endpoint, "--sysid", "1"),
+                stdout=subprocess.DEVNULL, stderr=plant_err))  # fmt: skip
+            processes.append(subprocess.Popen(
+                [sys.executable, "-m", "autopilot", "--sim-port", port, "--spawn-alt", "100", "--controller", "pid",
+                 "--zenoh-listen", autopilot_endpoint, "--params", str(folder / "params.json"), "--quiet",
+                 *free_link_ports()], stdout=subprocess.DEVNULL, stderr=autopilot_err))  # fmt: skip
+        time.sleep(1.0)
+        for process in processes:
+            assert process.poll() is None, (folder / "plant.err").read_text() + (folder / "autopilot.err").read_text()
+        yield [plant_endpoint, autopilot_endpoint]
+    finally:
+        for process in processes:
+            if process.poll() is None:
+                process.kill()
+            process.wait(timeout=20)
+
+
+def connect_args(endpoints: list[str]) -> list[str]:
+    return [arg for endpoint in endpoints for arg in ("--connect", endpoint)]
+
+
+def test_vtol_record_writes_decodable_plant_and_autopilot_records(tmp_path, vehicle):
+    out = tmp_path / "rec.jsonl"
+    result = subprocess.run([*VTOL, "record", "--out", str(out), *connect_args(vehicle), "--duration", "2"],
+                            capture_output=True, text=True, timeout=60)  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    printed = dict(line.rsplit(": ", 1) for line in result.stdout.splitlines())
+    records = list(read_recording(out))
+    states = [r["payload"] for r in records if r["key"] == "vtol/1/plant/state"]
+    controls = [r["payload"] for r in records if r["key"] == "vtol/1/autopilot/control"]
+    assert int(printed["vtol/1/plant/state"]) == len(states) > 200  # 400 states per wall second
+    assert int(printed["vtol/1/autopilot/control"]) == len(controls) > 50
+    assert not [r for r in records if "error" in r]
+    assert all(set(s) == set(PLANT_STATE_FIELDS) for s in states)
+    assert all(abs(-s["down"] - 100.0) < 5.0 for s in states)
+    assert all(len(c["u"]) == 8 and len(c["velocity_sp"]) == 3 and isinstance(c["mode"], str) for c in controls)
+    times = [s["t"] for s in states]
+    assert times == sorted(times) and 1.0 < times[-1] - times[0] < 3.0  # about 2 wall s
+
+
+def test_vtol_record_stops_on_sigterm_with_a_complete_file(tmp_path, vehicle):
+    out = tmp_path / "rec.jsonl"
+    record = subprocess.Popen([*VTOL, "record", "--out", str(out), "--connect", vehicle[0]],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)  # fmt: skip
+    try:
+        deadline = time.monotonic() + 30
+        while (not out.exists() or out.stat().st_size < 10_000) and time.monotonic() < deadline:
+            time.sleep(0.1)  # the file grows while recording (flushed every 0.5 s)
+        record.send_signal(signal.SIGTERM)
+        stdout, stderr = record.communicate(timeout=30)
+    finally:
+        if record.poll() is None:
+            record.kill()
+            record.wait()
+    assert record.returncode == 0, stderr
+    counts = {key: int(n) for key, n in re.findall(r"^(vtol/\S+): (\d+)$", stdout, re.MULTILINE)}
+    assert counts["vtol/1/plant/state"] > 0 and out.read_text().endswith("\n")
+    assert sum(counts.values()) == len(list(read_recording(out)))  # everything received is on disk
+    assert "Traceback" not in stderr
+
+
+def test_vtol_watch_prints_status_lines_and_writes_a_snapshot(tmp_path, vehicle):
+    snapshot = tmp_path / "watch.png"
+    env = {key: value for key, value in os.environ.items() if key not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    command = [*VTOL, "watch", "--text", "--duration", "3", *connect_args(vehicle), "--snapshot", str(snapshot)]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=60, env=env)
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert 2 <= len(lines) <= 4, lines  # one a second (3), give or take a stall on a loaded machine
+    status = [m for m in map(STATUS.search, lines) if m]
+    assert len(status) >= 2 and status[-1].string == lines[-1], lines  # (a loaded machine may connect late)
+    assert all(abs(float(m.group(2)) - 100.0) < 5.0 for m in status), lines
+    assert float(status[-1].group(1)) > float(status[0].group(1))  # simulation time moves on
+    assert "mode=" in lines[-1] and "mpc=-" in lines[-1]  # the PID flies: no MPC solutions
+    assert snapshot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert re.search(r"vtol: \d+ samples received", result.stderr) and "Traceback" not in result.stderr
+
+
+def test_vtol_watch_without_a_vehicle_says_so(tmp_path):
+    command = [*VTOL, "watch", "--text", "--duration", "1.2", "--connect", f"tcp/127.0.0.1:{free_tcp_port()}"]
+    result = subprocess.run(command, capture_output=True, text=True, timeout=60)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.splitlines() == ["t=- (no plant state yet)  mode=-  mpc=-  (no new samples)"]
+    assert "vtol: 0 samples received" in result.stderr
