@@ -8,7 +8,7 @@ autopilot's control and MPC samples. The run folder `<out>/<scenario>/<controlle
     flight.tlog        every MAVLink message sent and received (pymavlink's mavlogdump reads it)
     timeseries.csv     the autopilot's 100 Hz log (truth state, set-points, actuators), t = 0 at the profile start
     metrics.json       SPEC 7's metrics (ground_tools/metrics.py)
-    telemetry.jsonl    the zenoh recording (ground_tools/telemetry_record.py), unless recording is off
+    telemetry.jsonl.gz the zenoh recording, gzip JSON lines (ground_tools/telemetry_record.py), unless --no-record
     run.json           the processes' summaries, the flight's events, ports and timings
     autopilot.log, plant.log   the processes' stderr
 """
@@ -100,7 +100,7 @@ def run_scenario(
     """Fly `scenario` with `controller` ("mpc" | "pid"); raises FlightFailed (or ScenarioError)."""
     run_dir = out / scenario.name / controller
     run_dir.mkdir(parents=True, exist_ok=True)
-    for old in ("params.json", "telemetry.jsonl", "metrics.json", "run.json", "timeseries.csv", "autopilot_log.csv"):
+    for old in ("params.json", "telemetry.jsonl.gz", "metrics.json", "run.json", "timeseries.csv", "autopilot_log.csv"):
         (run_dir / old).unlink(missing_ok=True)
     ports = run_ports(instance)
     duration_s = START_MS / 1000.0 + scenario.duration_s
@@ -140,7 +140,7 @@ def run_scenario(
             if record:
                 from ground_tools.telemetry_record import TelemetryRecorder
 
-                recorder = TelemetryRecorder([ports.zenoh_plant, ports.zenoh_autopilot], run_dir / "telemetry.jsonl")
+                recorder = TelemetryRecorder([ports.zenoh_plant, ports.zenoh_autopilot], run_dir / "telemetry.jsonl.gz")
                 recorder.start()
                 if not recorder.wait_for_peers(2, ZENOH_CONNECT_TIMEOUT_S):
                     print("vtol: warning: the zenoh recorder did not connect to both processes; the recording may "

@@ -1,6 +1,6 @@
 """Record zenoh telemetry (SPEC section 6) to a JSON-lines file: `vtol record` and the scenario runner.
 
-One JSON object per line, in arrival order:
+One JSON object per line, in arrival order (gzip-compressed when the file name ends in .gz):
 
     {"key": "vtol/1/plant/state", "payload": {"t": 0.0025, "north": 0.0, ...}}    plant state, decoded
     {"key": "vtol/1/autopilot/control", "payload": {"t": 0.01, "mode": "MC", ...}} JSON payloads, parsed
@@ -14,6 +14,7 @@ thread decodes and writes. `stop()` returns once everything received before it i
 from __future__ import annotations
 
 import argparse
+import gzip
 import json
 import queue
 import re
@@ -62,10 +63,23 @@ def encode_record(key: str, payload: bytes) -> tuple[str, bool]:
         return json.dumps({"key": key, "error": str(exc), "bytes": len(payload)}), False
 
 
+def _open_text(path: Path, mode: str) -> Any:
+    """A recording file: gzip-compressed when its name ends in .gz (level 1: cheap, about 4x smaller)."""
+    if path.suffix == ".gz":
+        return gzip.open(path, mode + "t", encoding="utf-8", compresslevel=1)
+    return open(path, mode, encoding="utf-8")
+
+
 def read_recording(path: Path | str) -> Iterator[dict]:
-    """The records of a recording, in order. A last line cut short (recorder killed mid-write) is skipped."""
-    with open(path, encoding="utf-8") as file:
-        for line in file:
+    """The records of a recording (.jsonl or .jsonl.gz), in order. A last line cut short (recorder killed
+    mid-write, also inside a gzip stream) is skipped."""
+    with _open_text(Path(path), "r") as file:
+        lines = iter(file)
+        while True:
+            try:
+                line = next(lines)
+            except (StopIteration, EOFError):  # EOFError: a gzip stream cut short
+                return
             if not line.endswith("\n"):
                 return
             if line.strip():
@@ -111,7 +125,7 @@ class TelemetryRecorder:
 
         if self._writer is not None:
             raise RuntimeError("the recorder was already started")
-        self._file = open(self.path, "w", encoding="utf-8")
+        self._file = _open_text(self.path, "w")
         try:
             self._session = zenoh.open(session_config(listen=[], connect=self.endpoints))
         except BaseException:

@@ -360,3 +360,19 @@ def test_vtol_watch_without_a_vehicle_says_so(tmp_path):
     assert result.returncode == 0, result.stderr
     assert result.stdout.splitlines() == ["t=- (no plant state yet)  mode=-  mpc=-  (no new samples)"]
     assert "vtol: 0 samples received" in result.stderr
+
+
+def test_gzip_recordings_read_back_and_survive_a_cut(tmp_path) -> None:
+    import gzip
+
+    from ground_tools.telemetry_record import read_recording
+
+    path = tmp_path / "r.jsonl.gz"
+    with gzip.open(path, "wt", encoding="utf-8") as file:
+        for i in range(100):
+            file.write(json.dumps({"key": "vtol/1/plant/events", "payload": {"i": i}}) + "\n")
+    assert [r["payload"]["i"] for r in read_recording(path)] == list(range(100))
+    cut = tmp_path / "cut.jsonl.gz"
+    cut.write_bytes(path.read_bytes()[:-40])  # recorder killed before the gzip trailer
+    records = list(read_recording(cut))
+    assert 0 < len(records) <= 100 and records[0]["payload"]["i"] == 0
