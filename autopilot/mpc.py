@@ -190,6 +190,7 @@ class RtiSolver:
         """qp_tolerance: HPIPM's stationarity tolerance (feasibility and complementarity 100x tighter, at least
         1e-8); 1e-5 for real time, 1e-8 to reproduce a converged NLP solution exactly."""
         self.airframe = airframe
+        self.gains = gains
         self.horizon = horizon
         self.dt = dt
         self.limits = limits
@@ -255,9 +256,10 @@ class RtiSolver:
         u_lb[THRUST] = np.minimum(np.maximum(u_lb[THRUST], thrust_min), u_ub[THRUST])
         u_lb[CHI_DOT] = u_lb[CHI_DOT] * tilt_rate_scale
         u_ub[CHI_DOT] = u_ub[CHI_DOT] * tilt_rate_scale
+        # A stuck servo's tilt rate is zero, so its planned tilt stays at x_0's, the servo estimate's. Its tilt is
+        # not also bounded to the stuck angle: the servo drives there with its own lag (the estimate converges in
+        # ~0.1 s), and x_0 != the stuck angle with zero rate made every QP infeasible right after a jam.
         stuck = ~np.isnan(tilt_fixed)
-        x_lb[3:7] = np.where(stuck, tilt_fixed, x_lb[3:7])
-        x_ub[3:7] = np.where(stuck, tilt_fixed, x_ub[3:7])
         u_lb[0:4] = np.where(stuck, 0.0, u_lb[0:4])
         u_ub[0:4] = np.where(stuck, 0.0, u_ub[0:4])
         self.lbw, self.ubw = self._stack(x_lb, u_lb), self._stack(x_ub, u_ub)
@@ -292,6 +294,13 @@ class RtiSolver:
         self.w[(n - 1) * stride : (n - 1) * stride + NX] = old[n * stride :]
         u_last = old[(n - 1) * stride + NX : n * stride]
         self.w[n * stride :] = np.asarray(self.step_function(old[n * stride :], u_last)).ravel()
+
+    def shift_yaw(self, delta: float) -> None:
+        """Add delta (rad) to the yaw of every planned state and yaw set-point: the same plan, since the cost,
+        the attitude law and the yaw set-point rows see yaw only through differences and wrapped angles."""
+        stride = NX + NU
+        self.w[PSI_INDEX :: stride] += delta
+        self.w[NX + PSI_D_INDEX :: stride] += delta
 
     def solve(self, x0: np.ndarray, params: np.ndarray) -> MpcSolution:
         """One RTI: linearise at the current guess, solve the QP, take the full step."""

@@ -18,15 +18,57 @@ import numpy as np
 from aircraft.airframe import Airframe
 from autopilot.allocation import ControlAllocator
 from autopilot.actuator_health import ServoEstimate
-from autopilot.mpc import MpcSolution, RtiSolver, planned_force_function
+from autopilot.mpc import PSI_INDEX, MpcSolution, RtiSolver, planned_force_function
 from autopilot.mpc_model import CHI, NP, NX, PSI_D, THRUST, MpcLimits, yaw_reference
 from autopilot.vehicle_state import VehicleState
-from autopilot.velocity_command import VelocityCommand
+from autopilot.velocity_command import VelocityCommand, setpoint_course
 
 MAX_FAILURES = 3
 LEVENBERG = 0.1  # Marquardt damping of each RTI step (mpc.py)
 WARM_UP_ITERATIONS = 10  # RTI iterations at the first state, so the first plan is converged
 TILT_LEAD_STAGES = 3  # the servos lag ~30 ms: command the plan's tilt 3 stages (30 ms) ahead
+
+
+class SetpointTrajectory:
+    """The velocity set-point's trajectory over the horizon, extrapolated from the set-points received.
+
+    The paper gives its MPC "an exact linear trajectory" of set-points; a set-point source here (the internal
+    profile at 100 Hz, an offboard stream at >= 20 Hz) sends one velocity at a time. Its rate of change is
+    estimated from consecutive distinct set-points, and the set-point is extrapolated linearly over the horizon:
+    v_sp,k = v_sp + k dt a_sp. A jump faster than MAX_RATE is a step, not a ramp (rate 0), and the rate
+    returns to 0 when the set-point stops changing (held for two of its update intervals).
+    """
+
+    MAX_RATE = 10.0  # m/s^2
+    MAX_INTERVAL_S = 0.5  # set-points further apart than this are not a trajectory
+
+    def __init__(self) -> None:
+        self.last: np.ndarray | None = None
+        self.last_usec = 0
+        self.interval_s = 0.0
+        self.rate = np.zeros(3)
+
+    def update(self, time_usec: int, v_sp: np.ndarray) -> np.ndarray:
+        """The set-point's rate of change (m/s^2, NED) at this tick."""
+        if self.last is None:
+            self.last, self.last_usec = v_sp.copy(), time_usec
+        elif not np.array_equal(v_sp, self.last):
+            interval = (time_usec - self.last_usec) / 1e6
+            rate = (v_sp - self.last) / interval if 0.0 < interval <= self.MAX_INTERVAL_S else np.zeros(3)
+            self.rate = rate if np.linalg.norm(rate) <= self.MAX_RATE else np.zeros(3)
+            self.interval_s = interval
+            self.last, self.last_usec = v_sp.copy(), time_usec
+        elif (time_usec - self.last_usec) / 1e6 > 1.5 * self.interval_s:
+            self.rate = np.zeros(3)
+        return self.rate
+
+
+def coordinated_roll(acceleration_ned: np.ndarray, heading: float, gravity: float, limit: float) -> float:
+    """The bank (rad) of a coordinated turn making the set-point's horizontal acceleration across the heading:
+    atan(a_lateral / g). The rotors tilt only in the body x-z plane, so lateral force comes from banking (or from
+    sideslip, which a coordinated turn avoids)."""
+    lateral = -acceleration_ned[0] * math.sin(heading) + acceleration_ned[1] * math.cos(heading)
+    return min(max(math.atan2(lateral, gravity), -limit), limit)
 
 
 def euler_rates(euler: np.ndarray, body_rates: np.ndarray) -> np.ndarray:
@@ -65,6 +107,7 @@ class MpcVelocityController:
         self.fallback_requested = False
         self.last_solution: MpcSolution | None = None
         self.last_x0 = np.zeros(NX)
+        self.trajectory = SetpointTrajectory()
 
     def _bounds_from_health(self) -> None:
         """What the allocator and the servo estimate know of failures, as the MPC's bounds (SPEC 4.3)."""
@@ -74,23 +117,54 @@ class MpcVelocityController:
         thrust_min = np.where(working, self.allocator.lower[0:4] * t_max, 0.0)
         self.solver.set_actuator_limits(thrust_max, self.servos.stuck, thrust_min, self.servos.rate_scale)
 
+    def _set_parameters(self, v_sp: np.ndarray, yaw: float, time_usec: int) -> None:
+        """Per stage: the extrapolated set-point, its course (psi_ref), the working servos and the bank of a
+        coordinated turn (phi_ref)."""
+        solver, params = self.solver, self.params
+        rate = self.trajectory.update(time_usec, v_sp)
+        stage_times = np.arange(solver.horizon + 1) * solver.dt
+        params[0:3, :] = v_sp[:, None] + rate[:, None] * stage_times[None, :]
+        params[4:8, :] = np.isnan(self.servos.stuck)[:, None]
+        yaw_gain = solver.gains.attitude[2]
+        psi_ref = yaw
+        for k in range(solver.horizon + 1):
+            north, east = params[0, k], params[1, k]
+            psi_ref = yaw_reference(north, east, psi_ref)
+            # The set-point's course rate, while it has a course (the yaw reference follows it).
+            has_course = setpoint_course(north, east) is not None
+            turn_rate = (north * rate[1] - east * rate[0]) / (north**2 + east**2) if has_course else 0.0
+            params[3, k] = psi_ref
+            params[8, k] = coordinated_roll(rate, psi_ref, self.airframe.gravity, self.limits.attitude[0])
+            params[9, k] = turn_rate
+            # The yaw set-point that holds the attitude loop on a yaw turning at turn_rate: it leads by rate / K_att.
+            params[10, k] = psi_ref + turn_rate / yaw_gain
+
     def update(self, state: VehicleState, v_sp: np.ndarray, tilts: np.ndarray) -> VelocityCommand:
         rates = euler_rates(state.euler, state.body_rates)
         previous = rates if self.previous_rates is None else self.previous_rates
         self.previous_rates = rates
-        x0 = np.concatenate((state.velocity_ned, tilts, state.euler, rates, previous))
+        solver = self.solver
+        yaw = float(state.euler[2])
+        if solver.initialised:
+            solver.shift()
+            # Keep the plan's yaw continuous: the measured yaw jumps by 2 pi at +-180 deg, the plan must not (a
+            # 2 pi gap between x_0 and the warm start made the solves fail there). Unwrap the measurement to the
+            # plan and keep the plan within a turn of zero.
+            planned = float(solver.w[PSI_INDEX])
+            if abs(planned) > 2 * math.pi:
+                turns = 2 * math.pi * round(planned / (2 * math.pi))
+                solver.shift_yaw(-turns)
+                planned -= turns
+            yaw = planned + math.atan2(math.sin(yaw - planned), math.cos(yaw - planned))
+        euler = np.array([state.euler[0], state.euler[1], yaw])
+        x0 = np.concatenate((state.velocity_ned, tilts, euler, rates, previous))
         self.last_x0 = x0
         self._bounds_from_health()
-        solver = self.solver
-        self.params[0:3, :] = v_sp[:, None]
-        self.params[3, :] = yaw_reference(v_sp[0], v_sp[1], float(state.euler[2]))
-        self.params[4:8, :] = np.isnan(self.servos.stuck)[:, None]
+        self._set_parameters(v_sp, yaw, state.time_usec)
         if not solver.initialised:
             solver.initialise(x0, self.airframe.hover_thrust_per_rotor)
             for _ in range(WARM_UP_ITERATIONS):
                 solver.solve(x0, self.params)
-        else:
-            solver.shift()
         solution = solver.solve(x0, self.params)
         self.solve_times_s.append(solution.solve_time_s)
         self.last_solution = solution
@@ -105,6 +179,7 @@ class MpcVelocityController:
         u0 = inputs[0]
         command = VelocityCommand(mode="MPC")
         command.euler_sp[:] = u0[PSI_D]
+        command.euler_sp[2] = math.atan2(math.sin(u0[PSI_D][2]), math.cos(u0[PSI_D][2]))
         command.tilt_sp[:] = states[min(TILT_LEAD_STAGES, solver.horizon)][CHI]
         command.force_sp_body[:] = np.asarray(self.force_function(states[0], u0)).ravel()
         command.force_weights[:] = 1.0

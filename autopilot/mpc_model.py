@@ -5,12 +5,15 @@ Input u (11):  tilt rates chi_dot_1..4 (rad/s) | thrusts T_1..4 (N) | attitude s
 Model: v_dot = R(Psi) (sum_i T_i u(chi_i) + F_aero(R^T v)) / m + g e_z   (the shared aircraft model)
        chi_dot = input;  Psi_ddot = attitude_law(Psi, Psi_dot, Psi_dot_prev, Psi_d)  (the attitude loop's law)
        Psi_dot_prev(k+1) = Psi_dot(k)  (the previous step's rate, paper)
-Cost per stage (paper eq. for J and Table 2): |v - v_sp|^2_Qref + |(phi, theta, psi - psi_ref)|^2_Qpsi
-       + |Psi_dot|^2_Qpsidot + |T|^2_RT + |T cos(chi) - T_ref(V)|^2_Rlift + |chi_dot|^2_Rchi
-       + |(phi_d, theta_d, psi_d - psi_ref)|^2_RPsi + J_soft,
+Cost per stage (paper eq. for J and Table 2): |v - v_sp,k|^2_Qref + |(phi - phi_ref, theta, psi - psi_ref)|^2_Qpsi
+       + |Psi_dot - (0, 0, psi_rate_ref)|^2_Qpsidot + |T|^2_RT + |T cos(chi) - T_ref(V)|^2_Rlift + |chi_dot|^2_Rchi
+       + |(phi_d - phi_ref, theta_d, psi_d - psi_d_ref)|^2_RPsi + J_soft,
        terminal |v_N - v_sp|^2_Qf. Every term is a squared residual (Gauss-Newton), J_soft = exp(s) included as
        (exp(s / 2))^2.
 No flight-mode logic anywhere: the soft tilt cost alone keeps the rotors up at low speed.
+The per-stage references (v_sp,k along the set-point's trajectory, and the coordinated-turn phi_ref,
+psi_rate_ref, psi_d_ref) come from the controller (mpc_controller, docs/mpc.md 2.5); for a constant set-point
+they are the paper's (v_sp, 0, 0, psi_ref).
 
 Deviation (docs/mpc.md): the paper weighs the thrust itself, 0.025 T^2 (T in N). Measured with this plant:
 - over a 0.25 s horizon that buys thrust with altitude (the velocity error a thrust deficit causes stays small
@@ -41,7 +44,9 @@ from autopilot.velocity_command import setpoint_course
 NX, NU = 16, 11
 V, CHI, PSI, PSI_DOT, PSI_DOT_PREV = slice(0, 3), slice(3, 7), slice(7, 10), slice(10, 13), slice(13, 16)
 CHI_DOT, THRUST, PSI_D = slice(0, 4), slice(4, 8), slice(8, 11)
-NP = 8  # parameters: v_sp (3), psi_ref, free_tilt (4: 1 for a working servo, 0 for a stuck one)
+# Parameters per stage: v_sp (3), psi_ref, free_tilt (4: 1 for a working servo, 0 for a stuck one), and the rest
+# of the set-point trajectory's coordinated-turn attitude: phi_ref, psi_rate_ref, psi_d_ref (docs/mpc.md 2.5).
+NP = 11
 
 
 @dataclass(frozen=True)
@@ -126,6 +131,7 @@ def stage_residual(
 ) -> ca.SX:
     """Residual r with |r|^2 = the stage cost (Gauss-Newton form)."""
     v_sp, psi_ref, free_tilt = p[0:3], p[3], p[4:8]
+    phi_ref, psi_rate_ref, psi_d_ref = p[8], p[9], p[10]
     euler = x[PSI]
     forward_speed = (rotation_from_euler(euler).T @ x[V])[0]
     # Mean over the servos that work: a stuck servo's tilt is not the controller's to choose, and counting it
@@ -138,12 +144,13 @@ def stage_residual(
     sq = ca.sqrt
     return ca.vertcat(
         sq(ca.DM(weights.q_ref)) * (x[V] - v_sp),
-        sq(ca.DM(weights.q_psi)) * ca.vertcat(euler[0], euler[1], wrap_angle(euler[2] - psi_ref)),
-        sq(ca.DM(weights.q_psi_dot)) * x[PSI_DOT],
+        sq(ca.DM(weights.q_psi)) * ca.vertcat(euler[0] - phi_ref, euler[1], wrap_angle(euler[2] - psi_ref)),
+        sq(ca.DM(weights.q_psi_dot)) * (x[PSI_DOT] - ca.vertcat(0, 0, psi_rate_ref)),
         math.sqrt(weights.r_tilt_rate) * u[CHI_DOT],
         math.sqrt(weights.r_thrust) * u[THRUST],
         math.sqrt(weights.r_rotor_lift) * (u[THRUST] * ca.cos(x[CHI]) - thrust_ref),
-        sq(ca.DM(weights.r_psi_d)) * ca.vertcat(u[PSI_D][0], u[PSI_D][1], wrap_angle(u[PSI_D][2] - psi_ref)),
+        sq(ca.DM(weights.r_psi_d))
+        * ca.vertcat(u[PSI_D][0] - phi_ref, u[PSI_D][1], wrap_angle(u[PSI_D][2] - psi_d_ref)),
         ca.exp(soft.exponent(forward_speed, mean_tilt_deg) / 2),
     )
 
