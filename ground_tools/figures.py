@@ -61,13 +61,20 @@ def plot_flight(log: dict[str, np.ndarray], out_dir: Path, title: str) -> list[P
         written.append(out_dir / name)
     figure, axis = plt.subplots(figsize=(6, 6))
     axis.plot(log["east"], log["north"])
+    written.append(save_ground_track(figure, axis, f"{title}: ground track", out_dir / "ground_track.png"))
+    return written
+
+
+def save_ground_track(figure, axis, title: str, path: Path) -> Path:
+    """Label, square and save a north-over-east ground-track figure."""
     axis.set_xlabel("east (m)")
     axis.set_ylabel("north (m)")
     axis.set_aspect("equal", adjustable="datalim")
     axis.grid(True, alpha=0.3)
-    axis.set_title(f"{title}: ground track")
+    if axis.get_legend_handles_labels()[0]:
+        axis.legend(loc="best", fontsize="small")
+    axis.set_title(title)
     figure.tight_layout()
-    figure.savefig(out_dir / "ground_track.png", dpi=110)
+    figure.savefig(path, dpi=110)
     plt.close(figure)
-    written.append(out_dir / "ground_track.png")
-    return written
+    return path

@@ -19,6 +19,7 @@ matplotlib.use("Agg")  # files only: no display needed
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from ground_tools.figures import save_ground_track  # noqa: E402
 from ground_tools.scenarios import Scenario  # noqa: E402
 
 STYLE = {"mpc": ("tab:blue", "-"), "pid": ("tab:orange", "--")}
@@ -131,14 +132,5 @@ def plot_scenario(
         angle = np.linspace(0.0, 2 * math.pi, 361)
         axis.plot(centre_e + scenario.circle.radius * np.cos(angle), centre_n + scenario.circle.radius * np.sin(angle),
                   label="intended circle", **SETPOINT)  # fmt: skip
-    axis.set_xlabel("east (m)")
-    axis.set_ylabel("north (m)")
-    axis.set_aspect("equal", adjustable="datalim")
-    axis.grid(True, alpha=0.3)
-    axis.legend(loc="best", fontsize="small")
-    axis.set_title(f"{scenario.name}: ground track")
-    figure.tight_layout()
-    figure.savefig(out_dir / "ground_track.png", dpi=110)
-    plt.close(figure)
-    written.append(out_dir / "ground_track.png")
+    written.append(save_ground_track(figure, axis, f"{scenario.name}: ground track", out_dir / "ground_track.png"))
     return written
