@@ -21,46 +21,12 @@ from autopilot.actuator_health import ServoEstimate
 from autopilot.mpc import PSI_INDEX, MpcSolution, RtiSolver, planned_force_function
 from autopilot.mpc_model import CHI, NP, NX, PSI_D, THRUST, MpcLimits, yaw_reference
 from autopilot.vehicle_state import VehicleState
-from autopilot.velocity_command import VelocityCommand, setpoint_course
+from autopilot.velocity_command import SetpointTrajectory, VelocityCommand, course_rate
 
 MAX_FAILURES = 3
 LEVENBERG = 0.1  # Marquardt damping of each RTI step (mpc.py)
 WARM_UP_ITERATIONS = 10  # RTI iterations at the first state, so the first plan is converged
 TILT_LEAD_STAGES = 3  # the servos lag ~30 ms: command the plan's tilt 3 stages (30 ms) ahead
-
-
-class SetpointTrajectory:
-    """The velocity set-point's trajectory over the horizon, extrapolated from the set-points received.
-
-    The paper gives its MPC "an exact linear trajectory" of set-points; a set-point source here (the internal
-    profile at 100 Hz, an offboard stream at >= 20 Hz) sends one velocity at a time. Its rate of change is
-    estimated from consecutive distinct set-points, and the set-point is extrapolated linearly over the horizon:
-    v_sp,k = v_sp + k dt a_sp. A jump faster than MAX_RATE is a step, not a ramp (rate 0), and the rate
-    returns to 0 when the set-point stops changing (held for two of its update intervals).
-    """
-
-    MAX_RATE = 10.0  # m/s^2
-    MAX_INTERVAL_S = 0.5  # set-points further apart than this are not a trajectory
-
-    def __init__(self) -> None:
-        self.last: np.ndarray | None = None
-        self.last_usec = 0
-        self.interval_s = 0.0
-        self.rate = np.zeros(3)
-
-    def update(self, time_usec: int, v_sp: np.ndarray) -> np.ndarray:
-        """The set-point's rate of change (m/s^2, NED) at this tick."""
-        if self.last is None:
-            self.last, self.last_usec = v_sp.copy(), time_usec
-        elif not np.array_equal(v_sp, self.last):
-            interval = (time_usec - self.last_usec) / 1e6
-            rate = (v_sp - self.last) / interval if 0.0 < interval <= self.MAX_INTERVAL_S else np.zeros(3)
-            self.rate = rate if np.linalg.norm(rate) <= self.MAX_RATE else np.zeros(3)
-            self.interval_s = interval
-            self.last, self.last_usec = v_sp.copy(), time_usec
-        elif (time_usec - self.last_usec) / 1e6 > 1.5 * self.interval_s:
-            self.rate = np.zeros(3)
-        return self.rate
 
 
 def coordinated_roll(acceleration_ned: np.ndarray, heading: float, gravity: float, limit: float) -> float:
@@ -131,8 +97,7 @@ class MpcVelocityController:
             north, east = params[0, k], params[1, k]
             psi_ref = yaw_reference(north, east, psi_ref)
             # The set-point's course rate, while it has a course (the yaw reference follows it).
-            has_course = setpoint_course(north, east) is not None
-            turn_rate = (north * rate[1] - east * rate[0]) / (north**2 + east**2) if has_course else 0.0
+            turn_rate = course_rate(params[0:3, k], rate)
             params[3, k] = psi_ref
             params[8, k] = coordinated_roll(rate, psi_ref, self.airframe.gravity, self.limits.attitude[0])
             params[9, k] = turn_rate

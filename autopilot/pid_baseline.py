@@ -23,7 +23,7 @@ import numpy as np
 from aircraft.airframe import Airframe
 from autopilot.attitude import DEFAULT_GAINS
 from autopilot.vehicle_state import VehicleState
-from autopilot.velocity_command import VelocityCommand, setpoint_course
+from autopilot.velocity_command import SetpointTrajectory, VelocityCommand, course_rate, setpoint_course
 
 MC, TRANSITION_FW, FW, TRANSITION_MC = "MC", "TRANSITION_FW", "FW", "TRANSITION_MC"
 YAW_ATTITUDE_GAIN = DEFAULT_GAINS.attitude[2]
@@ -78,7 +78,8 @@ class PidVelocityController:
         self.integral_speed = 0.0
         self.integral_climb = 0.0
         self.yaw_hold: float | None = None
-        self.previous_course_sp: float | None = None
+        self.trajectory = SetpointTrajectory()  # the set-point's rate: the turn's feed-forward
+        self.setpoint_rate = np.zeros(3)
 
     # ---- phase logic -----------------------------------------------------------------------------------
     def _switch(self, phase: str) -> None:
@@ -155,11 +156,9 @@ class PidVelocityController:
         pitch = clamp(p.fw_climb_p * sink_error + p.fw_climb_i * self.integral_climb, -pitch_limit, pitch_limit)
         course = math.atan2(state.velocity_ned[1], state.velocity_ned[0])
         course_sp = math.atan2(v_sp[1], v_sp[0])
-        course_rate_sp = 0.0
-        if self.previous_course_sp is not None:
-            course_rate_sp = wrap(course_sp - self.previous_course_sp) / self.dt
-        self.previous_course_sp = course_sp
-        turn_rate = p.fw_course_p * wrap(course_sp - course) + course_rate_sp
+        # Feed-forward of the set-point's own turning, from its rate over the set-point interval (a per-tick
+        # difference alternated between 0 and twice the rate with 50 Hz offboard set-points).
+        turn_rate = p.fw_course_p * wrap(course_sp - course) + course_rate(v_sp, self.setpoint_rate)
         roll_limit = math.radians(p.fw_roll_max_deg)
         roll = clamp(math.atan(speed * turn_rate / g), -roll_limit, roll_limit)
         track = np.array([math.cos(course), math.sin(course), 0.0])
@@ -172,6 +171,7 @@ class PidVelocityController:
         """One 100 Hz step. `tilts` is the autopilot's estimate of the rotors' present tilts (rad)."""
         p = self.p
         a = self.airframe
+        self.setpoint_rate = self.trajectory.update(state.time_usec, v_sp)
         mean_tilt = float(np.mean(tilts))
         speed_sp = math.hypot(v_sp[0], v_sp[1])
         self._update_phase(state, speed_sp, mean_tilt)

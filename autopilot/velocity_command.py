@@ -18,6 +18,48 @@ def setpoint_course(v_sp_north: float, v_sp_east: float) -> float | None:
     return math.atan2(v_sp_east, v_sp_north)
 
 
+class SetpointTrajectory:
+    """The velocity set-point's trajectory over the horizon, extrapolated from the set-points received.
+
+    The paper gives its MPC "an exact linear trajectory" of set-points; a set-point source here (the internal
+    profile at 100 Hz, an offboard stream at >= 20 Hz) sends one velocity at a time. Its rate of change is
+    estimated from consecutive distinct set-points, and the set-point is extrapolated linearly over the horizon:
+    v_sp,k = v_sp + k dt a_sp. A jump faster than MAX_RATE is a step, not a ramp (rate 0), and the rate
+    returns to 0 when the set-point stops changing (held for two of its update intervals).
+    """
+
+    MAX_RATE = 10.0  # m/s^2
+    MAX_INTERVAL_S = 0.5  # set-points further apart than this are not a trajectory
+
+    def __init__(self) -> None:
+        self.last: np.ndarray | None = None
+        self.last_usec = 0
+        self.interval_s = 0.0
+        self.rate = np.zeros(3)
+
+    def update(self, time_usec: int, v_sp: np.ndarray) -> np.ndarray:
+        """The set-point's rate of change (m/s^2, NED) at this tick."""
+        if self.last is None:
+            self.last, self.last_usec = v_sp.copy(), time_usec
+        elif not np.array_equal(v_sp, self.last):
+            interval = (time_usec - self.last_usec) / 1e6
+            rate = (v_sp - self.last) / interval if 0.0 < interval <= self.MAX_INTERVAL_S else np.zeros(3)
+            self.rate = rate if np.linalg.norm(rate) <= self.MAX_RATE else np.zeros(3)
+            self.interval_s = interval
+            self.last, self.last_usec = v_sp.copy(), time_usec
+        elif (time_usec - self.last_usec) / 1e6 > 1.5 * self.interval_s:
+            self.rate = np.zeros(3)
+        return self.rate
+
+
+def course_rate(v_sp: np.ndarray, rate: np.ndarray) -> float:
+    """How fast the set-point's course turns (rad/s) for a set-point v_sp changing at `rate` (m/s^2, NED):
+    d/dt atan2(v_e, v_n); 0 while the set-point has no course (setpoint_course)."""
+    if setpoint_course(v_sp[0], v_sp[1]) is None:
+        return 0.0
+    return float((v_sp[0] * rate[1] - v_sp[1] * rate[0]) / (v_sp[0] ** 2 + v_sp[1] ** 2))
+
+
 @dataclass
 class VelocityCommand:
     """Outer-loop output, refreshed at 100 Hz (SPEC section 4).
