@@ -38,6 +38,7 @@ SPAWN_ALT_M = 100.0
 PLANT_LOCKSTEP_TIMEOUT_S = 120.0  # the plant waits this long for a held autopilot before it would step on
 RUN_TIMEOUT_S = 1800.0
 ZENOH_CONNECT_TIMEOUT_S = 10.0
+EXIT_GRACE_S = 10.0  # once one process has ended, the other gets this long to end too
 WALL_CLOCK_KEYS = ("solve_ms_median", "solve_ms_p99", "solve_ms_max")  # measurements of the machine, not the flight
 
 
@@ -146,22 +147,37 @@ def run_scenario(
                     print("vtol: warning: the zenoh recorder did not connect to both processes; the recording may "
                           "be partial", file=sys.stderr)  # fmt: skip
 
+        first_exit: list[float] = []
+
         def finished() -> bool:
+            """Both processes have ended; one that outlives the other by EXIT_GRACE_S is killed (a plant waits
+            for its autopilot, an autopilot for its plant)."""
             if time.perf_counter() - started > RUN_TIMEOUT_S:
                 raise FlightFailed(f"the run took longer than {RUN_TIMEOUT_S:g} s")
-            return all(process.poll() is not None for process in processes)
+            running = [process for process in processes if process.poll() is None]
+            if running and len(running) < len(processes):
+                if not first_exit:
+                    first_exit.append(time.monotonic())
+                if time.monotonic() - first_exit[0] > EXIT_GRACE_S:
+                    for process in running:
+                        process.kill()
+                        process.wait()
+                    return True
+            return not running
 
         with open(run_dir / "flight.tlog", "wb") as tlog:
             client = LockstepClient(gcs, scenario, airframe, tlog=tlog, on_first_hold=start_recording,
                                     on_progress=lambda ms: on_progress(ms / 1000.0))  # fmt: skip
             events = client.run(finished)
-        summaries = {}
-        for name, process in (("plant", plant), ("autopilot", autopilot)):
-            stdout = process.stdout.read() if process.stdout else ""
+        problems = []
+        for name, process in (("autopilot", autopilot), ("plant", plant)):
             if process.returncode != 0:
                 log = (run_dir / f"{name}.log").read_text().strip().splitlines()
-                raise FlightFailed(f"{name} exited with {process.returncode}: {log[-1] if log else ''}")
-            summaries[name] = json.loads(stdout.strip().splitlines()[-1])
+                problems.append(f"{name} exited with {process.returncode}: {log[-1] if log else '(nothing on stderr)'}")
+        if problems:
+            raise FlightFailed("; ".join(problems) + f" (logs in {run_dir})")
+        summaries = {name: json.loads(process.stdout.read().strip().splitlines()[-1])
+                     for name, process in (("plant", plant), ("autopilot", autopilot))}  # fmt: skip
     finally:
         for process in processes:
             if process.poll() is None:
