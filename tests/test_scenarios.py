@@ -234,9 +234,12 @@ def test_a_zenoh_subscriber_on_loopback_sees_plant_truth_and_mpc_solutions_durin
     assert received.get("vtol/1/autopilot/mpc", 0) > 100, received
 
 
-def test_bad_scenario_arguments_get_one_line_and_exit_2() -> None:
+def test_bad_scenario_arguments_get_one_line_and_exit_2(tmp_path) -> None:
+    a_file = tmp_path / "a-file"
+    a_file.write_text("")
     for args in (("scenario", "loop-the-loop"), ("scenario", "accel", "--controller", "lqr"),
-                 ("scenario", "accel", "--duration", "-1"), ("scenario", "accel", "--instance", "x")):  # fmt: skip
+                 ("scenario", "accel", "--duration", "-1"), ("scenario", "accel", "--instance", "x"),
+                 ("scenario", "accel", "--out", str(a_file))):  # fmt: skip
         result = vtol(*args, timeout=60)
         assert result.returncode == 2, args
         assert result.stderr.count("\n") == 1, result.stderr
