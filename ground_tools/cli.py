@@ -27,14 +27,13 @@ from ground_tools.scenario_command import add_scenario_arguments, scenario
 from ground_tools.telemetry_record import add_record_arguments, record
 from ground_tools.up import up
 from ground_tools.watch import add_watch_arguments, watch
-from transport.cli import OneLineArgumentParser, bounded_int, fail, nonnegative_float, positive_float
+from transport.cli import OneLineArgumentParser, bounded_int, fail, nonnegative_float, positive_float, writable_folder
 
 PROG = "vtol"
 
 
 def fly(profile: str, controller: str, out: Path, duration: float, spawn_alt: float) -> int:
-    run_dir = out / profile / controller
-    run_dir.mkdir(parents=True, exist_ok=True)
+    run_dir = writable_folder(PROG, out / profile / controller)
     log_path = run_dir / "flight.csv"
     print(f"{PROG}: flying '{profile}' ({duration:g} s simulated) with the {controller} controller...",
           file=sys.stderr, flush=True)  # fmt: skip

@@ -22,7 +22,7 @@ from ground_tools.scenario_figures import plot_scenario
 from ground_tools.scenario_report import acceptance, write_report
 from ground_tools.scenario_run import run_scenario
 from ground_tools.scenarios import SCENARIOS, Scenario
-from transport.cli import bounded_int, fail, positive_float
+from transport.cli import bounded_int, positive_float, writable_folder
 
 PROG = "vtol"
 SHOWN = ("survived", "vx_rmse", "vz_max_abs", "pitch_max_abs_deg", "alt_change_max_m", "t_reach_s", "radial_rmse_m",
@@ -71,14 +71,7 @@ def _fly(scenario: Scenario, controller: str, out: Path, args: argparse.Namespac
 
 
 def scenario(args: argparse.Namespace) -> int:
-    out = Path(args.out)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        probe = out / ".vtol-write-test"
-        probe.write_text("")
-        probe.unlink()
-    except OSError as exc:
-        fail(PROG, f"cannot write to --out {out}: {exc.strerror or exc}")
+    out = writable_folder(PROG, Path(args.out))
     names = list(SCENARIOS) if args.name == "all" else [args.name]
     controllers = ["mpc", "pid"] if args.controller == "both" else [args.controller]
     started = time.perf_counter()

@@ -10,6 +10,7 @@ import math
 import signal
 import sys
 from collections.abc import Callable
+from pathlib import Path
 from typing import NoReturn
 
 
@@ -25,6 +26,18 @@ def fail(prog: str, message: str) -> NoReturn:
     """Refuse a run for a reason found after parsing (broken file, port in use)."""
     print(f"{prog}: error: {message}", file=sys.stderr)
     raise SystemExit(2)
+
+
+def writable_folder(prog: str, folder: Path) -> Path:
+    """Create `folder` if needed and check that files can be written in it, or refuse the run in one line."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        probe = folder / ".write-test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as exc:
+        fail(prog, f"cannot write to {folder}: {exc.strerror or exc}")
+    return folder
 
 
 def finite_float(text: str) -> float:
