@@ -75,20 +75,21 @@ def build_qp_functions(
     gains: AttitudeGains = DEFAULT_GAINS,
     weights: MpcWeights = MpcWeights(),
     soft: SoftTiltCost = SoftTiltCost(),
+    limits: MpcLimits = MpcLimits(),
 ) -> tuple[ca.Function, ca.Function]:
     """qp_data(w, P, x0, lbw, ubw) -> (H, g, A, lba, uba, lbx, ubx, cost) for the QP in the step dw,
     and the plain dynamics F(x, u) (used for shifting and tests)."""
     step = discrete_dynamics(airframe, gains, dt)
     xs, us, xn, ps = ca.SX.sym("x", NX), ca.SX.sym("u", NU), ca.SX.sym("x_next", NX), ca.SX.sym("p", NP)
     x_next = step(xs, us)
-    residual = stage_residual(airframe, weights, soft, xs, us, ps)
+    residual = stage_residual(airframe, weights, soft, xs, us, ps, limits)
     jac = ca.jacobian(residual, ca.vertcat(xs, us))
     stage = ca.Function(
         "mpc_stage", [xs, us, xn, ps],
         [x_next - xn, ca.jacobian(x_next, xs), ca.jacobian(x_next, us), jac.T @ jac, jac.T @ residual,
          ca.sumsqr(residual)],
     )  # fmt: skip
-    r_terminal = terminal_residual(weights, xs, ps)
+    r_terminal = terminal_residual(weights, xs, ps, limits)
     j_terminal = ca.jacobian(r_terminal, xs)
     terminal = ca.Function("mpc_terminal", [xs, ps], [j_terminal.T @ j_terminal, j_terminal.T @ r_terminal,
                                                       ca.sumsqr(r_terminal)])  # fmt: skip
@@ -156,12 +157,13 @@ class StageModel:
     airframe: Airframe
     weights: MpcWeights
     soft: SoftTiltCost
+    limits: MpcLimits = MpcLimits()
 
     def stage_residual(self, x: ca.SX, u: ca.SX, p: ca.SX) -> ca.SX:
-        return stage_residual(self.airframe, self.weights, self.soft, x, u, p)
+        return stage_residual(self.airframe, self.weights, self.soft, x, u, p, self.limits)
 
     def terminal_residual(self, x: ca.SX, p: ca.SX) -> ca.SX:
-        return terminal_residual(self.weights, x, p)
+        return terminal_residual(self.weights, x, p, self.limits)
 
 
 def planned_force_function(airframe: Airframe) -> ca.Function:
@@ -194,8 +196,9 @@ class RtiSolver:
         self.horizon = horizon
         self.dt = dt
         self.limits = limits
-        qp_data, self.step_function = build_qp_functions(airframe, horizon, dt, gains, weights, soft)
-        self.model = StageModel(airframe, weights, soft)
+        qp_data, self.step_function = build_qp_functions(airframe, horizon, dt, gains, weights, soft, limits)
+        self.model = StageModel(airframe, weights, soft, limits)
+        self.weights = weights
         self.qp_data = compiled(qp_data, "vtol-autopilot") if compile_model else qp_data
         n = horizon
         self.n_w = NX * (n + 1) + NU * n
@@ -223,7 +226,8 @@ class RtiSolver:
         x_ub = np.full(NX, np.inf)
         x_lb[V], x_ub[V] = -np.array(lim.velocity), lim.velocity
         x_lb[CHI], x_ub[CHI] = a.tilt_min, a.tilt_max
-        x_lb[7:9], x_ub[7:9] = -np.array(lim.attitude), lim.attitude
+        if self.weights.q_attitude_bound <= 0:  # else the roll and pitch bound is soft, in the cost (docs/mpc.md 2.8)
+            x_lb[7:9], x_ub[7:9] = -np.array(lim.attitude), lim.attitude
         x_lb[PSI_DOT], x_ub[PSI_DOT] = -lim.rate, lim.rate
         u_lb = np.full(NU, -np.inf)
         u_ub = np.full(NU, np.inf)

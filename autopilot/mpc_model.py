@@ -25,6 +25,10 @@ Deviation (docs/mpc.md): the paper weighs the thrust itself, 0.025 T^2 (T in N).
 So the weight acts on what the wing should take over: each rotor's lifting component T cos(chi) beyond
 T_ref(V); a small weight on T itself keeps the least-effort preference. No mode switch: e(V) is the shared
 model's smooth effectiveness.
+
+Deviation (docs/mpc.md 2.8): the roll and pitch bound |phi|, |theta| <= pi/4 is soft, a smooth penalty in every
+stage and at the end, not the paper's hard state bound: with x_0 fixed, a pitch already moving past the bound
+faster than the attitude loop can stop it made every QP infeasible (accel-decel, 22.3 s: 3 failed solves, PID).
 """
 
 from __future__ import annotations
@@ -61,6 +65,11 @@ class MpcWeights:
     r_rotor_lift: float = 0.25  # per N^2, on each rotor's lifting component beyond T_ref(V)
     r_tilt_rate: float = 1.0
     r_psi_d: tuple[float, float, float] = (10.0, 20.0, 10.0)
+    # The roll and pitch bound |phi|, |theta| <= MpcLimits.attitude as a soft constraint (docs/mpc.md 2.8): a
+    # penalty q (width softplus((|angle| - bound) / width))^2, q per rad^2, in every stage and at the end. q = 0
+    # makes it the paper's hard state bound again.
+    q_attitude_bound: float = 1e6
+    attitude_bound_width: float = math.radians(3.0)
 
 
 @dataclass(frozen=True)
@@ -126,8 +135,27 @@ def discrete_dynamics(airframe: Airframe, gains: AttitudeGains, dt: float) -> ca
     return ca.Function("mpc_step", [x, u], [ca.vertcat(z_next, x[PSI_DOT])], ["x", "u"], ["x_next"])
 
 
+def attitude_bound_residual(weights: MpcWeights, limits: MpcLimits, x: ca.SX) -> ca.SX:
+    """The soft roll and pitch bound: ~0 inside |angle| <= bound - a few widths, ~sqrt(q) (|angle| - bound)
+    beyond it; smooth (softplus), so that the Gauss-Newton Hessian sees the bound before the plan reaches it."""
+    if weights.q_attitude_bound <= 0:
+        return ca.SX.zeros(0)
+    width = weights.attitude_bound_width
+    angles = x[PSI][0:2]
+    bound = ca.DM(limits.attitude)
+    excess = ca.vertcat(angles - bound, -angles - bound) / width
+    softplus = ca.if_else(excess > 30, excess, ca.log1p(ca.exp(ca.fmin(excess, 30))))
+    return math.sqrt(weights.q_attitude_bound) * width * softplus
+
+
 def stage_residual(
-    airframe: Airframe, weights: MpcWeights, soft: SoftTiltCost, x: ca.SX, u: ca.SX, p: ca.SX
+    airframe: Airframe,
+    weights: MpcWeights,
+    soft: SoftTiltCost,
+    x: ca.SX,
+    u: ca.SX,
+    p: ca.SX,
+    limits: MpcLimits | None = None,
 ) -> ca.SX:
     """Residual r with |r|^2 = the stage cost (Gauss-Newton form)."""
     v_sp, psi_ref, free_tilt = p[0:3], p[3], p[4:8]
@@ -152,11 +180,14 @@ def stage_residual(
         sq(ca.DM(weights.r_psi_d))
         * ca.vertcat(u[PSI_D][0] - phi_ref, u[PSI_D][1], wrap_angle(u[PSI_D][2] - psi_d_ref)),
         ca.exp(soft.exponent(forward_speed, mean_tilt_deg) / 2),
+        attitude_bound_residual(weights, limits or MpcLimits(), x),
     )
 
 
-def terminal_residual(weights: MpcWeights, x: ca.SX, p: ca.SX) -> ca.SX:
-    return ca.sqrt(ca.DM(weights.q_final)) * (x[V] - p[0:3])
+def terminal_residual(weights: MpcWeights, x: ca.SX, p: ca.SX, limits: MpcLimits | None = None) -> ca.SX:
+    return ca.vertcat(
+        ca.sqrt(ca.DM(weights.q_final)) * (x[V] - p[0:3]), attitude_bound_residual(weights, limits or MpcLimits(), x)
+    )
 
 
 def yaw_reference(v_sp_north: float, v_sp_east: float, yaw_now: float) -> float:

@@ -87,3 +87,244 @@ def test_a_stuck_motor_and_a_slow_servo_enter_the_plan_too(solver):
     assert inputs[:, 4] == pytest.approx(12.0, abs=1e-6)  # motor 1 stuck at 12 N
     assert np.abs(inputs[:, 1]).max() <= math.pi / 8 + 1e-9  # servo 2 at half its tilt rate
     solver.set_actuator_limits(np.full(4, 23.0), np.full(4, np.nan))
+
+
+# ---- the set-point trajectory, the coordinated-turn roll, continuous yaw, stuck servos (docs/mpc.md 2.5-2.7) ----
+
+from autopilot.actuator_health import ServoEstimate  # noqa: E402
+from autopilot.allocation import ControlAllocator  # noqa: E402
+from autopilot.mpc import PSI_INDEX  # noqa: E402
+from autopilot.mpc_controller import MpcVelocityController, SetpointTrajectory, coordinated_roll  # noqa: E402
+from autopilot.vehicle_state import VehicleState  # noqa: E402
+
+
+def ramp_rates(rate_hz: float, accel: float, seconds: float = 0.5) -> list[np.ndarray]:
+    """The trajectory's rate at 100 Hz controller ticks while a set-point source sends v = (accel t, 0, 0) at
+    rate_hz (each set-point held until the next arrives)."""
+    trajectory = SetpointTrajectory()
+    period_usec = round(1e6 / rate_hz)
+    rates = []
+    for tick in range(round(seconds * 100) + 1):
+        t_usec = tick * 10_000
+        sent_usec = (t_usec // period_usec) * period_usec  # the last set-point received
+        rates.append(trajectory.update(t_usec, np.array([accel * sent_usec / 1e6, 0.0, 0.0])).copy())
+    return rates
+
+
+@pytest.mark.parametrize("rate_hz", [50.0, 100.0])
+def test_setpoint_trajectory_estimates_a_ramps_rate(rate_hz):
+    rates = ramp_rates(rate_hz, 2.0)
+    # From the second distinct set-point on, the rate is (2 m/s^2 * period) / period = 2 m/s^2 along north.
+    for rate in rates[round(100 / rate_hz) :]:
+        assert rate == pytest.approx([2.0, 0.0, 0.0], abs=1e-9)
+
+
+def test_setpoint_trajectory_takes_a_step_for_a_step():
+    trajectory = SetpointTrajectory()
+    trajectory.update(0, np.zeros(3))
+    # 0.2 m/s in 10 ms is 20 m/s^2 > MAX_RATE (10): a step, rate 0.
+    assert trajectory.update(10_000, np.array([0.2, 0.0, 0.0])) == pytest.approx(np.zeros(3))
+    # 0.09 m/s in 10 ms is 9 m/s^2: still a ramp.
+    assert trajectory.update(20_000, np.array([0.29, 0.0, 0.0])) == pytest.approx([9.0, 0.0, 0.0])
+
+
+def test_setpoint_trajectory_rate_returns_to_zero_when_the_setpoint_is_held():
+    trajectory = SetpointTrajectory()
+    for tick in range(5):  # a 2 m/s^2 ramp at 50 Hz: a new set-point every 20 ms
+        trajectory.update(tick * 20_000, np.array([0.04 * tick, 0.0, 0.0]))
+    held = np.array([0.16, 0.0, 0.0])
+    assert trajectory.update(90_000, held) == pytest.approx([2.0, 0.0, 0.0])  # 10 ms held: < 1.5 x 20 ms
+    assert trajectory.update(100_000, held) == pytest.approx([2.0, 0.0, 0.0])  # 20 ms: < 30 ms
+    assert trajectory.update(120_000, held) == pytest.approx(np.zeros(3))  # 40 ms > 30 ms: held, rate 0
+    assert trajectory.update(130_000, held) == pytest.approx(np.zeros(3))  # and stays 0
+
+
+def test_setpoints_further_apart_than_half_a_second_are_not_a_trajectory():
+    trajectory = SetpointTrajectory()
+    trajectory.update(0, np.zeros(3))
+    # 1 m/s in 0.6 s would be 1.7 m/s^2, a plausible ramp, but the set-points are 0.6 s apart.
+    assert trajectory.update(600_000, np.array([1.0, 0.0, 0.0])) == pytest.approx(np.zeros(3))
+    # 0.4 s apart is still a trajectory: 0.8 m/s / 0.4 s = 2 m/s^2.
+    assert trajectory.update(1_000_000, np.array([1.8, 0.0, 0.0])) == pytest.approx([2.0, 0.0, 0.0])
+
+
+G = 9.81
+
+
+@pytest.mark.parametrize("heading_deg", [0.0, 90.0, 200.0, -45.0])
+def test_coordinated_roll_banks_into_lateral_acceleration(heading_deg):
+    heading = math.radians(heading_deg)
+    # 2.7 m/s^2 to the right of the heading (east of north when heading north): atan(2.7 / 9.81) = 15.39 deg right.
+    right = np.array([-math.sin(heading), math.cos(heading), 0.0])
+    roll = coordinated_roll(2.7 * right, heading, G, math.pi / 4)
+    assert math.degrees(roll) == pytest.approx(math.degrees(math.atan(2.7 / G)), abs=1e-9)
+    assert math.degrees(roll) == pytest.approx(15.39, abs=0.01)
+    # To the left: the same bank, negative.
+    assert coordinated_roll(-2.7 * right, heading, G, math.pi / 4) == pytest.approx(-roll)
+    # Along the heading (accelerating or braking): no bank.
+    along = np.array([math.cos(heading), math.sin(heading), 0.0])
+    assert coordinated_roll(3.0 * along, heading, G, math.pi / 4) == pytest.approx(0.0, abs=1e-12)
+    assert coordinated_roll(-3.0 * along, heading, G, math.pi / 4) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_coordinated_roll_is_clamped_to_the_limit():
+    # 20 m/s^2 across the heading north would be atan(20 / 9.81) = 63.9 deg; the limit is 45 deg.
+    assert coordinated_roll(np.array([0.0, 20.0, 0.0]), 0.0, G, math.pi / 4) == pytest.approx(math.pi / 4)
+    assert coordinated_roll(np.array([0.0, -20.0, 0.0]), 0.0, G, math.pi / 4) == pytest.approx(-math.pi / 4)
+
+
+def test_shift_yaw_moves_the_whole_plan_by_whole_turns(solver):
+    x0 = np.zeros(NX)
+    x0[PSI_INDEX] = 3.0
+    params = np.zeros((NP, solver.horizon + 1))
+    params[3, :] = 3.0
+    params[4:8, :] = 1.0
+    params[10, :] = 3.0
+    solver.set_actuator_limits(np.full(4, 23.0), np.full(4, np.nan))
+    converge(solver, x0, params, iterations=5)
+    before = solver.w.copy()
+    solver.shift_yaw(2 * math.pi)
+    stride = NX + 11
+    changed = np.flatnonzero(solver.w != before)
+    yaw_slots = {PSI_INDEX + k * stride for k in range(solver.horizon + 1)}
+    yaw_slots |= {NX + 10 + k * stride for k in range(solver.horizon)}
+    assert set(changed.tolist()) == yaw_slots  # every planned yaw and yaw set-point, nothing else
+    assert solver.w[list(yaw_slots)] - before[list(yaw_slots)] == pytest.approx(2 * math.pi)
+    # The same plan: one more RTI from the shifted plan and the shifted state steps as from the original.
+    x0_turned = x0.copy()
+    x0_turned[PSI_INDEX] += 2 * math.pi
+    params_turned = params.copy()
+    params_turned[[3, 10], :] += 2 * math.pi
+    assert solver.solve(x0_turned, params_turned).ok
+    after_turned = solver.w.copy()
+    solver.w[:] = before
+    assert solver.solve(x0, params).ok
+    difference = after_turned - solver.w
+    difference[list(yaw_slots)] -= 2 * math.pi
+    assert np.abs(difference).max() < 1e-6
+
+
+def cruise_state(time_usec: int, yaw: float, speed: float = 10.0) -> VehicleState:
+    state = VehicleState(time_usec=time_usec, valid=True)
+    state.velocity_ned = np.array([speed * math.cos(yaw), speed * math.sin(yaw), 0.0])
+    state.euler = np.array([0.0, 0.0, yaw])
+    return state
+
+
+def test_the_controller_keeps_yaw_continuous_across_180_degrees(airframe):
+    servos = ServoEstimate(airframe)
+    servos.tilt[:] = math.radians(30)
+    allocator = ControlAllocator(airframe, u_initial=[0.6] * 4 + [0.0] * 4)
+    controller = MpcVelocityController(airframe, allocator, servos)
+    # Flying south at 10 m/s, heading +179.8 deg, set-point along the heading.
+    v_sp = np.array([-10.0, 0.0, 0.0])
+    yaw = math.radians(179.8)
+    for tick in range(20):
+        controller.update(cruise_state(tick * 10_000, yaw), v_sp, servos.tilt)
+        assert controller.last_solution.ok
+    # The measurement wraps to just past -180 deg (-179.9 deg); the plan is near +180 deg.
+    wrapped = math.radians(-179.9)
+    for tick in range(20, 30):
+        command = controller.update(cruise_state(tick * 10_000, wrapped), v_sp, servos.tilt)
+        assert controller.last_solution.ok
+        assert controller.failures_in_row == 0
+        # x_0's yaw unwrapped to the plan: 180.1 deg, not -179.9 deg.
+        assert math.degrees(controller.last_x0[PSI_INDEX]) == pytest.approx(180.1, abs=1e-6)
+        # The yaw set-point sent to the attitude loop is wrapped back to (-180, 180].
+        assert -math.pi < command.euler_sp[2] <= math.pi
+        assert abs(math.remainder(command.euler_sp[2] - wrapped, 2 * math.pi)) < math.radians(5)
+    # A plan more than a turn from zero is moved back by whole turns before the solve.
+    controller.solver.shift_yaw(4 * math.pi)
+    controller.update(cruise_state(30 * 10_000, wrapped), v_sp, servos.tilt)
+    assert controller.last_solution.ok
+    yaw_x0 = controller.last_x0[PSI_INDEX]  # 180.1 + 720 deg (2.5 turns) brought back by 3 turns: -179.9 deg
+    assert math.degrees(yaw_x0) == pytest.approx(-179.9, abs=1e-6)
+    assert abs(controller.solver.states()[:, PSI_INDEX] - yaw_x0).max() < math.radians(5)
+
+
+def test_a_servo_stuck_near_its_estimate_leaves_the_qp_feasible(solver):
+    # Servo 1 jammed at 60 deg while its estimate, x_0's tilt, is still 0.07 deg past it (docs/mpc.md 2.7).
+    x0 = np.zeros(NX)
+    x0[0] = 12.0
+    x0[CHI] = (math.radians(60.07), math.radians(60), math.radians(60), math.radians(60))
+    params = np.zeros((NP, solver.horizon + 1))
+    params[0, :] = 12.0
+    params[4:8, :] = np.array([0.0, 1.0, 1.0, 1.0])[:, None]
+    solver.set_actuator_limits(np.full(4, 23.0), np.array([math.radians(60), np.nan, np.nan, np.nan]))
+    solver.initialise(x0, solver.airframe.hover_thrust_per_rotor)
+    solver.levenberg = 0.1
+    for _ in range(5):
+        assert solver.solve(x0, params).ok
+    states, inputs = solver.states(), solver.inputs()
+    assert np.degrees(states[:, 3]) == pytest.approx(60.07, abs=1e-6)  # held at the estimate in every stage
+    assert np.abs(inputs[:, 0]).max() < 1e-9  # with zero tilt rate
+    solver.set_actuator_limits(np.full(4, 23.0), np.full(4, np.nan))
+
+
+# ---- the soft roll and pitch bound (docs/mpc.md 2.8) ----
+
+from autopilot.mpc_model import MpcLimits, MpcWeights, attitude_bound_residual  # noqa: E402
+
+
+def test_soft_attitude_bound_is_zero_inside_and_quadratic_beyond():
+    import casadi as ca
+
+    weights, limits = MpcWeights(), MpcLimits()
+    q, width = weights.q_attitude_bound, weights.attitude_bound_width
+
+    def penalty(roll_deg: float, pitch_deg: float) -> float:
+        x = np.zeros(NX)
+        x[7], x[8] = math.radians(roll_deg), math.radians(pitch_deg)
+        return float(ca.sumsqr(attitude_bound_residual(weights, limits, ca.DM(x))))
+
+    # At the bound: q (width ln 2)^2 = 1e6 (0.05236 * 0.6931)^2 = 1317 per stage.
+    assert penalty(0.0, 45.0) == pytest.approx(q * (width * math.log(2)) ** 2, rel=1e-9)
+    assert penalty(0.0, -45.0) == pytest.approx(penalty(0.0, 45.0), rel=1e-9)
+    assert penalty(45.0, 0.0) == pytest.approx(penalty(0.0, 45.0), rel=1e-9)
+    # 10 deg beyond: softplus(10/3) ~ 10/3 + e^(-10/3): ~ q (10 deg)^2 = 1e6 * 0.1745^2 ~ 3.1e4.
+    assert penalty(0.0, 55.0) == pytest.approx(q * (width * math.log1p(math.exp(10 / 3))) ** 2, rel=1e-9)
+    assert penalty(0.0, 55.0) == pytest.approx(q * math.radians(10) ** 2, rel=0.03)
+    # The accel and circle attitudes (pitch 12 deg, bank 15.4 deg) are 30 deg = 10 widths inside: negligible.
+    assert penalty(15.4, 12.0) < 1e-3
+    # q = 0: the paper's hard bound, no penalty.
+    assert attitude_bound_residual(MpcWeights(q_attitude_bound=0.0), limits, ca.DM(np.zeros(NX))).numel() == 0
+
+
+def pitching_through_the_bound() -> tuple[np.ndarray, np.ndarray]:
+    """accel-decel at 22.30 s before the change (docs/mpc.md 2.8): braking from 15.9 m/s, pitch 44.4 deg and still
+    rising at 1.67 rad/s. To stop that inside 45 deg (0.6 deg = 0.0105 rad away) takes 1.67^2 / (2 0.0105) =
+    133 rad/s^2; the attitude law gives at most K_p (pi + 1.67) = 96 rad/s^2 (its rate set-point saturates at
+    -pi): no plan keeps |theta| <= 45 deg. (The first QP, linearised at the cold guess where the law's tanh is
+    still linear, does not see the saturation; the following ones do.)"""
+    x0 = np.zeros(NX)
+    x0[0:3] = (15.9, 0.0, -1.37)
+    x0[CHI] = math.radians(-4.0)
+    x0[8] = math.radians(44.4)
+    x0[11] = x0[14] = 1.67  # pitch rate, and the previous tick's
+    params = np.zeros((NP, 26))
+    params[0, :] = 9.4 - 2.0 * np.arange(26) * 0.01
+    params[4:8, :] = 1.0
+    return x0, params
+
+
+def test_a_pitch_that_cannot_be_stopped_inside_45_degrees_leaves_the_qp_feasible(solver):
+    x0, params = pitching_through_the_bound()
+    solver.set_actuator_limits(np.full(4, 23.0), np.full(4, np.nan))
+    solver.initialise(x0, solver.airframe.hover_thrust_per_rotor)
+    solver.levenberg = 0.1
+    for _ in range(10):
+        assert solver.solve(x0, params).ok
+    pitch = np.degrees(solver.states()[:, 8])
+    assert pitch.max() < 46.0  # measured 45.34: over the bound by what cannot be helped, then back under it
+    assert pitch[-1] < 45.0
+    assert solver.inputs()[0, 9] < 0.0  # the pitch set-point asks to pitch down, to stop it
+
+
+def test_the_papers_hard_pitch_bound_makes_the_same_qp_infeasible(airframe):
+    hard = RtiSolver(airframe, weights=MpcWeights(q_attitude_bound=0.0))
+    x0, params = pitching_through_the_bound()
+    hard.set_actuator_limits(np.full(4, 23.0), np.full(4, np.nan))
+    hard.initialise(x0, airframe.hover_thrust_per_rotor)
+    hard.levenberg = 0.1
+    solved = [hard.solve(x0, params).ok for _ in range(5)]
+    assert solved == [True, False, False, False, False]  # 3 in a row: the PID would take over
