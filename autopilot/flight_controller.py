@@ -1,6 +1,7 @@
 """The autopilot's control core: velocity controller at 100 Hz, attitude loop and allocation at 250 Hz, in
 simulation time, producing the 12 actuator commands of every 400 Hz plant step (SPEC section 4).
 
+    measured velocity  --(400 Hz)--> VelocityEstimate (accelerometer-aided) --> the velocity the controllers use
     velocity set-point --(100 Hz)--> velocity controller --> attitude set-point, tilts, force set-point
     attitude set-point --(250 Hz)--> attitude loop --> torque set-point
     (force, torque)    --(250 Hz)--> QP allocation --> rotor thrusts, surfaces
@@ -12,6 +13,8 @@ The 250 Hz tasks run on the 400 Hz plant clock whenever their 4 ms period has el
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from aircraft.airframe import Airframe
@@ -22,6 +25,7 @@ from autopilot.mpc_controller import MpcVelocityController, solve_statistics
 from autopilot.pid_baseline import PidVelocityController
 from autopilot.vehicle_state import VehicleState
 from autopilot.velocity_command import VelocityCommand
+from autopilot.velocity_estimate import VelocityEstimate
 
 VELOCITY_PERIOD_USEC = 10_000  # 100 Hz
 ATTITUDE_PERIOD_USEC = 4_000  # 250 Hz
@@ -33,7 +37,6 @@ YAW_TILT_MAX = np.radians(35.0)
 # Priorities when the demand is infeasible, as PX4's allocation has them: roll and pitch first (1 N m of
 # error costs like 10 N of force error), then thrust, yaw last (1 N m like 1 N).
 MOMENT_WEIGHTS = (100.0, 100.0, 1.0)
-
 
 class FlightController:
     """Velocity set-point in, physical actuator commands out (thrust fractions, tilts rad, deflections)."""
@@ -54,6 +57,7 @@ class FlightController:
         self.events: list[str] = []  # what the vehicle should announce (STATUSTEXT), taken by pop_events()
         self.health = ActuatorHealth(airframe, self.allocator, self.servos)
         self.velocity_command = VelocityCommand()
+        self.velocity_estimate = VelocityEstimate(airframe.gravity)
         self.velocity_setpoint = np.zeros(3)
         self.command = np.zeros(12)
         self.command[0:4] = hover
@@ -104,6 +108,9 @@ class FlightController:
         t = state.time_usec
         if self._next_velocity_usec is None:
             self._next_velocity_usec = self._next_attitude_usec = self._servo_time_usec = t
+        velocity = self.velocity_estimate.update(state)
+        if t >= self._next_velocity_usec or t >= self._next_attitude_usec:
+            state = dataclasses.replace(state, velocity_ned=velocity.copy())  # the controllers fly on the estimate
         if t >= self._next_velocity_usec:
             self._next_velocity_usec += VELOCITY_PERIOD_USEC
             self.velocity_command = self.velocity_controller.update(state, self.velocity_setpoint, self.servos.tilt)
