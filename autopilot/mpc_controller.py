@@ -88,6 +88,7 @@ class MpcVelocityController:
         coordinated turn (phi_ref)."""
         solver, params = self.solver, self.params
         rate = self.trajectory.update(time_usec, v_sp)
+        v_sp = self.trajectory.now(time_usec)
         stage_times = np.arange(solver.horizon + 1) * solver.dt
         params[0:3, :] = v_sp[:, None] + rate[:, None] * stage_times[None, :]
         params[4:8, :] = np.isnan(self.servos.stuck)[:, None]

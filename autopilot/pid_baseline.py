@@ -172,6 +172,7 @@ class PidVelocityController:
         p = self.p
         a = self.airframe
         self.setpoint_rate = self.trajectory.update(state.time_usec, v_sp)
+        v_sp = self.trajectory.now(state.time_usec)  # slower set-points carried on along their rate
         mean_tilt = float(np.mean(tilts))
         speed_sp = math.hypot(v_sp[0], v_sp[1])
         self._update_phase(state, speed_sp, mean_tilt)

@@ -51,6 +51,16 @@ class SetpointTrajectory:
             self.rate = np.zeros(3)
         return self.rate
 
+    def now(self, time_usec: int) -> np.ndarray:
+        """The set-point carried on to `time_usec` along its rate (call after update() at that time).
+
+        Set-points slower than the controllers' 100 Hz (50 Hz offboard) would otherwise hold for a tick and then
+        jump: a reference that lags by 0 and 10 ms on alternate ticks, which the MPC answered with a 50 Hz
+        alternation of its commands."""
+        if self.last is None:
+            return np.zeros(3)
+        return self.last + self.rate * ((time_usec - self.last_usec) / 1e6)
+
 
 def course_rate(v_sp: np.ndarray, rate: np.ndarray) -> float:
     """How fast the set-point's course turns (rad/s) for a set-point v_sp changing at `rate` (m/s^2, NED):
