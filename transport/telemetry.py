@@ -46,9 +46,9 @@ def encode_plant_state(
 
 def decode_plant_state(payload: bytes) -> dict[str, float]:
     """Field name -> value of one plant state sample."""
+    if len(payload) != 8 * len(PLANT_STATE_FIELDS):
+        raise ValueError(f"plant state payload has {len(payload)} bytes, expected {8 * len(PLANT_STATE_FIELDS)}")
     values = np.frombuffer(payload, dtype="<f8")
-    if values.size != len(PLANT_STATE_FIELDS):
-        raise ValueError(f"plant state payload has {values.size} values, expected {len(PLANT_STATE_FIELDS)}")
     return dict(zip(PLANT_STATE_FIELDS, values.tolist()))
 
 
