@@ -42,6 +42,11 @@ def wrap_angle(angle: ca.SX) -> ca.SX:
     return ca.atan2(ca.sin(angle), ca.cos(angle))
 
 
+def wrap(angle: float) -> float:
+    """wrap_angle on a plain float (rad), for the controllers' per-tick Python code."""
+    return math.atan2(math.sin(angle), math.cos(angle))
+
+
 def attitude_law(
     euler: ca.SX, euler_rate: ca.SX, euler_rate_prev: ca.SX, euler_sp: ca.SX, gains: AttitudeGains = DEFAULT_GAINS
 ) -> ca.SX:

@@ -38,6 +38,7 @@ YAW_TILT_MAX = np.radians(35.0)
 # error costs like 10 N of force error), then thrust, yaw last (1 N m like 1 N).
 MOMENT_WEIGHTS = (100.0, 100.0, 1.0)
 
+
 class FlightController:
     """Velocity set-point in, physical actuator commands out (thrust fractions, tilts rad, deflections)."""
 

@@ -290,13 +290,7 @@ class MavlinkVehicle:
             self._write_error = self.params.write_error
             if self._write_error:
                 self.announce(M.MAV_SEVERITY_ERROR, f"Parameters not saved: {self._write_error}")
-        ready = self._poll.poll(0)
-        if ready:
-            deadline = time.perf_counter() + INPUT_BUDGET_S
-            for fd, _ in ready:
-                link = self._by_fd[fd]
-                for data, sender in link.receive(deadline):
-                    self._handle_datagram(link, data, sender)
+        self._serve_input(0, INPUT_BUDGET_S)
         if self.commander.state_changed:
             self.commander.state_changed = False
             for link in self.links:
@@ -320,11 +314,7 @@ class MavlinkVehicle:
         said = False
         self._send_system_time()
         while not self.commander.setpoints_cover(time_usec) and not should_stop():
-            ready = self._poll.poll(HOLD_POLL_MS)
-            for fd, _ in ready:
-                link = self._by_fd[fd]
-                for data, sender in link.receive(time.perf_counter() + HOLD_POLL_MS / 1000):
-                    self._handle_datagram(link, data, sender)
+            ready = self._serve_input(HOLD_POLL_MS, HOLD_POLL_MS / 1000)
             for link in self.links:
                 if link.out:
                     link.flush()
@@ -337,6 +327,18 @@ class MavlinkVehicle:
                     print(f"vtol-autopilot: --offboard-lockstep: holding the simulation at {time_usec / 1e6:.3f} s "
                           "until a client streams set-points stamped with time_boot_ms", file=sys.stderr, flush=True)
         self.hold_wall_s += time.monotonic() - waiting_since
+
+    def _serve_input(self, wait_ms: int, budget_s: float) -> bool:
+        """Handle the datagrams waiting on the links (waiting up to wait_ms for the first), within budget_s of
+        work per link; True if any link had input."""
+        ready = self._poll.poll(wait_ms)
+        if ready:
+            deadline = time.perf_counter() + budget_s
+            for fd, _ in ready:
+                link = self._by_fd[fd]
+                for data, sender in link.receive(deadline):
+                    self._handle_datagram(link, data, sender)
+        return bool(ready)
 
     def _send_system_time(self) -> None:
         for link in self.links:

@@ -17,6 +17,7 @@ import numpy as np
 
 from aircraft.airframe import Airframe
 from autopilot.allocation import ControlAllocator
+from autopilot.attitude import wrap
 from autopilot.actuator_health import ServoEstimate
 from autopilot.mpc import PSI_INDEX, MpcSolution, RtiSolver, planned_force_function
 from autopilot.mpc_model import CHI, NP, NX, PSI_D, THRUST, MpcLimits, yaw_reference
@@ -121,7 +122,7 @@ class MpcVelocityController:
                 turns = 2 * math.pi * round(planned / (2 * math.pi))
                 solver.shift_yaw(-turns)
                 planned -= turns
-            yaw = planned + math.atan2(math.sin(yaw - planned), math.cos(yaw - planned))
+            yaw = planned + wrap(yaw - planned)
         euler = np.array([state.euler[0], state.euler[1], yaw])
         x0 = np.concatenate((state.velocity_ned, tilts, euler, rates, previous))
         self.last_x0 = x0
@@ -145,7 +146,7 @@ class MpcVelocityController:
         u0 = inputs[0]
         command = VelocityCommand(mode="MPC")
         command.euler_sp[:] = u0[PSI_D]
-        command.euler_sp[2] = math.atan2(math.sin(u0[PSI_D][2]), math.cos(u0[PSI_D][2]))
+        command.euler_sp[2] = wrap(u0[PSI_D][2])
         command.tilt_sp[:] = states[min(TILT_LEAD_STAGES, solver.horizon)][CHI]
         command.force_sp_body[:] = np.asarray(self.force_function(states[0], u0)).ravel()
         command.force_weights[:] = 1.0

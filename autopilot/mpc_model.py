@@ -42,7 +42,7 @@ from aircraft.aerodynamics import aero_effectiveness
 from aircraft.airframe import Airframe
 from aircraft.frames import rotation_from_euler
 from aircraft.wrench import body_wrench
-from autopilot.attitude import DEFAULT_GAINS, AttitudeGains, attitude_law, wrap_angle
+from autopilot.attitude import DEFAULT_GAINS, AttitudeGains, attitude_law, wrap, wrap_angle
 from autopilot.velocity_command import setpoint_course
 
 NX, NU = 16, 11
@@ -196,7 +196,7 @@ def yaw_reference(v_sp_north: float, v_sp_east: float, yaw_now: float) -> float:
     course = setpoint_course(v_sp_north, v_sp_east)
     if course is None:
         return yaw_now
-    return yaw_now + math.atan2(math.sin(course - yaw_now), math.cos(course - yaw_now))
+    return yaw_now + wrap(course - yaw_now)
 
 
 DEFAULTS = (DEFAULT_GAINS, MpcWeights(), SoftTiltCost(), MpcLimits())

@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aircraft.airframe import Airframe
-from autopilot.attitude import DEFAULT_GAINS
+from autopilot.attitude import DEFAULT_GAINS, wrap
 from autopilot.vehicle_state import VehicleState
 from autopilot.velocity_command import SetpointTrajectory, VelocityCommand, course_rate, setpoint_course
 
@@ -58,10 +58,6 @@ class PidParameters:
 
 def clamp(value: float, low: float, high: float) -> float:
     return low if value < low else high if value > high else value
-
-
-def wrap(angle: float) -> float:
-    return math.atan2(math.sin(angle), math.cos(angle))
 
 
 class PidVelocityController:

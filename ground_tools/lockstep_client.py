@@ -14,11 +14,12 @@ what pymavlink's mavlogdump reads); the timestamps are the run's wall-clock star
 
 from __future__ import annotations
 
+import math
 import socket
 import struct
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, BinaryIO
 
 import numpy as np
@@ -134,12 +135,10 @@ class LockstepClient:
         kind = message.get_type()
         if kind == "ATTITUDE":
             self._now_ms = max(self._now_ms, message.time_boot_ms)
-            t = self.telemetry
-            self.telemetry = Telemetry(float(np.degrees(message.roll)), float(np.degrees(message.pitch)),
-                                       float(np.degrees(message.yaw)), t.tilt_cmd_deg)  # fmt: skip
+            self.telemetry = replace(self.telemetry, roll_deg=math.degrees(message.roll),
+                                     pitch_deg=math.degrees(message.pitch), yaw_deg=math.degrees(message.yaw))
         elif kind == "SERVO_OUTPUT_RAW":
-            t = self.telemetry
-            self.telemetry = Telemetry(t.roll_deg, t.pitch_deg, t.yaw_deg, tilt_commands_deg(self.airframe, message))
+            self.telemetry = replace(self.telemetry, tilt_cmd_deg=tilt_commands_deg(self.airframe, message))
         elif kind == "STATUSTEXT":
             self.events.statustexts.append((self._now_ms, message.text))
         elif kind == "COMMAND_ACK":

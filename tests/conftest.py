@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import os
 import signal
-import socket
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -33,12 +32,6 @@ def isolated_parameter_files(tmp_path_factory) -> Iterator[None]:
 @pytest.fixture(scope="session")
 def airframe() -> Airframe:
     return load_airframe()
-
-
-def free_tcp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 @dataclass

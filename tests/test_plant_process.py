@@ -181,7 +181,7 @@ def test_failure_injection_over_the_link(start_plant, airframe):
 def test_stuck_servo_over_the_link_seen_in_zenoh_truth(start_plant, airframe):
     import zenoh
 
-    from tests.conftest import free_tcp_port
+    from ground_tools.lockstep_flight import free_tcp_port
     from transport.telemetry import decode_plant_state, plant_state_key
     from transport.zenoh_bus import session_config
 

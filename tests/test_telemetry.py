@@ -10,7 +10,7 @@ import time
 import zenoh
 
 from ground_tools.lockstep_flight import free_link_ports, free_udp_port
-from tests.conftest import free_tcp_port
+from ground_tools.lockstep_flight import free_tcp_port
 from transport.telemetry import control_key, decode_plant_state, mpc_key, plant_state_key
 from transport.zenoh_bus import session_config
 

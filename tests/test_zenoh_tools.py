@@ -18,6 +18,7 @@ import pytest
 
 from ground_tools import cli
 from ground_tools.lockstep_flight import free_link_ports, free_udp_port
+from ground_tools.lockstep_flight import free_tcp_port
 from ground_tools.telemetry_record import (
     TelemetryRecorder,
     decode_payload,
@@ -40,7 +41,7 @@ from ground_tools.watch import (
     status_line,
     time_series,
 )
-from tests.conftest import free_tcp_port, vtol_sim_command
+from tests.conftest import vtol_sim_command
 from transport.telemetry import PLANT_STATE_FIELDS, control_key, encode_control, mpc_key, plant_state_key
 
 VTOL = [sys.executable, "-m", "ground_tools"]
