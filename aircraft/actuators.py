@@ -23,9 +23,32 @@ from aircraft.airframe import Airframe
 CHANNELS = 12
 PWM_MIN = 1000
 PWM_MAX = 2000
+ROTOR_COUNT = 4
+# The groups of the 12-channel command order (SERVO_OUTPUT_RAW channels 1-12 are indices 0-11).
 ROTORS = slice(0, 4)
 TILTS = slice(4, 8)
 SURFACES = slice(8, 12)
+SERVO_CHANNELS = slice(4, 12)  # what MAV_CMD_INJECT_FAILURE calls servos: tilt servos 1-4, then surfaces 5-8
+# The allocator's 8 actuators (rotor thrust fractions, then surfaces); the tilts are not allocated.
+ALLOCATED_ROTORS = slice(0, 4)
+ALLOCATED_SURFACES = slice(4, 8)
+ALLOCATED_COUNT = 8
+ACTUATOR_NAMES = (
+    "rotor 1", "rotor 2", "rotor 3", "rotor 4",
+    "tilt servo 1", "tilt servo 2", "tilt servo 3", "tilt servo 4",
+    "left aileron", "right aileron", "elevator", "rudder",
+)  # fmt: skip
+
+
+def allocated_of(command: np.ndarray) -> np.ndarray:
+    """The allocator's 8 actuators (rotors, surfaces) out of a 12-channel command."""
+    return np.concatenate((command[ROTORS], command[SURFACES]))
+
+
+def set_allocated(command: np.ndarray, allocated: np.ndarray) -> None:
+    """Write the allocator's 8 actuators into their channels of a 12-channel command (tilts untouched)."""
+    command[ROTORS] = allocated[ALLOCATED_ROTORS]
+    command[SURFACES] = allocated[ALLOCATED_SURFACES]
 
 
 @dataclass
