@@ -1,4 +1,4 @@
-"""`vtol-autopilot`: the autopilot process (SPEC sections 1, 2, 4 and 5)."""
+"""`vtol-autopilot`: the autopilot process: the flight stack on the plant link, MAVLink services for ground stations."""
 
 from __future__ import annotations
 
@@ -8,12 +8,20 @@ import sys
 from pathlib import Path
 
 from aircraft.airframe import AirframeError, load_airframe
+from aircraft.failures import FailureRejected, parse_failure
 from autopilot.commander import Commander
-from autopilot.controller_choice import ControllerChoice
-from autopilot.mavlink_vehicle import GroundLink, MavlinkVehicle
+from autopilot.control_telemetry import ControlTelemetry
+from autopilot.controllers import build_flight_controller, controller_kind
+from autopilot.failure_injection import FailureInjection, ScheduledFailure
+from autopilot.flight_controller import FlightController
+from autopilot.flight_log_writer import FlightLogWriter
+from autopilot.flight_stack import FlightStack
+from autopilot.mavlink.router import GroundLink, Router
+from autopilot.mavlink.services import MavlinkServices
 from autopilot.parameters import ParameterFileError, ParameterStore, default_parameter_path
-from autopilot.plant_loop import PlantLoop, ScheduledFailure
+from autopilot.plant_loop import LoopOutputs, PlantLoop
 from autopilot.setpoint_profiles import PROFILES
+from autopilot.vehicle_status import EventOutbox
 from transport.cli import (
     OneLineArgumentParser,
     bounded_int,
@@ -23,8 +31,11 @@ from transport.cli import (
     positive_float,
     stop_on_signals,
 )
+from transport.geodesy import Home
+from transport.mavlink import mavlink
 from transport.plant_link import PlantLinkClient
 from transport.ports import LOOPBACK, Ports
+from transport.telemetry import autopilot_events_key
 from transport.zenoh_bus import open_session
 
 PROG = "vtol-autopilot"
@@ -37,13 +48,14 @@ def scheduled_failure(text: str) -> ScheduledFailure:
         raise argparse.ArgumentTypeError(f"expected T,UNIT,TYPE,INSTANCE[,VALUE]: {text!r}")
     try:
         time_s = finite_float(parts[0])
-        unit, kind, instance = (int(p) for p in parts[1:4])
+        unit, kind, instance = (float(p) for p in parts[1:4])
         value = float(parts[4]) if len(parts) == 5 else float("nan")
     except ValueError:
         raise argparse.ArgumentTypeError(f"not numbers: {text!r}") from None
-    if unit not in (101, 102) or kind not in (0, 1, 2, 4) or not 0 <= instance <= 8:
-        raise argparse.ArgumentTypeError(f"unit 101|102, type 0|1|2|4, instance 0..8: {text!r}")
-    return ScheduledFailure(time_s, unit, kind, instance, value)
+    try:
+        return ScheduledFailure(time_s, parse_failure(unit, kind, instance, value))
+    except FailureRejected as refusal:
+        raise argparse.ArgumentTypeError(f"{refusal}: {text!r}") from None
 
 
 def build_parser() -> OneLineArgumentParser:
@@ -68,7 +80,7 @@ def build_parser() -> OneLineArgumentParser:
     parser.add_argument("--spawn-alt", type=nonnegative_float, default=0.0, metavar="M",
                         help="the plant spawned hovering: start armed, in Hold (0 = on the ground, disarmed)")
     parser.add_argument("--profile", choices=sorted(PROFILES),
-                        help="fly an internal velocity set-point profile (SPEC section 7) from the first step "
+                        help="fly an internal velocity set-point profile (docs/scenarios.md) from the first step "
                              "instead of taking commands")  # fmt: skip
     parser.add_argument("--offboard-lockstep", action="store_true",
                         help="deterministic scripted flights: Offboard set-points take effect at their time_boot_ms "
@@ -115,16 +127,21 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{PROG}: warning: {warning}", file=sys.stderr)
     system_id = args.sysid if args.sysid is not None else params.get_int("MAV_SYS_ID")
     sim_port = args.sim_port if args.sim_port is not None else ports.plant
-    links = [
+    router = Router([
         open_link("GCS", args.gcs_port or ports.gcs_bind, args.gcs_remote_port or ports.gcs_remote, system_id),
         open_link("API", args.api_port or ports.api_bind, args.api_remote_port or ports.api_remote, system_id),
-    ]
+    ])  # fmt: skip
     stop_requested = stop_on_signals()
     in_air = args.spawn_alt > 0
     profile = PROFILES[args.profile][0] if args.profile else None
+    events = EventOutbox()
     commander = Commander(params, airframe.hover_thrust_per_rotor / airframe.thrust_max, armed=in_air, in_air=in_air,
-                          profile=profile, stamped_setpoints=args.offboard_lockstep)  # fmt: skip
+                          say=events.say, profile=profile, stamped_setpoints=args.offboard_lockstep)  # fmt: skip
     client = PlantLinkClient(sim_port, system_id=system_id)
+    injection = FailureInjection(send=lambda failure: client.send_command_long(mavlink.MAV_CMD_INJECT_FAILURE,
+                                                                              failure.as_params()),
+                                 note=lambda text: print(f"{PROG}: {text}", file=sys.stderr, flush=True),
+                                 scheduled=args.failure)  # fmt: skip
     try:
         log = open(args.log, "w", newline="") if args.log else None
     except OSError as exc:
@@ -132,27 +149,36 @@ def main(argv: list[str] | None = None) -> int:
     session = None
     if not args.no_zenoh:
         session = open_session(args.zenoh_listen or [ports.zenoh_autopilot], args.zenoh_connect, PROG)
-    vehicle = MavlinkVehicle(links, params, commander, system_id=system_id, zenoh_session=session, quiet=args.quiet)
-    choice = ControllerChoice(airframe, params, args.controller,
-                              say=lambda text: vehicle.announce(4, text, key="controller"))  # fmt: skip
-    loop = PlantLoop(
-        airframe, choice.build(), client, commander,
-        controller_factory=choice.build, vehicle=vehicle, params=params,
-        duration_s=args.duration, failures=args.failure, log=log,
-        zenoh_session=session, system_id=system_id,
-        should_stop=stop_requested,
+    home = Home()
+    services = MavlinkServices(
+        router, params, FlightStack(commander, injection, params), system_id=system_id, home=home,
+        events_publisher=None if session is None else session.declare_publisher(autopilot_events_key(system_id)),
+        quiet=args.quiet,
     )  # fmt: skip
-    vehicle.inject_failure = loop.request_failure
-    vehicle.parameter_changed = loop.parameter_changed
-    print(f"{PROG}: {choice.flying} controller, plant link udp {LOOPBACK}:{sim_port}, "
-          f"GCS udp {LOOPBACK}:{links[0].bind_port} -> {links[0].default_remote[1]}, "
-          f"API udp {LOOPBACK}:{links[1].bind_port} -> {links[1].default_remote[1]}, "
+    kind = controller_kind(args.controller, params.get_int("VT_CTRL"))
+
+    def new_flight_controller() -> FlightController:
+        """Built at start and at every takeoff from the ground, with the parameters of the moment."""
+        return build_flight_controller(airframe, controller_kind(args.controller, params.get_int("VT_CTRL")),
+                                       params["VT_ARSP_BLEND"], params["VT_ARSP_TRANS"])  # fmt: skip
+
+    outputs = LoopOutputs(
+        log=None if log is None else FlightLogWriter(log),
+        telemetry=None if session is None else ControlTelemetry(session, system_id),
+    )
+    loop = PlantLoop(airframe, new_flight_controller, client, commander, params, injection, events,
+                     services=services, home=home, outputs=outputs, duration_s=args.duration,
+                     offboard_lockstep=args.offboard_lockstep, should_stop=stop_requested)  # fmt: skip
+    gcs, api = router.links
+    print(f"{PROG}: {kind} controller, plant link udp {LOOPBACK}:{sim_port}, "
+          f"GCS udp {LOOPBACK}:{gcs.bind_port} -> {gcs.default_remote[1]}, "
+          f"API udp {LOOPBACK}:{api.bind_port} -> {api.default_remote[1]}, "
           f"parameters {params.path}", file=sys.stderr, flush=True)  # fmt: skip
     try:
         loop.run()
     finally:
         client.close()
-        vehicle.close()
+        services.close()
         error = params.flush()
         if error:
             print(f"{PROG}: {error}", file=sys.stderr)

@@ -1,4 +1,5 @@
-"""Arming, flight modes and their transitions, as PX4's commander does them (SPEC section 5), in simulation time.
+"""Arming, flight modes and their transitions, as PX4's commander does them, in simulation time
+(docs/mavlink.md).
 
 Modes (PX4 custom modes): Hold (AUTO.LOITER), Takeoff (AUTO.TAKEOFF), Land (AUTO.LAND), Offboard. Each one's
 position logic is in navigator.py; the result is a velocity set-point for the flight controller.
@@ -8,19 +9,32 @@ takeoff (Takeoff mode, or an Offboard set-point that climbs). A takeoff starts a
 nothing integrated on the ground carries into the flight. A detected landing stops the controller again and
 disarms after COM_DISARM_LAND.
 
-Every request answers (MAV_RESULT, reason); a reason goes to the ground station as STATUSTEXT.
+Every request answers (MAV_RESULT, reason); a reason goes to the ground station as STATUSTEXT. What the
+commander says (`say`) goes to the ground stations as STATUSTEXT too.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
 from autopilot.navigator import LandDetector, Navigator
+from autopilot.offboard_setpoint import OffboardSetpoint, in_envelope
 from autopilot.parameters import ParameterStore
-from autopilot.stamped_setpoints import StampedSetpoints
+from autopilot.requests import (
+    Arm,
+    Disarm,
+    Land,
+    OffboardVelocity,
+    Reply,
+    Request,
+    SetMode,
+    Takeoff,
+    Transition,
+)
 from autopilot.vehicle_state import VehicleState
 from transport.mavlink import mavlink
 
@@ -30,18 +44,7 @@ DENIED = mavlink.MAV_RESULT_DENIED
 UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
 
 HOLD, TAKEOFF, LAND, OFFBOARD = "Hold", "Takeoff", "Land", "Offboard"
-PX4_MAIN_AUTO, PX4_MAIN_OFFBOARD = 4, 6
-PX4_AUTO_TAKEOFF, PX4_AUTO_LOITER, PX4_AUTO_LAND = 2, 3, 6
-PX4_MODES = {  # mode -> (main mode, sub mode)
-    HOLD: (PX4_MAIN_AUTO, PX4_AUTO_LOITER),
-    TAKEOFF: (PX4_MAIN_AUTO, PX4_AUTO_TAKEOFF),
-    LAND: (PX4_MAIN_AUTO, PX4_AUTO_LAND),
-    OFFBOARD: (PX4_MAIN_OFFBOARD, 0),
-}
-PX4_MAIN_NAMES = {1: "MANUAL", 2: "ALTCTL", 3: "POSCTL", 4: "AUTO", 5: "ACRO", 6: "OFFBOARD", 7: "STABILIZED",
-                  8: "RATTITUDE"}  # fmt: skip
-PX4_AUTO_NAMES = {1: "READY", 2: "TAKEOFF", 3: "LOITER", 4: "MISSION", 5: "RTL", 6: "LAND", 7: "RTGS", 8: "FOLLOW",
-                  9: "PRECLAND"}  # fmt: skip
+MODES = (HOLD, TAKEOFF, LAND, OFFBOARD)
 FORCE_MAGIC = 21196  # MAV_CMD_COMPONENT_ARM_DISARM param2: skip the checks (PX4)
 
 LANDED_UNDEFINED = mavlink.MAV_LANDED_STATE_UNDEFINED
@@ -54,26 +57,17 @@ MAX_LEVEL_TILT = math.radians(30.0)  # arming on the ground: roll and pitch with
 OFFBOARD_TAKEOFF_CLIMB = 0.3  # m/s: an Offboard set-point climbing faster than this lifts off from the ground
 VTOL_FW, VTOL_MC = mavlink.MAV_VTOL_STATE_FW, mavlink.MAV_VTOL_STATE_MC  # 4, 3
 
-Reply = tuple[int, str | None]
 
+@dataclass(frozen=True)
+class CommanderReport:
+    """The commander's part of the vehicle status."""
 
-def custom_mode(mode: str) -> int:
-    main, sub = PX4_MODES[mode]
-    return (main << 16) | (sub << 24)
-
-
-def mode_from_px4(main: int, sub: int) -> str | None:
-    for mode, (m, s) in PX4_MODES.items():
-        if m == main and (s == sub or mode == OFFBOARD):
-            return mode
-    return None
-
-
-def px4_mode_name(main: int, sub: int) -> str:
-    name = PX4_MAIN_NAMES.get(main, f"main mode {main}")
-    if main == PX4_MAIN_AUTO:
-        name += "." + PX4_AUTO_NAMES.get(sub, f"sub mode {sub}")
-    return name
+    started: bool
+    armed: bool
+    mode: str
+    landed_state: int
+    flying: bool
+    state_version: int
 
 
 class Commander:
@@ -86,7 +80,7 @@ class Commander:
         *,
         armed: bool,
         in_air: bool,
-        say: Callable[[int, str], None] = lambda severity, text: None,
+        say: Callable[..., None] = lambda severity, text, key=None: None,
         profile: Callable[[float], np.ndarray] | None = None,
         stamped_setpoints: bool = False,
     ) -> None:
@@ -100,19 +94,44 @@ class Commander:
         self.mode = OFFBOARD if profile is not None else HOLD
         self.transition_target = VTOL_MC
         self.started = False
-        self.controller_reset = False  # a takeoff began: the loop starts a fresh flight controller
-        self.state_changed = True  # arming or mode changed: the vehicle sends a HEARTBEAT now
-        self.offboard_velocity = np.zeros(3)
-        self.offboard_usec: int | None = None
-        # --offboard-lockstep: set-points take effect at their time_boot_ms stamp (stamped_setpoints.py)
-        self.stamped = StampedSetpoints() if stamped_setpoints else None
+        self.flight_number = 0  # lift-offs so far: each starts a fresh flight controller
+        self._controller_flight = 0  # the flight the running flight controller was started for
+        self.state_version = 1  # counts arming, mode and ground-state changes (each sends a HEARTBEAT)
+        self._reported_version = 0
+        self.setpoints_clamped = 0
+        self.offboard = OffboardSetpoint(stamped=stamped_setpoints)
         self.now_usec = 0
+        self.state = VehicleState()  # the current step's estimate (observe())
         self._start_usec = 0
         self._armed_on_ground_usec: int | None = None
         self._landed_usec: int | None = None
         self.failsafes = 0
 
     # ---- state ---------------------------------------------------------------------------------------------
+    @property
+    def controller_reset(self) -> bool:
+        """A takeoff began that no fresh flight controller has been started for yet."""
+        return self.flight_number != self._controller_flight
+
+    def controller_started(self) -> None:
+        """The flight stack started a fresh flight controller for the current flight."""
+        self._controller_flight = self.flight_number
+
+    @property
+    def state_changed(self) -> bool:
+        """Arming, mode or ground state changed since the last report()."""
+        return self.state_version != self._reported_version
+
+    def report(self) -> CommanderReport:
+        self._reported_version = self.state_version
+        return CommanderReport(self.started, self.armed, self.mode, self.landed_state, self.flying,
+                               self.state_version)  # fmt: skip
+
+    def observe(self, state: VehicleState) -> None:
+        """The state estimate of the current plant step (requests are judged against it)."""
+        self.state = state
+        self.now_usec = state.time_usec
+
     @property
     def flying(self) -> bool:
         """The flight controller runs (armed and off the ground)."""
@@ -140,13 +159,13 @@ class Commander:
             self.transition_target = VTOL_MC
         if mode != self.mode:
             self.mode = mode
-            self.state_changed = True
+            self.state_version += 1
             if reason:
                 self.say(mavlink.MAV_SEVERITY_INFO, reason)
 
     def _set_armed(self, armed: bool, text: str) -> None:
         self.armed = armed
-        self.state_changed = True
+        self.state_version += 1
         if armed:
             self._armed_on_ground_usec = self.now_usec
         else:
@@ -166,9 +185,7 @@ class Commander:
     def restart(self, state: VehicleState) -> None:
         """The plant's clock went back (a new plant run): time-stamped things start afresh."""
         self.now_usec = self._start_usec = state.time_usec
-        self.offboard_usec = None
-        if self.stamped is not None:
-            self.stamped.clear()
+        self.offboard.restart()
         self._landed_usec = None
         if self.armed:
             self._armed_on_ground_usec = state.time_usec
@@ -208,9 +225,7 @@ class Commander:
         return ACCEPTED, None
 
     def _offboard_fresh(self) -> bool:
-        if self.offboard_usec is None:
-            return False
-        return self.now_usec - self.offboard_usec <= self.params["COM_OF_LOSS_T"] * 1e6
+        return self.offboard.fresh(self.now_usec, self.params["COM_OF_LOSS_T"])
 
     def set_mode(self, mode: str, state: VehicleState) -> Reply:
         if (refusal := self._profile_refusal()) is not None:
@@ -243,7 +258,7 @@ class Commander:
         self.navigator.start_takeoff(state, -altitude_above_home)
         if self.mode != TAKEOFF:
             self.mode = TAKEOFF
-            self.state_changed = True
+            self.state_version += 1
         if self.armed and self.on_ground:
             self._lift_off()
         if not self.armed:
@@ -284,34 +299,55 @@ class Commander:
             self.say(mavlink.MAV_SEVERITY_INFO, "Transition to multicopter: braking to a hover")
         return ACCEPTED, None
 
+    # ---- typed requests from the ground stations ------------------------------------------------------------
+    def handle(self, request: Request) -> Reply:
+        """A request judged against the current step's state (observe())."""
+        state = self.state
+        match request:
+            case Arm(force=force):
+                return self.arm(state, force)
+            case Disarm(force=force):
+                return self.disarm(state, force)
+            case Takeoff(altitude_above_home=altitude):
+                return self.takeoff(state, altitude)
+            case Land():
+                return self.land(state)
+            case SetMode(mode=mode):
+                return self.set_mode(mode, state)
+            case Transition(target=target):
+                return self.transition(target, state)
+            case OffboardVelocity(velocity=velocity, body=body, stamp_ms=stamp_ms):
+                velocity, clamped = in_envelope(velocity, body, float(state.euler[2]))
+                if clamped:
+                    self.setpoints_clamped += 1
+                    self.say(mavlink.MAV_SEVERITY_WARNING, "Set-point clamped to |v| <= (30, 30, 10) m/s",
+                             key="clamped")  # fmt: skip
+                self.offboard_setpoint(velocity, stamp_ms)
+                return ACCEPTED, None
+        return UNSUPPORTED, f"{type(request).__name__} is not the commander's"
+
     def offboard_setpoint(self, velocity_ned: np.ndarray, stamp_ms: int | None = None) -> None:
         """A (finite, clamped) velocity set-point from a client, received now. With stamped set-points
         (--offboard-lockstep) it takes effect when the simulation reaches `stamp_ms` (its time_boot_ms)."""
-        if self.stamped is not None and stamp_ms is not None:
-            self.stamped.add(stamp_ms, velocity_ned)
-            return
-        self.offboard_velocity = velocity_ned
-        self.offboard_usec = self.now_usec
+        self.offboard.receive(velocity_ned, stamp_ms, self.now_usec)
 
     def setpoints_cover(self, time_usec: int) -> bool:
         """--offboard-lockstep: the client's set-points reach this simulation time (True without the option)."""
-        return self.stamped is None or self.stamped.covers(time_usec)
+        return self.offboard.covers(time_usec)
 
     # ---- 100 Hz -------------------------------------------------------------------------------------------------
     def _lift_off(self) -> None:
         self.on_ground = False
-        self.controller_reset = True
+        self.flight_number += 1
         self._armed_on_ground_usec = None
         self._landed_usec = None
-        self.state_changed = True
+        self.state_version += 1
 
     def tick(self, state: VehicleState, time_usec: int, mean_thrust_fraction: float) -> np.ndarray | None:
         """Mode logic at 100 Hz; the velocity set-point while flying (None on the ground)."""
         self.now_usec = time_usec
         p = self.params
-        if self.stamped is not None and (due := self.stamped.due(time_usec)) is not None:
-            self.offboard_velocity = due
-            self.offboard_usec = time_usec
+        self.offboard.take_due(time_usec)
         if self.profile is not None:
             return self.profile((time_usec - self._start_usec) / 1e6) if self.flying else None
         if self.mode == OFFBOARD and not self._offboard_fresh():
@@ -331,7 +367,7 @@ class Commander:
             else:
                 return self.navigator.takeoff(state)
         if self.mode == OFFBOARD:
-            setpoint = self.offboard_velocity
+            setpoint = self.offboard.velocity
         elif self.mode == LAND:
             setpoint = self.navigator.land(state)
         else:
@@ -340,7 +376,7 @@ class Commander:
                                                                        float(setpoint[2])):  # fmt: skip
             self.on_ground = True
             self._landed_usec = time_usec
-            self.state_changed = True
+            self.state_version += 1
             self.say(mavlink.MAV_SEVERITY_INFO, "Landing detected")
             return None
         if self.mode not in (LAND, OFFBOARD):
@@ -356,9 +392,9 @@ class Commander:
                 and time_usec - self._armed_on_ground_usec >= p["COM_DISARM_PRFLT"] * 1e6:  # fmt: skip
             self._set_armed(False, f"Disarmed: no takeoff within {p['COM_DISARM_PRFLT']:g} s")
             return None
-        if self.mode == TAKEOFF or (self.mode == OFFBOARD and self.offboard_velocity[2] < -OFFBOARD_TAKEOFF_CLIMB):
+        if self.mode == TAKEOFF or (self.mode == OFFBOARD and self.offboard.velocity[2] < -OFFBOARD_TAKEOFF_CLIMB):
             self._lift_off()
             if self.mode == TAKEOFF:
                 return self.navigator.takeoff(state)
-            return self.offboard_velocity
+            return self.offboard.velocity
         return None

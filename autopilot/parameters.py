@@ -1,4 +1,4 @@
-"""The autopilot's parameters (SPEC section 5): PX4 names where PX4 has the parameter, PX4's bytewise MAVLink
+"""The autopilot's parameters (docs/mavlink.md): PX4 names where PX4 has the parameter, PX4's bytewise MAVLink
 encoding, and a parameter file that is written atomically and read back at start.
 
 Encoding (MAVLink PARAM_VALUE / PARAM_SET, MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE): a REAL32 parameter
@@ -119,6 +119,7 @@ class ParameterStore:
         self.index = {d.name: i for i, d in enumerate(definitions)}
         self.values: dict[str, float] = {d.name: float(d.default) for d in definitions}
         self.path = path
+        self.version = 0  # counts changes: the flight stack hands changed values on when it sees a new one
         self.warnings: list[str] = []
         self._writer = _BackgroundWriter(path) if path is not None else None
 
@@ -162,6 +163,7 @@ class ParameterStore:
         if self.values[name] == value:
             return False
         self.values[name] = value
+        self.version += 1
         self.save()
         return True
 

@@ -17,9 +17,8 @@ from autopilot.commander import (
     TAKEOFF,
     TEMPORARILY_REJECTED,
     Commander,
-    custom_mode,
-    mode_from_px4,
 )
+from autopilot.mavlink.px4_modes import custom_mode, mode_from_px4
 from autopilot.parameters import ParameterStore
 from autopilot.vehicle_state import VehicleState
 from transport.mavlink import mavlink as M

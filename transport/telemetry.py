@@ -37,6 +37,10 @@ def plant_events_key(system_id: int) -> str:
     return f"vtol/{system_id}/plant/events"
 
 
+def autopilot_events_key(system_id: int) -> str:
+    return f"vtol/{system_id}/autopilot/events"
+
+
 def encode_plant_state(
     t: float, state: np.ndarray, specific_force: np.ndarray, airspeed: float, on_ground: float, command: np.ndarray
 ) -> bytes:

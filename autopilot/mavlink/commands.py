@@ -1,0 +1,240 @@
+"""COMMAND_LONG / COMMAND_INT (and the SET_MODE message): checked, turned into typed requests for the flight
+stack, and always answered with a COMMAND_ACK from our system and component 1 carrying the same command id.
+
+Unknown commands get MAV_RESULT_UNSUPPORTED; refused ones DENIED or TEMPORARILY_REJECTED with a STATUSTEXT
+saying why. A failure injection is acknowledged once the plant has answered (its outcome in the status).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+from aircraft.failures import FailureRejected, parse_failure
+from autopilot.commander import FORCE_MAGIC
+from autopilot.mavlink import messages
+from autopilot.mavlink.px4_modes import mode_from_px4, px4_mode_name
+from autopilot.mavlink.router import COMP_ID, GroundLink
+from autopilot.mavlink.statustext import Announcer
+from autopilot.mavlink.streams import DEFAULT_RATES_HZ, MIN_INTERVAL_USEC, default_interval_usec
+from autopilot.mavlink.view import StatusView
+from autopilot.requests import (
+    Arm,
+    Disarm,
+    InjectFailure,
+    Land,
+    Reply,
+    RequestHandler,
+    SetMode,
+    Takeoff,
+    Transition,
+)
+from autopilot.vehicle_status import InjectionOutcome
+from transport.geodesy import Home
+from transport.mavlink import mavlink as M
+
+Params = tuple[float, float, float, float, float, float, float]
+RELATIVE_FRAMES = (M.MAV_FRAME_GLOBAL_RELATIVE_ALT, M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT)
+NO_STATE_YET = (M.MAV_RESULT_TEMPORARILY_REJECTED, "No vehicle state from the plant yet")
+
+
+def int_param(value: float) -> int | None:
+    """A command parameter that must be an integer: its value, or None if it is not one."""
+    if not math.isfinite(value) or value != int(value):
+        return None
+    return int(value)
+
+
+def for_us(system_id: int, target_system: int, target_component: int | None = None) -> bool:
+    if target_system not in (0, system_id):
+        return False
+    return target_component is None or target_component in (0, COMP_ID)
+
+
+@dataclass(frozen=True)
+class Origin:
+    """Who asked (for the COMMAND_ACK): the link, the sender's ids, the command."""
+
+    link: GroundLink
+    system: int
+    component: int
+    command: int
+
+
+class CommandService:
+    def __init__(self, flight_stack: RequestHandler, view: StatusView, announcer: Announcer, *, system_id: int,
+                 home: Home) -> None:  # fmt: skip
+        self.flight_stack = flight_stack
+        self.view = view
+        self.announcer = announcer
+        self.system_id = system_id
+        self.home = home
+        self._tickets: dict[int, Origin] = {}  # failure injections awaiting the plant's answer
+        self._next_ticket = 1
+        self._commands: dict[int, Callable[[Origin, Params, int | None], Reply | None]] = {
+            M.MAV_CMD_COMPONENT_ARM_DISARM: self._arm,
+            M.MAV_CMD_NAV_TAKEOFF: self._takeoff,
+            M.MAV_CMD_NAV_LAND: lambda origin, p, frame: self.flight_stack.handle(Land()),
+            M.MAV_CMD_DO_SET_MODE: self._set_mode_command,
+            M.MAV_CMD_DO_VTOL_TRANSITION: self._transition,
+            M.MAV_CMD_INJECT_FAILURE: self._inject_failure,
+            M.MAV_CMD_REQUEST_MESSAGE: self._request_message,
+            M.MAV_CMD_SET_MESSAGE_INTERVAL: self._set_interval,
+            M.MAV_CMD_GET_MESSAGE_INTERVAL: self._get_interval,
+            M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: self._capabilities,
+            M.MAV_CMD_GET_HOME_POSITION: self._home,
+        }
+
+    # ---- messages ---------------------------------------------------------------------------------------------
+    def on_command_long(self, link: GroundLink, message: Any) -> None:
+        if not for_us(self.system_id, message.target_system, message.target_component):
+            link.counters.ignored["command_for_other"] += 1
+            return
+        params = (message.param1, message.param2, message.param3, message.param4, message.param5, message.param6,
+                  message.param7)  # fmt: skip
+        self._command(link, message, params, frame=None)
+
+    def on_command_int(self, link: GroundLink, message: Any) -> None:
+        if not for_us(self.system_id, message.target_system, message.target_component):
+            link.counters.ignored["command_for_other"] += 1
+            return
+        params = (message.param1, message.param2, message.param3, message.param4, float(message.x), float(message.y),
+                  message.z)  # fmt: skip
+        self._command(link, message, params, frame=message.frame)
+
+    def on_set_mode(self, link: GroundLink, message: Any) -> None:
+        if not for_us(self.system_id, message.target_system):
+            return
+        main, sub = (message.custom_mode >> 16) & 0xFF, (message.custom_mode >> 24) & 0xFF
+        result, reason = self._set_mode(message.base_mode, main, sub)
+        if reason:
+            self.announcer.say(M.MAV_SEVERITY_WARNING, reason, key=f"set_mode:{reason}")
+
+    def _command(self, link: GroundLink, message: Any, params: Params, frame: int | None) -> None:
+        origin = Origin(link, message.get_srcSystem(), message.get_srcComponent(), message.command)
+        handler = self._commands.get(message.command)
+        if handler is None:
+            self.ack(origin, M.MAV_RESULT_UNSUPPORTED)
+            return
+        reply = handler(origin, params, frame)
+        if reply is not None:
+            self.ack(origin, *reply)
+
+    def ack(self, origin: Origin, result: int, reason: str | None = None) -> None:
+        link = origin.link
+        link.queue(link.mav.command_ack_encode(origin.command, result, 0, 0, origin.system, origin.component))
+        if reason:
+            severity = M.MAV_SEVERITY_WARNING if result != M.MAV_RESULT_ACCEPTED else M.MAV_SEVERITY_INFO
+            self.announcer.say(severity, reason, key=f"ack:{origin.command}:{reason}")
+
+    def injections_answered(self, outcomes: tuple[InjectionOutcome, ...]) -> None:
+        """The plant answered forwarded injections (or did not, FAILED): acknowledge them and say so."""
+        for outcome in outcomes:
+            origin = self._tickets.pop(outcome.ticket, None)
+            if origin is None:
+                continue
+            accepted = outcome.result == M.MAV_RESULT_ACCEPTED
+            self.ack(origin, outcome.result)
+            self.announcer.say(M.MAV_SEVERITY_WARNING if accepted else M.MAV_SEVERITY_ERROR, outcome.text)
+
+    # ---- the commands -----------------------------------------------------------------------------------------
+    def _arm(self, origin: Origin, p: Params, frame: int | None) -> Reply:
+        force = p[1] == FORCE_MAGIC
+        if p[0] == 1.0:
+            return self.flight_stack.handle(Arm(force))
+        if p[0] == 0.0:
+            return self.flight_stack.handle(Disarm(force))
+        return M.MAV_RESULT_DENIED, f"Arm/disarm: param1 must be 1 or 0, not {p[0]:g}"
+
+    def _takeoff(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
+        altitude = p[6]
+        if math.isnan(altitude):
+            return self.flight_stack.handle(Takeoff(None))
+        if not math.isfinite(altitude):
+            return M.MAV_RESULT_DENIED, "Takeoff denied: param7 (altitude) is infinite"
+        above_home = altitude if frame in RELATIVE_FRAMES else altitude - self.home.alt
+        if not 1.0 <= above_home <= 1000.0:
+            return M.MAV_RESULT_DENIED, (f"Takeoff denied: {altitude:g} m AMSL is {above_home:.0f} m above home "
+                                         f"(1..1000 m; NaN: MIS_TAKEOFF_ALT)")  # fmt: skip
+        return self.flight_stack.handle(Takeoff(above_home))
+
+    def _set_mode_command(self, origin: Origin, p: Params, frame: int | None) -> Reply:
+        base, main, sub = int_param(p[0]), int_param(p[1]), int_param(p[2]) if not math.isnan(p[2]) else 0
+        if base is None or main is None or sub is None:
+            return M.MAV_RESULT_DENIED, "Set mode: param1..3 must be integers (base mode, PX4 main, sub mode)"
+        return self._set_mode(base, main, sub)
+
+    def _set_mode(self, base: int, main: int, sub: int) -> Reply:
+        if not base & M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
+            return M.MAV_RESULT_DENIED, "Set mode: only PX4 custom modes (base mode flag 1)"
+        mode = mode_from_px4(main, sub)
+        if mode is None:
+            return M.MAV_RESULT_DENIED, f"Mode {px4_mode_name(main, sub)} not supported: Hold Takeoff Land Offboard"
+        return self.flight_stack.handle(SetMode(mode))
+
+    def _transition(self, origin: Origin, p: Params, frame: int | None) -> Reply:
+        target = int_param(p[0])
+        if target is None:
+            return M.MAV_RESULT_DENIED, "Transition: param1 must be 3 (MC) or 4 (FW)"
+        return self.flight_stack.handle(Transition(target))
+
+    def _inject_failure(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
+        try:
+            failure = parse_failure(p[0], p[1], p[2], p[3])
+        except FailureRejected as refusal:
+            result = M.MAV_RESULT_UNSUPPORTED if refusal.unsupported else M.MAV_RESULT_DENIED
+            return result, f"Failure injection: {refusal}"
+        ticket = self._next_ticket
+        self._next_ticket += 1
+        reply = self.flight_stack.handle(InjectFailure(failure, ticket))
+        if reply is None:
+            self._tickets[ticket] = origin  # acknowledged when the plant has answered
+        return reply
+
+    def _request_message(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
+        status = self.view.status
+        if status is None:
+            return NO_STATE_YET
+        msgid = int_param(p[0])
+        message = messages.build(msgid, origin.link.mav, status) if msgid is not None else None
+        if message is None:
+            return M.MAV_RESULT_DENIED, f"Message {p[0]:g} not available on request"
+        self.ack(origin, M.MAV_RESULT_ACCEPTED)
+        origin.link.queue(message)
+        return None
+
+    def _capabilities(self, origin: Origin, p: Params, frame: int | None) -> Reply:
+        origin.link.queue(messages.autopilot_version(origin.link.mav))
+        return M.MAV_RESULT_ACCEPTED, None
+
+    def _home(self, origin: Origin, p: Params, frame: int | None) -> Reply:
+        origin.link.queue(messages.home_position(origin.link.mav, self.home, self.view.now_usec))
+        return M.MAV_RESULT_ACCEPTED, None
+
+    def _set_interval(self, origin: Origin, p: Params, frame: int | None) -> Reply:
+        msgid = int_param(p[0])
+        interval = p[1]
+        if msgid is None or msgid not in DEFAULT_RATES_HZ:
+            return M.MAV_RESULT_DENIED, f"Message interval: message {p[0]:g} is not a stream here"
+        if not math.isfinite(interval) or (interval < 0 and interval != -1):
+            return M.MAV_RESULT_DENIED, f"Message interval: {interval:g} us (-1 off, 0 default, >0 us)"
+        if interval == 0:
+            usec = default_interval_usec(msgid)
+        elif interval == -1:
+            usec = 0
+        else:
+            usec = max(int(interval), MIN_INTERVAL_USEC)
+        origin.link.streams.set_interval(msgid, usec, self.view.now_usec)
+        return M.MAV_RESULT_ACCEPTED, None
+
+    def _get_interval(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
+        msgid = int_param(p[0])
+        if msgid is None or not 0 <= msgid < (1 << 24):
+            return M.MAV_RESULT_DENIED, "Get message interval: param1 must be a message id"
+        link = origin.link
+        interval = link.streams.intervals.get(msgid, 0 if msgid in DEFAULT_RATES_HZ else -1)
+        self.ack(origin, M.MAV_RESULT_ACCEPTED)
+        link.queue(link.mav.message_interval_encode(msgid, interval if interval else -1))
+        return None

@@ -1,0 +1,74 @@
+"""What a ground station can ask of the flight stack, as typed requests (the MAVLink services make them).
+
+The services decode and check the MAVLink side of a request (target ids, integer parameters, frames) and hand
+the flight stack one of these; the flight stack answers with a Reply (MAV_RESULT and, for a refusal, the
+reason that goes to the ground station as STATUSTEXT), or with None when the answer comes later (a failure
+injection is answered once the plant has acknowledged it; the outcome shows in the VehicleStatus).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from aircraft.failures import Failure
+
+Reply = tuple[int, str | None]  # (MAV_RESULT, reason or None)
+
+
+@dataclass(frozen=True)
+class Arm:
+    force: bool = False  # MAV_CMD_COMPONENT_ARM_DISARM param2 = 21196: skip the checks
+
+
+@dataclass(frozen=True)
+class Disarm:
+    force: bool = False
+
+
+@dataclass(frozen=True)
+class Takeoff:
+    altitude_above_home: float | None  # m; None: MIS_TAKEOFF_ALT
+
+
+@dataclass(frozen=True)
+class Land:
+    pass
+
+
+@dataclass(frozen=True)
+class SetMode:
+    mode: str  # one of the commander's modes (Hold, Takeoff, Land, Offboard)
+
+
+@dataclass(frozen=True)
+class Transition:
+    target: int  # MAV_VTOL_STATE_MC or MAV_VTOL_STATE_FW
+
+
+@dataclass(frozen=True)
+class OffboardVelocity:
+    """A finite velocity set-point (m/s) received now; `body` when it is in a yaw-rotated (body) frame."""
+
+    velocity: np.ndarray
+    body: bool
+    stamp_ms: int | None  # its time_boot_ms (with --offboard-lockstep it takes effect then)
+
+
+@dataclass(frozen=True)
+class InjectFailure:
+    """MAV_CMD_INJECT_FAILURE, checked against the failure vocabulary; `ticket` names it in the outcome."""
+
+    failure: Failure
+    ticket: int
+
+
+Request = Arm | Disarm | Takeoff | Land | SetMode | Transition | OffboardVelocity | InjectFailure
+
+
+class RequestHandler(Protocol):
+    """The flight stack as the MAVLink services see it."""
+
+    def handle(self, request: Request) -> Reply | None: ...
