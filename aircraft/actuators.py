@@ -1,4 +1,4 @@
-"""The 12 actuator channels on the wire (SERVO_OUTPUT_RAW, SPEC section 2) and their physical meaning.
+"""The 12 actuator channels on the wire (SERVO_OUTPUT_RAW, docs/plant-link.md) and their physical meaning.
 
 | channel | actuator          | PWM 1000 ... 2000 maps to                         |
 | 1-4     | rotors 1-4        | thrust fraction u = omega^2 / omega_max^2, 0 ... 1 |
@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from enum import Enum
 
 import numpy as np
 
@@ -33,11 +34,41 @@ SERVO_CHANNELS = slice(4, 12)  # what MAV_CMD_INJECT_FAILURE calls servos: tilt 
 ALLOCATED_ROTORS = slice(0, 4)
 ALLOCATED_SURFACES = slice(4, 8)
 ALLOCATED_COUNT = 8
+
+
+class ActuatorGroup(Enum):
+    """The kinds of actuator channel: rotors, tilt servos, control surfaces."""
+
+    ROTOR = "rotor"
+    TILT = "tilt servo"
+    SURFACE = "surface"
+
+
+GROUP_CHANNELS: dict[ActuatorGroup, slice] = {
+    ActuatorGroup.ROTOR: ROTORS,
+    ActuatorGroup.TILT: TILTS,
+    ActuatorGroup.SURFACE: SURFACES,
+}
+# The group of each channel 0..11, in channel order.
+CHANNEL_GROUPS: tuple[ActuatorGroup, ...] = tuple(
+    next(group for group, channels in GROUP_CHANNELS.items() if channels.start <= channel < channels.stop)
+    for channel in range(CHANNELS)
+)
 ACTUATOR_NAMES = (
     "rotor 1", "rotor 2", "rotor 3", "rotor 4",
     "tilt servo 1", "tilt servo 2", "tilt servo 3", "tilt servo 4",
     "left aileron", "right aileron", "elevator", "rudder",
 )  # fmt: skip
+
+
+def group_of(channel: int) -> ActuatorGroup:
+    """The group (rotor, tilt servo, surface) of a channel 0..11 of the 12-channel command."""
+    return CHANNEL_GROUPS[channel]
+
+
+def index_in_group(channel: int) -> int:
+    """A channel's 0-based position within its group: channel 5 (tilt servo 2) is 1."""
+    return channel - GROUP_CHANNELS[CHANNEL_GROUPS[channel]].start
 
 
 def allocated_of(command: np.ndarray) -> np.ndarray:
@@ -68,20 +99,21 @@ def pwm_to_command(airframe: Airframe, pwm: list[int], previous: np.ndarray) -> 
     command = previous.tolist()
     clamped = undriven = 0
     tilt_min, tilt_span = airframe.tilt_min, airframe.tilt_max - airframe.tilt_min
-    for channel in range(CHANNELS):
+    rotor, tilt = ActuatorGroup.ROTOR, ActuatorGroup.TILT
+    for channel, group in enumerate(CHANNEL_GROUPS):
         raw = pwm[channel]
         if raw == 0:
             undriven += 1
-            if channel < 4:
+            if group is rotor:
                 command[channel] = 0.0  # a rotor without a signal stops; servos and surfaces hold
             continue
         if raw < PWM_MIN or raw > PWM_MAX:
             clamped += 1
             raw = PWM_MIN if raw < PWM_MIN else PWM_MAX
         fraction = (raw - PWM_MIN) / (PWM_MAX - PWM_MIN)
-        if channel < 4:
+        if group is rotor:
             command[channel] = fraction
-        elif channel < 8:
+        elif group is tilt:
             command[channel] = tilt_min + fraction * tilt_span
         else:
             command[channel] = 2.0 * fraction - 1.0
@@ -94,16 +126,17 @@ def command_to_pwm(airframe: Airframe, command: np.ndarray) -> list[int]:
     Safe values: rotors off (1000), servos and surfaces centred on their range. Plain Python: called every step.
     """
     tilt_min, tilt_span = airframe.tilt_min, airframe.tilt_max - airframe.tilt_min
+    rotor, tilt = ActuatorGroup.ROTOR, ActuatorGroup.TILT
     pwm = []
-    for channel, value in enumerate(command.tolist()):
-        if channel < 4:
+    for group, value in zip(CHANNEL_GROUPS, command.tolist()):
+        if group is rotor:
             fraction = value
-        elif channel < 8:
+        elif group is tilt:
             fraction = (value - tilt_min) / tilt_span
         else:
             fraction = (value + 1.0) / 2.0
         if not math.isfinite(fraction):
-            fraction = 0.0 if channel < 4 else 0.5
+            fraction = 0.0 if group is rotor else 0.5
         fraction = 0.0 if fraction < 0.0 else 1.0 if fraction > 1.0 else fraction
         pwm.append(int(round(PWM_MIN + fraction * (PWM_MAX - PWM_MIN))))
     return pwm

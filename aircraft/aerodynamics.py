@@ -1,4 +1,4 @@
-"""Wing and control-surface aerodynamics (paper section "Aerodynamics"; SPEC section 3 with its deviations).
+"""Wing and control-surface aerodynamics (paper section "Aerodynamics"; docs/model.md with its deviations).
 
 All functions use CasADi operations, so they evaluate on floats and on CasADi symbols.
 Angles in rad, speeds in m/s, forces in N, moments in N m, body axes FRD.
@@ -29,7 +29,7 @@ def airflow(v_air_body: ca.SX) -> tuple[ca.SX, ca.SX, ca.SX]:
 
 
 def aero_effectiveness(airframe: Airframe, airspeed: ca.SX) -> ca.SX:
-    """e(V) in [0, 1]: how much of the wing's aerodynamics act (authors' code; SPEC section 3)."""
+    """e(V) in [0, 1]: how much of the wing's aerodynamics act (authors' code; docs/model.md)."""
     a = airframe
     s1 = 0.5 * (1 + ca.tanh((airspeed - a.eff_v_onset) / a.eff_width))
     s2 = 0.5 * (1 + ca.tanh((airspeed - a.eff_v_full) / a.eff_width))
@@ -54,7 +54,7 @@ def lift_coefficient(airframe: Airframe, alpha: ca.SX) -> ca.SX:
 
 
 def drag_coefficient(airframe: Airframe, alpha: ca.SX) -> ca.SX:
-    """C_D: polar C_D0 + k C_L,lin^2, blended to 2 sin^2(alpha) beyond stall (SPEC deviation from the paper)."""
+    """C_D: polar C_D0 + k C_L,lin^2, blended to 2 sin^2(alpha) beyond stall (docs/model.md: deviates from the paper)."""
     sigma = stall_blend(airframe, alpha)
     linear_lift = airframe.CL0 + airframe.CL_alpha * alpha
     polar = airframe.CD0 + airframe.induced_drag_factor * linear_lift**2

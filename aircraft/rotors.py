@@ -1,4 +1,4 @@
-"""Forces and moments of the four tilting rotors (paper eqs. 1-4; SPEC section 3).
+"""Forces and moments of the four tilting rotors (paper eqs. 1-4; docs/model.md).
 
 Rotor i at tilt chi_i (0 = thrust up, 90 deg = forward) and thrust T_i = c_F omega_i^2 gives, in body FRD:
   force          T_i u_i,               u_i = (sin chi_i, 0, -cos chi_i)

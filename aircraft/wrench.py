@@ -9,11 +9,12 @@ from __future__ import annotations
 
 import casadi as ca
 
+from aircraft.actuators import ALLOCATED_ROTORS, ALLOCATED_SURFACES
 from aircraft.aerodynamics import surface_moment, wing_wrench
 from aircraft.airframe import Airframe
 from aircraft.rotors import rotor_wrench
 
-# Order of the allocated actuators (SPEC section 4.2).
+# Names of the allocated actuators, in the allocation order of aircraft/actuators.py (docs/autopilot.md).
 ALLOCATED_ACTUATORS = ("rotor1", "rotor2", "rotor3", "rotor4", "aileron_left", "aileron_right", "elevator", "rudder")
 
 
@@ -42,8 +43,9 @@ def actuator_wrench(
     airframe: Airframe, actuators: ca.SX, tilts: ca.SX, v_air_body: ca.SX, rates_body: ca.SX
 ) -> ca.SX:
     """6-vector (force, moment) of the allocated actuators u = (u1..u4 thrust fractions 0..1, daL, daR, de, dr)."""
-    thrusts = actuators[0:4] * airframe.thrust_max
-    force, moment = body_wrench(airframe, thrusts, tilts, actuators[4:8], v_air_body, rates_body)
+    thrusts = actuators[ALLOCATED_ROTORS] * airframe.thrust_max
+    deflections = actuators[ALLOCATED_SURFACES]
+    force, moment = body_wrench(airframe, thrusts, tilts, deflections, v_air_body, rates_body)
     return ca.vertcat(force, moment)
 
 

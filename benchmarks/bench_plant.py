@@ -13,7 +13,6 @@ import argparse
 import json
 import statistics
 import subprocess
-import sys
 import time
 
 import casadi as ca
@@ -22,7 +21,7 @@ import numpy as np
 from aircraft.actuators import command_to_pwm, pwm_to_command
 from aircraft.airframe import load_airframe
 from aircraft.wrench import body_wrench
-from ground_tools.lockstep_flight import free_udp_port
+from ground_tools.processes import SimCommand, Zenoh, free_udp_port
 from sim_bridge.plant import Plant, Spawn, hover_command
 from sim_bridge.sensors import SensorSuite
 from transport.geodesy import Home, LocalGeodetic
@@ -74,10 +73,9 @@ def lockstep_factor(seconds: float) -> dict[str, float]:
     airframe = load_airframe()
     port = free_udp_port()
     process = subprocess.Popen(
-        [sys.executable, "-m", "sim_bridge", "--port", str(port), "--spawn-alt", "100", "--no-zenoh",
-         "--duration", str(seconds), "--summary"],
+        SimCommand(port=port, spawn_alt=100.0, zenoh=Zenoh.off(), duration_s=seconds, summary=True).argv(),
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
+    )
     client = PlantLinkClient(port)
     pwm = command_to_pwm(airframe, hover_command(airframe))
     try:

@@ -11,8 +11,8 @@ from __future__ import annotations
 import argparse
 import statistics
 
-from autopilot.setpoint_profiles import PROFILES
 from ground_tools.lockstep_flight import fly_lockstep
+from scenarios.profiles import PROFILES
 
 
 def run_once(profile: str, duration: float, controller: str) -> dict[str, float]:

@@ -20,19 +20,21 @@ import json
 import sys
 from pathlib import Path
 
-from autopilot.setpoint_profiles import PROFILES
-from ground_tools.figures import plot_flight, read_log
+from ground_tools.figures import plot_flight
 from ground_tools.lockstep_flight import FlightFailed, fly_lockstep
+from ground_tools.processes import Controller
 from ground_tools.scenario_command import add_scenario_arguments, scenario
 from ground_tools.telemetry_record import add_record_arguments, record
 from ground_tools.up import up
 from ground_tools.watch import add_watch_arguments, watch
+from scenarios.profiles import PROFILES
 from transport.cli import OneLineArgumentParser, bounded_int, fail, nonnegative_float, positive_float, writable_folder
+from transport.flight_log import read_flight_log
 
 PROG = "vtol"
 
 
-def fly(profile: str, controller: str, out: Path, duration: float, spawn_alt: float) -> int:
+def fly(profile: str, controller: Controller, out: Path, duration: float, spawn_alt: float) -> int:
     run_dir = writable_folder(PROG, out / profile / controller)
     log_path = run_dir / "flight.csv"
     print(f"{PROG}: flying '{profile}' ({duration:g} s simulated) with the {controller} controller...",
@@ -43,7 +45,7 @@ def fly(profile: str, controller: str, out: Path, duration: float, spawn_alt: fl
         fail(PROG, f"the flight failed: {exc}")
     summary = {"autopilot": flight.autopilot, "plant": flight.plant}
     (run_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    figures = plot_flight(read_log(log_path), run_dir, f"{profile}, {controller}")
+    figures = plot_flight(read_flight_log(log_path), run_dir, f"{profile}, {controller}")
     print(f"{PROG}: {flight.plant['sim_time_s']:g} s flown at {flight.plant['real_time_factor']}x real time")
     print(f"{PROG}: log {log_path}")
     for figure in figures:

@@ -1,8 +1,8 @@
-"""Figures like the paper's from an autopilot flight log (the 100 Hz CSV of `vtol-autopilot --log`)."""
+"""Figures like the paper's from an autopilot flight log (the 100 Hz CSV of `vtol-autopilot --log`,
+transport/flight_log.py)."""
 
 from __future__ import annotations
 
-import csv
 from pathlib import Path
 
 import matplotlib
@@ -11,38 +11,33 @@ matplotlib.use("Agg")  # files only: no display needed
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-
-def read_log(path: Path) -> dict[str, np.ndarray]:
-    with open(path, newline="") as handle:
-        rows = list(csv.DictReader(handle))
-    if not rows:
-        raise ValueError(f"{path}: empty flight log")
-    return {name: np.array([float(row[name]) for row in rows]) for name in rows[0] if name != "mode"}
+from aircraft.actuators import ACTUATOR_NAMES, SURFACES  # noqa: E402
+from transport import flight_log  # noqa: E402
 
 
-def plot_flight(log: dict[str, np.ndarray], out_dir: Path, title: str) -> list[Path]:
+def plot_flight(log: flight_log.FlightLog, out_dir: Path, title: str) -> list[Path]:
     """Velocity tracking (x, z), tilt and pitch, roll and yaw, actuator commands, ground track. Returns the files."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    t = log["t"]
+    t = log[flight_log.T]
     deg = np.degrees
+    tilts = [(deg(log[name]), f"servo {i}") for i, name in enumerate(flight_log.TILT_EST, start=1)]
+    thrusts = [(log[name], f"motor {i}") for i, name in enumerate(flight_log.THRUST, start=1)]
+    surfaces = [(log[name], legend) for name, legend in zip(flight_log.SURFACE, ACTUATOR_NAMES[SURFACES])]
     panels = {
         "velocity.png": [
-            ("v_x (m/s)", [(log["vn"], "v_x"), (log["vn_sp"], "set-point")]),
-            ("v_z (m/s, down)", [(log["vd"], "v_z"), (log["vd_sp"], "set-point")]),
+            ("v_x (m/s)", [(log[flight_log.VN], "v_x"), (log[flight_log.VN_SP], "set-point")]),
+            ("v_z (m/s, down)", [(log[flight_log.VD], "v_z"), (log[flight_log.VD_SP], "set-point")]),
         ],
         "tilt_pitch.png": [
-            ("tilt (deg)", [(deg(log[f"tilt_est{i}"]), f"servo {i}") for i in range(1, 5)]),
-            ("pitch (deg)", [(deg(log["pitch"]), "pitch"), (deg(log["pitch_sp"]), "set-point")]),
+            ("tilt (deg)", tilts),
+            ("pitch (deg)", [(deg(log[flight_log.PITCH]), "pitch"), (deg(log[flight_log.PITCH_SP]), "set-point")]),
         ],
         "roll_yaw.png": [
-            ("roll (deg)", [(deg(log["roll"]), "roll"), (deg(log["roll_sp"]), "set-point")]),
-            ("yaw (deg)", [(deg(np.unwrap(log["yaw"])), "yaw"), (deg(np.unwrap(log["yaw_sp"])), "set-point")]),
+            ("roll (deg)", [(deg(log[flight_log.ROLL]), "roll"), (deg(log[flight_log.ROLL_SP]), "set-point")]),
+            ("yaw (deg)", [(deg(np.unwrap(log[flight_log.YAW])), "yaw"),
+                           (deg(np.unwrap(log[flight_log.YAW_SP])), "set-point")]),
         ],
-        "actuators.png": [
-            ("rotor thrust (fraction)", [(log[f"u{i}"], f"motor {i}") for i in range(1, 5)]),
-            ("surfaces (-1..1)", [(log[f"u{i}"], name) for i, name in
-                                  zip(range(5, 9), ("aileron L", "aileron R", "elevator", "rudder"))]),
-        ],
+        "actuators.png": [("rotor thrust (fraction)", thrusts), ("surfaces (-1..1)", surfaces)],
     }  # fmt: skip
     written = []
     for name, axes_spec in panels.items():
@@ -60,7 +55,7 @@ def plot_flight(log: dict[str, np.ndarray], out_dir: Path, title: str) -> list[P
         plt.close(figure)
         written.append(out_dir / name)
     figure, axis = plt.subplots(figsize=(6, 6))
-    axis.plot(log["east"], log["north"])
+    axis.plot(log[flight_log.EAST], log[flight_log.NORTH])
     written.append(save_ground_track(figure, axis, f"{title}: ground track", out_dir / "ground_track.png"))
     return written
 

@@ -24,9 +24,9 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
-from aircraft.actuators import pwm_to_command
+from aircraft.actuators import CHANNELS, TILTS, pwm_to_command
 from aircraft.airframe import Airframe
-from ground_tools.scenarios import Scenario, Telemetry
+from scenarios.experiments import Scenario, Telemetry
 from transport.mavlink import MAV_RESULT_ACCEPTED, Link, mavlink
 
 M = mavlink
@@ -71,8 +71,8 @@ def setpoint_for(scenario: Scenario, stamp_ms: int) -> np.ndarray:
 
 def tilt_commands_deg(airframe: Airframe, message: Any) -> tuple[float, float, float, float]:
     """Tilt servo commands (deg) from SERVO_OUTPUT_RAW channels 5-8."""
-    pwm = [getattr(message, f"servo{i}_raw") for i in range(1, 13)]
-    tilts = pwm_to_command(airframe, pwm, np.zeros(12)).command[4:8]
+    pwm = [getattr(message, f"servo{i}_raw") for i in range(1, CHANNELS + 1)]
+    tilts = pwm_to_command(airframe, pwm, np.zeros(CHANNELS)).command[TILTS]
     return tuple(float(np.degrees(v)) for v in tilts)  # type: ignore[return-value]
 
 
@@ -175,8 +175,8 @@ class LockstepClient:
         if failure is not None and self.events.failure_ms is None and now_ms >= START_MS \
                 and failure.condition(self.telemetry):  # fmt: skip
             self.events.failure_ms = now_ms
-            out.append(mav.command_long_encode(self.target, 1, M.MAV_CMD_INJECT_FAILURE, 0, failure.unit,
-                                               failure.kind, failure.instance, failure.value, 0, 0, 0))  # fmt: skip
+            out.append(mav.command_long_encode(self.target, 1, M.MAV_CMD_INJECT_FAILURE, 0,
+                                               *failure.injection.as_params(), 0, 0, 0))
         # A trigger is checked at every hold, so while one is pending each answer covers one grid period.
         pending = failure is not None and self.events.failure_ms is None
         stamp = grid_stamp(now_ms)

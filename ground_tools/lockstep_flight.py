@@ -6,11 +6,11 @@ Used by `vtol fly`, the SITL benchmark and the closed-loop tests, so all three r
 from __future__ import annotations
 
 import json
-import socket
 import subprocess
-import sys
 from dataclasses import dataclass
 from pathlib import Path
+
+from ground_tools.processes import AutopilotCommand, Controller, SimCommand, Zenoh, free_link_ports, free_udp_port
 
 
 class FlightFailed(RuntimeError):
@@ -25,51 +25,28 @@ class LockstepFlight:
     plant: dict
 
 
-def free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def free_tcp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
-
-
-def free_link_ports() -> tuple[str, ...]:
-    """vtol-autopilot options putting its ground-station links on free ports (nobody listens on the remote
-    ones), so an autopilot can run beside a `vtol up` or another one."""
-    return ("--gcs-port", str(free_udp_port()), "--gcs-remote-port", str(free_udp_port()),
-            "--api-port", str(free_udp_port()), "--api-remote-port", str(free_udp_port()))  # fmt: skip
-
-
 def fly_lockstep(
     profile: str,
     duration_s: float,
     *,
-    controller: str = "pid",
+    controller: Controller = "pid",
     spawn_alt: float = 100.0,
     log_path: Path | None = None,
     autopilot_args: tuple[str, ...] = (),
     timeout_s: float = 900.0,
 ) -> LockstepFlight:
     """Fly `profile` for `duration_s` simulated seconds from a hover at `spawn_alt`; raises FlightFailed."""
-    port = str(free_udp_port())
-    link_ports = free_link_ports()
+    port = free_udp_port()
     plant = subprocess.Popen(
-        [sys.executable, "-m", "sim_bridge", "--port", port, "--spawn-alt", str(spawn_alt), "--no-zenoh",
-         "--duration", str(duration_s), "--summary"],
+        SimCommand(port=port, spawn_alt=spawn_alt, zenoh=Zenoh.off(), duration_s=duration_s, summary=True).argv(),
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
-    log_args = ("--log", str(log_path)) if log_path is not None else ()
+    autopilot_command = AutopilotCommand(
+        sim_port=port, links=free_link_ports(), spawn_alt=spawn_alt, profile=profile, duration_s=duration_s,
+        controller=controller, summary=True, zenoh=Zenoh.off(), quiet=True, log=log_path, extra=autopilot_args,
+    )  # fmt: skip
     try:
-        autopilot = subprocess.run(
-            [sys.executable, "-m", "autopilot", "--sim-port", port, "--spawn-alt", str(spawn_alt),
-             "--profile", profile, "--duration", str(duration_s), "--controller", controller, "--summary",
-             "--no-zenoh", "--quiet", *link_ports, *log_args, *autopilot_args],
-            capture_output=True, text=True, timeout=timeout_s,
-        )  # fmt: skip
+        autopilot = subprocess.run(autopilot_command.argv(), capture_output=True, text=True, timeout=timeout_s)
         plant_out, plant_err = plant.communicate(timeout=120)
     finally:
         if plant.poll() is None:

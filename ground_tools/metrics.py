@@ -1,4 +1,4 @@
-"""The scenario metrics of SPEC section 7, computed from a flight log (the autopilot's 100 Hz CSV columns).
+"""The scenario metrics of SPEC section 7, computed from a flight log's columns (transport/flight_log.py).
 
 Pure functions of arrays, so each metric can be checked by hand on a synthetic flight. SI units unless the
 key says otherwise; NED axes: x = north, y = east, z = down.
@@ -7,24 +7,18 @@ key says otherwise; NED axes: x = north, y = east, z = down.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Mapping
 
 import numpy as np
+
+from scenarios.experiments import Circle
+from transport.flight_log import DOWN, EAST, NORTH, PITCH, ROLL, T, TILT_EST, VD, VD_SP, VE, VE_SP, VN, VN_SP
 
 REACH_TOLERANCE = 0.5  # m/s: "reached" the target speed when within this of it
 GROUND_CLEARANCE = 1.0  # m: closer than this to the ground counts as ground contact for `survived`
 ATTITUDE_LIMIT_DEG = 60.0  # survived = |roll| and |pitch| stayed below this
 TURN_SETTLE_S = 5.0  # the steady turn (mean bank) starts this long after the circle begins
 FINAL_WINDOW_S = 1.0  # final_speed: mean speed over the last second
-
-
-@dataclass(frozen=True)
-class Circle:
-    """The intended circle of a circle scenario: it starts at `start_s`, flown clockwise seen from above
-    (north, then east) at the start heading north, with radius `radius`."""
-
-    start_s: float
-    radius: float
 
 
 def rms(values: np.ndarray) -> float:
@@ -42,6 +36,11 @@ def tilt_tv_ratio(mean_tilt: np.ndarray) -> float:
     forth (the PID's steps, the MPC's swing back while braking); NaN if it never moved."""
     spread = float(np.ptp(mean_tilt)) if mean_tilt.size else 0.0
     return float(np.sum(np.abs(np.diff(mean_tilt)))) / spread if spread > 0 else math.nan
+
+
+def mean_tilt(log: Mapping[str, np.ndarray]) -> np.ndarray:
+    """The four rotors' mean estimated tilt (rad) at each row."""
+    return np.mean([log[name] for name in TILT_EST], axis=0)
 
 
 def mode_switches(modes: list[str]) -> int:
@@ -67,7 +66,7 @@ def mean_bank_deg(t: np.ndarray, roll: np.ndarray, circle: Circle) -> float:
 
 
 def flight_metrics(
-    log: dict[str, np.ndarray],
+    log: Mapping[str, np.ndarray],
     modes: list[str],
     solver: dict | None = None,
     circle: Circle | None = None,
@@ -75,23 +74,23 @@ def flight_metrics(
 ) -> dict[str, float | int | bool | None]:
     """SPEC 7's keys for one run, and a few more the scenarios' acceptance needs (`bank_mean_deg`,
     `alt_loss_max_m`, `final_speed`, `failure_t_s`, `vx_rmse_after_failure`). `solver`: the autopilot's MPC
-    statistics (absent for the PID); `failure_s`: when a failure was injected."""
-    t = log["t"]
-    altitude = -log["down"]
-    roll_deg, pitch_deg = np.degrees(np.abs(log["roll"])), np.degrees(np.abs(log["pitch"]))
-    horizontal_sp = np.hypot(log["vn_sp"], log["ve_sp"])
-    mean_tilt = np.mean([log[f"tilt_est{i}"] for i in range(1, 5)], axis=0)
-    speed = np.linalg.norm([log["vn"], log["ve"], log["vd"]], axis=0)
+    statistics (absent for the PID); `failure_s`: when a failure was injected. `log`: the flight log's numeric
+    columns by name, `modes` its mode column."""
+    t = log[T]
+    altitude = -log[DOWN]
+    roll_deg, pitch_deg = np.degrees(np.abs(log[ROLL])), np.degrees(np.abs(log[PITCH]))
+    horizontal_sp = np.hypot(log[VN_SP], log[VE_SP])
+    speed = np.linalg.norm([log[VN], log[VE], log[VD]], axis=0)
     metrics: dict[str, float | int | bool | None] = {
-        "vx_rmse": rms(log["vn"] - log["vn_sp"]),
-        "vy_rmse": rms(log["ve"] - log["ve_sp"]),
-        "vz_rmse": rms(log["vd"] - log["vd_sp"]),
-        "vz_max_abs": float(np.abs(log["vd"]).max()),
+        "vx_rmse": rms(log[VN] - log[VN_SP]),
+        "vy_rmse": rms(log[VE] - log[VE_SP]),
+        "vz_rmse": rms(log[VD] - log[VD_SP]),
+        "vz_max_abs": float(np.abs(log[VD]).max()),
         "roll_max_abs_deg": float(roll_deg.max()),
         "pitch_max_abs_deg": float(pitch_deg.max()),
         "alt_change_max_m": float(np.abs(altitude - altitude[0]).max()),
-        "t_reach_s": time_to_reach(t, np.hypot(log["vn"], log["ve"]), float(horizontal_sp.max())),
-        "tilt_tv_ratio": tilt_tv_ratio(np.degrees(mean_tilt)),
+        "t_reach_s": time_to_reach(t, np.hypot(log[VN], log[VE]), float(horizontal_sp.max())),
+        "tilt_tv_ratio": tilt_tv_ratio(np.degrees(mean_tilt(log))),
         "mode_switches": mode_switches(modes),
         "radial_rmse_m": None,
         "radial_max_m": None,
@@ -108,11 +107,11 @@ def flight_metrics(
                          and pitch_deg.max() < ATTITUDE_LIMIT_DEG),
     }  # fmt: skip
     if circle is not None:
-        metrics["radial_rmse_m"], metrics["radial_max_m"] = circle_errors(t, log["north"], log["east"], circle)
-        metrics["bank_mean_deg"] = mean_bank_deg(t, log["roll"], circle)
+        metrics["radial_rmse_m"], metrics["radial_max_m"] = circle_errors(t, log[NORTH], log[EAST], circle)
+        metrics["bank_mean_deg"] = mean_bank_deg(t, log[ROLL], circle)
     if failure_s is not None:
         after = t >= failure_s
-        metrics["vx_rmse_after_failure"] = rms(log["vn"][after] - log["vn_sp"][after])
+        metrics["vx_rmse_after_failure"] = rms(log[VN][after] - log[VN_SP][after])
     if solver:
         for key in ("solve_ms_median", "solve_ms_p99", "solve_ms_max", "solves_failed"):
             metrics[key] = solver.get(key)

@@ -15,14 +15,15 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from ground_tools.figures import read_log
 from ground_tools.lockstep_client import START_MS, ScenarioError
 from ground_tools.lockstep_flight import FlightFailed
+from ground_tools.processes import Controller
 from ground_tools.scenario_figures import plot_scenario
 from ground_tools.scenario_report import acceptance, write_report
 from ground_tools.scenario_run import run_scenario
-from ground_tools.scenarios import SCENARIOS, Scenario
+from scenarios.experiments import SCENARIOS, Scenario
 from transport.cli import bounded_int, positive_float, writable_folder
+from transport.flight_log import FlightLog, read_flight_log
 
 PROG = "vtol"
 SHOWN = ("survived", "vx_rmse", "vz_max_abs", "pitch_max_abs_deg", "alt_change_max_m", "t_reach_s", "radial_rmse_m",
@@ -44,11 +45,13 @@ def add_scenario_arguments(parser: argparse.ArgumentParser) -> None:
 
 def refresh_figures(scenario: Scenario, out: Path) -> list[Path]:
     """The scenario's figures, every finished controller overlaid, written into each of its run folders."""
-    runs, failures, folders = {}, {}, []
+    runs: dict[str, FlightLog] = {}
+    failures: dict[str, float | None] = {}
+    folders: list[Path] = []
     for controller in ("mpc", "pid"):
         folder = out / scenario.name / controller
         if (folder / "timeseries.csv").is_file() and (folder / "run.json").is_file():
-            runs[controller] = read_log(folder / "timeseries.csv")
+            runs[controller] = read_flight_log(folder / "timeseries.csv")
             failure = json.loads((folder / "run.json").read_text()).get("failure")
             failures[controller] = failure["t_s"] if failure else None
             folders.append(folder)
@@ -58,7 +61,7 @@ def refresh_figures(scenario: Scenario, out: Path) -> list[Path]:
     return written
 
 
-def _fly(scenario: Scenario, controller: str, out: Path, args: argparse.Namespace):
+def _fly(scenario: Scenario, controller: Controller, out: Path, args: argparse.Namespace):
     total = START_MS / 1000.0 + scenario.duration_s
     bar = tqdm(total=round(total, 2), desc=f"{scenario.name} ({controller})", unit="sim s", leave=True,
                disable=True if args.no_progress else None, file=sys.stderr,
@@ -73,7 +76,7 @@ def _fly(scenario: Scenario, controller: str, out: Path, args: argparse.Namespac
 def scenario(args: argparse.Namespace) -> int:
     out = writable_folder(PROG, Path(args.out))
     names = list(SCENARIOS) if args.name == "all" else [args.name]
-    controllers = ["mpc", "pid"] if args.controller == "both" else [args.controller]
+    controllers: list[Controller] = ["mpc", "pid"] if args.controller == "both" else [args.controller]
     started = time.perf_counter()
     failed = []
     for name in names:

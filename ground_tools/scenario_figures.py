@@ -19,8 +19,11 @@ matplotlib.use("Agg")  # files only: no display needed
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from aircraft.failures import FailureUnit  # noqa: E402
 from ground_tools.figures import save_ground_track  # noqa: E402
-from ground_tools.scenarios import Scenario  # noqa: E402
+from ground_tools.metrics import mean_tilt  # noqa: E402
+from scenarios.experiments import Scenario  # noqa: E402
+from transport import flight_log  # noqa: E402
 
 STYLE = {"mpc": ("tab:blue", "-"), "pid": ("tab:orange", "--")}
 SETPOINT = {"color": "black", "linestyle": ":", "linewidth": 1.0}  # the intended circle
@@ -46,10 +49,10 @@ def _time_figure(runs, failures, panels, title: str, path: Path) -> Path:
         for controller, run in runs.items():
             colour, line = _style(controller)
             y = value(run) if callable(value) else run[value]
-            axis.plot(run["t"], y, color=colour, linestyle=line, label=controller.upper())
+            axis.plot(run[flight_log.T], y, color=colour, linestyle=line, label=controller.upper())
             if setpoint is not None:
                 sp = setpoint(run) if callable(setpoint) else run[setpoint]
-                axis.plot(run["t"], sp, color=colour, linestyle=":", linewidth=1.0,
+                axis.plot(run[flight_log.T], sp, color=colour, linestyle=":", linewidth=1.0,
                           label=f"set-point ({controller.upper()})")
         axis.set_ylabel(label)
         axis.grid(True, alpha=0.3)
@@ -71,35 +74,36 @@ def _deg_unwrapped(column: str):
     return lambda run: np.degrees(np.unwrap(run[column]))
 
 
-def _mean_tilt_deg(run) -> np.ndarray:
-    return np.degrees(np.mean([run[f"tilt_est{i}"] for i in range(1, 5)], axis=0))
+def _mean_tilt_deg(run: flight_log.FlightLog) -> np.ndarray:
+    return np.degrees(mean_tilt(run))
 
 
 def plot_scenario(
-    scenario: Scenario, runs: dict[str, dict[str, np.ndarray]], failures: dict[str, float | None], out_dir: Path
+    scenario: Scenario, runs: dict[str, flight_log.FlightLog], failures: dict[str, float | None], out_dir: Path
 ) -> list[Path]:
     """Write the scenario's figures (every run in `runs` overlaid) to out_dir; returns the files."""
     out_dir.mkdir(parents=True, exist_ok=True)
     title = f"{scenario.name}: {scenario.summary}"
     turning = scenario.circle is not None
     written = [
-        _time_figure(runs, failures, [("v_x (m/s)", "vn", "vn_sp")]
-                     + ([("v_y (m/s)", "ve", "ve_sp")] if turning else [])
-                     + [("v_z (m/s, down)", "vd", "vd_sp")], title, out_dir / "velocity.png"),
+        _time_figure(runs, failures, [("v_x (m/s)", flight_log.VN, flight_log.VN_SP)]
+                     + ([("v_y (m/s)", flight_log.VE, flight_log.VE_SP)] if turning else [])
+                     + [("v_z (m/s, down)", flight_log.VD, flight_log.VD_SP)], title, out_dir / "velocity.png"),
         _time_figure(runs, failures, [("mean tilt (deg)", _mean_tilt_deg, None)]
-                     + ([("servo 1 tilt (deg)", _deg("tilt_est1"), None)] if scenario.failure is not None
-                        and scenario.failure.unit == 102 else [])
-                     + [("pitch (deg)", _deg("pitch"), _deg("pitch_sp"))], title, out_dir / "tilt_pitch.png"),
-        _time_figure(runs, failures, [("roll (deg)", _deg("roll"), _deg("roll_sp")),
-                                      ("yaw (deg)", _deg_unwrapped("yaw"), _deg_unwrapped("yaw_sp"))],
+                     + ([("servo 1 tilt (deg)", _deg(flight_log.TILT_EST[0]), None)] if scenario.failure is not None
+                        and scenario.failure.injection.unit == FailureUnit.SERVO else [])
+                     + [("pitch (deg)", _deg(flight_log.PITCH), _deg(flight_log.PITCH_SP))], title,
+                     out_dir / "tilt_pitch.png"),
+        _time_figure(runs, failures, [("roll (deg)", _deg(flight_log.ROLL), _deg(flight_log.ROLL_SP)),
+                                      ("yaw (deg)", _deg_unwrapped(flight_log.YAW), _deg_unwrapped(flight_log.YAW_SP))],
                      title, out_dir / "roll_yaw.png"),
     ]  # fmt: skip
 
     figure, axes = plt.subplots(2, len(runs), figsize=(5 * len(runs) + 1, 6), sharex=True, squeeze=False)
     for column, (controller, run) in enumerate(runs.items()):
-        for i in range(1, 5):
-            axes[0, column].plot(run["t"], np.degrees(run[f"tilt_cmd{i}"]), label=f"servo {i}")
-            axes[1, column].plot(run["t"], run[f"u{i}"], label=f"rotor {i}")
+        for i, (tilt, thrust) in enumerate(zip(flight_log.TILT_CMD, flight_log.THRUST), start=1):
+            axes[0, column].plot(run[flight_log.T], np.degrees(run[tilt]), label=f"servo {i}")
+            axes[1, column].plot(run[flight_log.T], run[thrust], label=f"rotor {i}")
         axes[0, column].set_title(controller.upper())
         axes[0, column].set_ylabel("tilt command (deg)")
         axes[1, column].set_ylabel("thrust command (fraction)")
@@ -117,18 +121,18 @@ def plot_scenario(
     figure, axis = plt.subplots(figsize=(6.5, 6))
     for controller, run in runs.items():
         colour, line = _style(controller)
-        axis.plot(run["east"], run["north"], color=colour, linestyle=line, label=controller.upper())
+        axis.plot(run[flight_log.EAST], run[flight_log.NORTH], color=colour, linestyle=line, label=controller.upper())
         t_fail = failures.get(controller)
         if t_fail is not None:
-            k = int(np.searchsorted(run["t"], t_fail))
-            if k < run["t"].size:
-                axis.plot(run["east"][k], run["north"][k], "x", color=colour, markersize=10,
+            k = int(np.searchsorted(run[flight_log.T], t_fail))
+            if k < run[flight_log.T].size:
+                axis.plot(run[flight_log.EAST][k], run[flight_log.NORTH][k], "x", color=colour, markersize=10,
                           label=f"failure ({controller.upper()})")  # fmt: skip
     if turning:
         run = next(iter(runs.values()))
-        k = int(np.searchsorted(run["t"], scenario.circle.start_s))
-        k = min(k, run["t"].size - 1)
-        centre_n, centre_e = run["north"][k], run["east"][k] + scenario.circle.radius
+        k = int(np.searchsorted(run[flight_log.T], scenario.circle.start_s))
+        k = min(k, run[flight_log.T].size - 1)
+        centre_n, centre_e = run[flight_log.NORTH][k], run[flight_log.EAST][k] + scenario.circle.radius
         angle = np.linspace(0.0, 2 * math.pi, 361)
         axis.plot(centre_e + scenario.circle.radius * np.cos(angle), centre_n + scenario.circle.radius * np.sin(angle),
                   label="intended circle", **SETPOINT)  # fmt: skip

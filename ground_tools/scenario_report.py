@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from ground_tools.scenario_figures import FIGURE_FILES
-from ground_tools.scenarios import BANK_THEORY_DEG, SCENARIOS
+from scenarios.experiments import BANK_THEORY_DEG, SCENARIOS
 
 Metrics = dict[str, Any]
 

@@ -15,7 +15,6 @@ autopilot's control and MPC samples. The run folder `<out>/<scenario>/<controlle
 
 from __future__ import annotations
 
-import csv
 import json
 import socket
 import subprocess
@@ -27,12 +26,13 @@ from pathlib import Path
 from typing import Any
 
 from aircraft.airframe import load_airframe
-from ground_tools.figures import read_log
 from ground_tools.lockstep_client import START_MS, LockstepClient
-from ground_tools.lockstep_flight import FlightFailed, free_tcp_port, free_udp_port
+from ground_tools.lockstep_flight import FlightFailed
 from ground_tools.metrics import flight_metrics
-from ground_tools.scenarios import Scenario
-from transport.ports import LOOPBACK, Ports
+from ground_tools.processes import AutopilotCommand, Controller, SimCommand, VehiclePorts, Zenoh
+from scenarios.experiments import Scenario
+from transport.flight_log import read_flight_log, write_flight_log
+from transport.ports import LOOPBACK
 
 SPAWN_ALT_M = 100.0
 PLANT_LOCKSTEP_TIMEOUT_S = 120.0  # the plant waits this long for a held autopilot before it would step on
@@ -42,24 +42,9 @@ EXIT_GRACE_S = 10.0  # once one process has ended, the other gets this long to e
 WALL_CLOCK_KEYS = ("solve_ms_median", "solve_ms_p99", "solve_ms_max")  # measurements of the machine, not the flight
 
 
-@dataclass(frozen=True)
-class RunPorts:
-    plant: int
-    gcs_bind: int
-    gcs_remote: int
-    api_bind: int
-    api_remote: int  # the scripted ground station binds this
-    zenoh_plant: str
-    zenoh_autopilot: str
-
-
-def run_ports(instance: int | None) -> RunPorts:
+def run_ports(instance: int | None) -> VehiclePorts:
     """An instance's ports (SPEC 2), or free ones (so a scenario can run beside `vtol up` or another scenario)."""
-    if instance is not None:
-        p = Ports(instance)
-        return RunPorts(p.plant, p.gcs_bind, p.gcs_remote, p.api_bind, p.api_remote, p.zenoh_plant, p.zenoh_autopilot)
-    return RunPorts(free_udp_port(), free_udp_port(), free_udp_port(), free_udp_port(), free_udp_port(),
-                    f"tcp/{LOOPBACK}:{free_tcp_port()}", f"tcp/{LOOPBACK}:{free_tcp_port()}")  # fmt: skip
+    return VehiclePorts.free() if instance is None else VehiclePorts.of_instance(instance)
 
 
 @dataclass
@@ -72,26 +57,14 @@ class RunResult:
     wall_s: float
 
 
-def _read_modes(path: Path) -> list[str]:
-    with open(path, newline="") as handle:
-        return [row["mode"] for row in csv.DictReader(handle)]
-
-
 def write_timeseries(autopilot_log: Path, table: Path, start_s: float) -> None:
     """The autopilot's log from the profile start on, with t shifted so t = 0 is the profile start."""
-    with open(autopilot_log, newline="") as source, open(table, "w", newline="") as target:
-        reader, writer = csv.reader(source), csv.writer(target)
-        header = next(reader)
-        writer.writerow(header)
-        for row in reader:
-            t = float(row[0]) - start_s
-            if t >= -1e-9:
-                writer.writerow([f"{max(t, 0.0):.4f}", *row[1:]])
+    write_flight_log(table, read_flight_log(autopilot_log).since(start_s))
 
 
 def run_scenario(
     scenario: Scenario,
-    controller: str,
+    controller: Controller,
     out: Path,
     *,
     instance: int | None = None,
@@ -106,34 +79,30 @@ def run_scenario(
     ports = run_ports(instance)
     duration_s = START_MS / 1000.0 + scenario.duration_s
     airframe = load_airframe(None)
-    zenoh = ("--zenoh-listen", ports.zenoh_plant) if record else ("--no-zenoh",)
-    gcs = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    gcs, ground_station_port = socket.socket(socket.AF_INET, socket.SOCK_DGRAM), ports.links.api_remote
     try:
-        gcs.bind((LOOPBACK, ports.api_remote))
+        gcs.bind((LOOPBACK, ground_station_port))
     except OSError as exc:
         gcs.close()
-        raise FlightFailed(f"cannot bind UDP {LOOPBACK}:{ports.api_remote} for the ground station: {exc.strerror}")
+        raise FlightFailed(f"cannot bind UDP {LOOPBACK}:{ground_station_port} for the ground station: {exc.strerror}")
     plant_err, autopilot_err = open(run_dir / "plant.log", "w"), open(run_dir / "autopilot.log", "w")
     processes: list[subprocess.Popen] = []
     recorder = None
     started = time.perf_counter()
     try:
-        plant = subprocess.Popen(
-            [sys.executable, "-m", "sim_bridge", "--port", str(ports.plant), "--spawn-alt", str(SPAWN_ALT_M),
-             "--duration", str(duration_s), "--lockstep-timeout", str(PLANT_LOCKSTEP_TIMEOUT_S), "--summary", *zenoh],
-            stdout=subprocess.PIPE, stderr=plant_err, text=True,
+        plant_command = SimCommand(
+            port=ports.plant, spawn_alt=SPAWN_ALT_M, duration_s=duration_s, lockstep_timeout_s=PLANT_LOCKSTEP_TIMEOUT_S,
+            summary=True, zenoh=Zenoh.listening(ports.zenoh_plant) if record else Zenoh.off(),
         )  # fmt: skip
+        plant = subprocess.Popen(plant_command.argv(), stdout=subprocess.PIPE, stderr=plant_err, text=True)
         processes.append(plant)
-        zenoh = ("--zenoh-listen", ports.zenoh_autopilot) if record else ("--no-zenoh",)
-        autopilot = subprocess.Popen(
-            [sys.executable, "-m", "autopilot", "--sim-port", str(ports.plant), "--spawn-alt", str(SPAWN_ALT_M),
-             "--controller", controller, "--offboard-lockstep", "--duration", str(duration_s),
-             "--log", str(run_dir / "autopilot_log.csv"), "--params", str(run_dir / "params.json"),
-             "--gcs-port", str(ports.gcs_bind), "--gcs-remote-port", str(ports.gcs_remote),
-             "--api-port", str(ports.api_bind), "--api-remote-port", str(ports.api_remote),
-             "--summary", "--quiet", *zenoh],
-            stdout=subprocess.PIPE, stderr=autopilot_err, text=True,
+        autopilot_command = AutopilotCommand(
+            sim_port=ports.plant, links=ports.links, spawn_alt=SPAWN_ALT_M, controller=controller,
+            offboard_lockstep=True, duration_s=duration_s, log=run_dir / "autopilot_log.csv",
+            params=run_dir / "params.json", summary=True, quiet=True,
+            zenoh=Zenoh.listening(ports.zenoh_autopilot) if record else Zenoh.off(),
         )  # fmt: skip
+        autopilot = subprocess.Popen(autopilot_command.argv(), stdout=subprocess.PIPE, stderr=autopilot_err, text=True)
         processes.append(autopilot)
 
         def start_recording() -> None:
@@ -195,10 +164,9 @@ def run_scenario(
     start_s = events.profile_start_ms / 1000.0
     write_timeseries(run_dir / "autopilot_log.csv", run_dir / "timeseries.csv", start_s)
     (run_dir / "autopilot_log.csv").unlink()
-    table = read_log(run_dir / "timeseries.csv")
+    table = read_flight_log(run_dir / "timeseries.csv")
     failure_s = None if events.failure_ms is None else events.failure_ms / 1000.0 - start_s
-    metrics = flight_metrics(table, _read_modes(run_dir / "timeseries.csv"), summaries["autopilot"].get("controller"),
-                             scenario.circle, failure_s)  # fmt: skip
+    metrics = flight_metrics(table, table.modes, summaries["autopilot"].get("controller"), scenario.circle, failure_s)
     (run_dir / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     run = {
         "scenario": scenario.name,

@@ -8,12 +8,14 @@ parameter file), the other is stopped too and `vtol up` exits with its code.
 
 from __future__ import annotations
 
+import argparse
 import signal
 import subprocess
 import sys
 import time
-from typing import Any
+from pathlib import Path
 
+from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh
 from transport.cli import stop_on_signals
 from transport.ports import LOOPBACK, Ports
 
@@ -21,18 +23,13 @@ PROG = "vtol"
 STOP_TIMEOUT_S = 10.0
 
 
-def commands(args: Any) -> tuple[list[str], list[str]]:
+def commands(args: argparse.Namespace) -> tuple[list[str], list[str]]:
     """The vtol-sim and vtol-autopilot command lines for `vtol up`'s arguments."""
-    instance = ["--instance", str(args.instance)]
-    spawn = ["--spawn-alt", str(args.spawn_alt)] if args.spawn_alt > 0 else []
-    zenoh = ["--no-zenoh"] if args.no_zenoh else []
-    plant = [sys.executable, "-m", "sim_bridge", *instance, "--realtime", "--speed", str(args.speed), *spawn, *zenoh]
-    autopilot = [sys.executable, "-m", "autopilot", *instance, *spawn, *zenoh]
-    if args.controller:
-        autopilot += ["--controller", args.controller]
-    if args.params:
-        autopilot += ["--params", args.params]
-    return plant, autopilot
+    zenoh = Zenoh.off() if args.no_zenoh else Zenoh()
+    plant = SimCommand(instance=args.instance, realtime_speed=args.speed, spawn_alt=args.spawn_alt, zenoh=zenoh)
+    autopilot = AutopilotCommand(instance=args.instance, spawn_alt=args.spawn_alt, zenoh=zenoh,
+                                 controller=args.controller, params=Path(args.params) if args.params else None)
+    return plant.argv(), autopilot.argv()
 
 
 def stop(processes: list[subprocess.Popen], signum: int = signal.SIGTERM) -> None:
@@ -52,7 +49,7 @@ def stop(processes: list[subprocess.Popen], signum: int = signal.SIGTERM) -> Non
             process.wait()
 
 
-def up(args: Any) -> int:
+def up(args: argparse.Namespace) -> int:
     stop_requested = stop_on_signals()
     plant_command, autopilot_command = commands(args)
     ports = Ports(args.instance)

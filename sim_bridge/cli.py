@@ -1,4 +1,4 @@
-"""`vtol-sim`: the plant process (SPEC sections 1-3)."""
+"""`vtol-sim`: the plant process, the vehicle model behind its MAVLink link (docs/model.md, docs/plant-link.md)."""
 
 from __future__ import annotations
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import casadi as ca
 
+from aircraft.actuators import CHANNELS, ROTORS, SURFACES, TILTS
 from aircraft.airframe import Airframe
 from aircraft.frames import quaternion_derivative, rotation_from_quaternion
 from aircraft.rotors import thrust_from_speed
@@ -22,7 +23,7 @@ from sim_bridge.ground import gear_contact
 POSITION, VELOCITY, QUATERNION, RATES = slice(0, 3), slice(3, 6), slice(6, 10), slice(10, 13)
 ROTOR_SPEED, TILT, SURFACE = slice(13, 17), slice(17, 21), slice(21, 25)
 STATE_SIZE = 25
-COMMAND_SIZE = 12
+COMMAND_SIZE = CHANNELS
 OVERRIDE_FLAG, OVERRIDE_VALUE, SCALE, WIND = slice(0, 12), slice(12, 24), slice(24, 36), slice(36, 39)
 PARAMETER_SIZE = 39
 
@@ -32,9 +33,9 @@ def effective_command(airframe: Airframe, command: ca.SX, parameters: ca.SX) -> 
     flag = parameters[OVERRIDE_FLAG]
     pinned = ca.if_else(flag > 0.5, parameters[OVERRIDE_VALUE], command)  # elementwise on SX vectors
     scale = parameters[SCALE]
-    rotors = ca.fmin(ca.fmax(pinned[0:4], 0), scale[0:4])
-    tilts = ca.fmin(ca.fmax(pinned[4:8], airframe.tilt_min), airframe.tilt_max)
-    surfaces = ca.fmin(ca.fmax(pinned[8:12], -1), 1)
+    rotors = ca.fmin(ca.fmax(pinned[ROTORS], 0), scale[ROTORS])
+    tilts = ca.fmin(ca.fmax(pinned[TILTS], airframe.tilt_min), airframe.tilt_max)
+    surfaces = ca.fmin(ca.fmax(pinned[SURFACES], -1), 1)
     return ca.vertcat(rotors, tilts, surfaces)
 
 
@@ -43,12 +44,12 @@ def actuator_derivatives(airframe: Airframe, state: ca.SX, command: ca.SX, param
     a = airframe
     cmd = effective_command(a, command, parameters)
     speed = state[ROTOR_SPEED]
-    speed_target = a.rotor_speed_max * ca.sqrt(cmd[0:4])
+    speed_target = a.rotor_speed_max * ca.sqrt(cmd[ROTORS])
     tau = ca.if_else(speed_target > speed, a.motor_tau_up, a.motor_tau_down)
     speed_dot = (speed_target - speed) / tau
-    slew = a.servo_rate_max * parameters[SCALE][4:8]
-    tilt_dot = ca.fmin(ca.fmax((cmd[4:8] - state[TILT]) / a.servo_tau, -slew), slew)
-    surface_dot = (cmd[8:12] - state[SURFACE]) / a.surface_tau
+    slew = a.servo_rate_max * parameters[SCALE][TILTS]
+    tilt_dot = ca.fmin(ca.fmax((cmd[TILTS] - state[TILT]) / a.servo_tau, -slew), slew)
+    surface_dot = (cmd[SURFACES] - state[SURFACE]) / a.surface_tau
     return ca.vertcat(speed_dot, tilt_dot, surface_dot)
 
 
@@ -62,7 +63,7 @@ def state_derivative(
     v_air_body = rotation.T @ (velocity - parameters[WIND])
     thrusts = thrust_from_speed(a, state[ROTOR_SPEED])
     force, moment = body_wrench(
-        a, thrusts, state[TILT], state[SURFACE], v_air_body, rates, surface_scale=parameters[SCALE][8:12]
+        a, thrusts, state[TILT], state[SURFACE], v_air_body, rates, surface_scale=parameters[SCALE][SURFACES]
     )
     contact_force, contact_moment, touching = gear_contact(a, state[POSITION], velocity, rotation, rates)
     specific_force = (force + rotation.T @ contact_force) / a.mass

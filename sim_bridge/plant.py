@@ -7,8 +7,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from aircraft.actuators import ROTORS
 from aircraft.airframe import Airframe
 from aircraft.codegen import compiled
+from aircraft.failures import parse_failure
 from sim_bridge.dynamics import (
     COMMAND_SIZE,
     POSITION,
@@ -18,10 +20,10 @@ from sim_bridge.dynamics import (
     build_output_function,
     build_step_function,
 )
-from sim_bridge.failures import ActuatorFailures, apply_injection, healthy_parameters
+from sim_bridge.failures import ActuatorFailures, apply_failure, healthy_parameters
 from sim_bridge.ground import resting_height
 
-DT = 1.0 / 400.0  # s, SPEC section 2
+DT = 1.0 / 400.0  # s, the plant link's step (docs/plant-link.md)
 DT_USEC = 2500
 
 
@@ -37,7 +39,7 @@ class Spawn:
 def hover_command(airframe: Airframe) -> np.ndarray:
     """Command that holds a level hover at zero tilt: every rotor at m g / 4."""
     command = np.zeros(COMMAND_SIZE)
-    command[0:4] = airframe.hover_thrust_per_rotor / airframe.thrust_max
+    command[ROTORS] = airframe.hover_thrust_per_rotor / airframe.thrust_max
     return command
 
 
@@ -112,5 +114,8 @@ class Plant:
         self.step_count += 1
 
     def inject_failure(self, unit: float, kind: float, instance: float, extra: float) -> list[str]:
-        """Apply a MAV_CMD_INJECT_FAILURE at once (raises FailureRejected for bad requests)."""
-        return apply_injection(self.failures, self.airframe, self.state, unit, kind, instance, extra)
+        """Apply a MAV_CMD_INJECT_FAILURE (param1..param4) at once; raises FailureRejected for bad requests.
+
+        Returns one line per affected actuator, as the plant announces it."""
+        failure = parse_failure(unit, kind, instance, extra)
+        return apply_failure(self.failures, self.airframe, self.state, failure)

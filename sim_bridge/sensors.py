@@ -1,4 +1,4 @@
-"""Synthesised sensors: the plant's MAVLink messages for one step (SPEC section 2, PX4 units).
+"""Synthesised sensors: the plant's MAVLink messages for one step (docs/plant-link.md, PX4 units).
 
 HIL_STATE_QUATERNION is ground truth. HIL_SENSOR carries IMU (specific force, body rates), magnetometer
 (gauss), barometer and differential pressure (hPa); HIL_GPS goes out at 10 Hz. Noise is off unless a seed is

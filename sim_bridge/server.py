@@ -1,10 +1,10 @@
-"""The plant link (SPEC section 2): UDP MAVLink on 127.0.0.1:4560+I, lockstep by default, real time on request.
+"""The plant link (docs/plant-link.md): UDP MAVLink on 127.0.0.1:4560+I, lockstep by default, real time on request.
 
 Lockstep: for each step k the plant sends the state at t_k, then waits for SERVO_OUTPUT_RAW stamped
 t_k mod 2^32 before it integrates to t_{k+1}. If none comes within the timeout it holds the last command,
 counts a missed step and goes on, so a silent peer never hangs the plant; after `peer_lost_after` missed
-steps in a row it pauses (not stepping) until an autopilot speaks again, then resends the current state. Real time: the plant paces
-itself to the wall clock (times a speed factor) and uses the latest command it has.
+steps in a row it pauses (not stepping) until an autopilot speaks again, then resends the current state.
+Real time: the plant paces itself to the wall clock (times a speed factor) and uses the latest command it has.
 
 Everything received is untrusted: the Link parser drops and counts bad frames; out-of-range PWM is
 clamped and counted; commands for other components are ignored and counted.
@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from typing import Any, Callable
 
 from aircraft.actuators import pwm_to_command
-from sim_bridge.failures import FailureRejected
+from aircraft.failures import FailureRejected
 from sim_bridge.plant import DT, Plant
 from sim_bridge.sensors import SensorSuite
 from transport.mavlink import (

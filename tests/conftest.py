@@ -6,14 +6,13 @@ import json
 import os
 import signal
 import subprocess
-import sys
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import pytest
 
 from aircraft.airframe import Airframe, load_airframe
-from ground_tools.lockstep_flight import free_udp_port
+from ground_tools.processes import SimCommand, Zenoh, free_udp_port
 from transport.plant_link import PlantLinkClient, PlantSample
 
 
@@ -69,7 +68,8 @@ class PlantProcess:
 
 
 def vtol_sim_command(*args: str) -> list[str]:
-    return [sys.executable, "-m", "sim_bridge", *args]
+    """vtol-sim with exactly `args` (each test says what it wants)."""
+    return SimCommand(extra=args).argv()
 
 
 @pytest.fixture
@@ -79,12 +79,10 @@ def start_plant() -> Iterator:
 
     def start(*args: str) -> PlantProcess:
         port = free_udp_port()
-        options = ["--port", str(port), "--summary", *args]
-        if not any(a.startswith("--zenoh") for a in args):
-            options.append("--no-zenoh")
+        zenoh = Zenoh() if any(a.startswith("--zenoh") for a in args) else Zenoh.off()
         process = subprocess.Popen(
-            vtol_sim_command(*options), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-            env={**os.environ, "PYTHONUNBUFFERED": "1"},
+            SimCommand(port=port, summary=True, zenoh=zenoh, extra=args).argv(), stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"},
         )  # fmt: skip
         plant = PlantProcess(process, port, PlantLinkClient(port))
         started.append(plant)

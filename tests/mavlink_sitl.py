@@ -7,11 +7,10 @@ import json
 import os
 import signal
 import subprocess
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ground_tools.lockstep_flight import free_udp_port
+from ground_tools.processes import AutopilotCommand, LinkPorts, SimCommand, Zenoh, free_udp_port
 from tests.ground_station import GroundStation
 
 
@@ -51,11 +50,10 @@ class Sitl:
             self.gs.close()
 
 
-def autopilot_command(ports: dict[str, int], params_path: Path, *extra: str) -> list[str]:
-    return [sys.executable, "-m", "autopilot", "--sim-port", str(ports["sim"]), "--gcs-port", str(ports["gcs"]),
-            "--gcs-remote-port", str(ports["gcs_remote"]), "--api-port", str(ports["api"]),
-            "--api-remote-port", str(ports["api_remote"]), "--params", str(params_path), "--no-zenoh",
-            "--summary", *extra]  # fmt: skip
+def autopilot_command(ports: dict[str, int], params_path: Path, *extra: str, spawn_alt: float = 0.0) -> list[str]:
+    links = LinkPorts(ports["gcs"], ports["gcs_remote"], ports["api"], ports["api_remote"])
+    return AutopilotCommand(sim_port=ports["sim"], links=links, spawn_alt=spawn_alt, params=params_path,
+                            zenoh=Zenoh.off(), summary=True, extra=extra).argv()  # fmt: skip
 
 
 def start_sitl(params_path: Path, *, spawn_alt: float = 0.0, speed: float | None = 4.0, autopilot_args=(),
@@ -63,16 +61,14 @@ def start_sitl(params_path: Path, *, spawn_alt: float = 0.0, speed: float | None
     """speed: real time times `speed` (None: lockstep). The ground station listens where the GCS link sends."""
     ports = {name: free_udp_port() for name in ("sim", "gcs", "gcs_remote", "api", "api_remote")}
     gs = GroundStation(ports["gcs_remote"]) if ground_station else None
-    pacing = ["--realtime", "--speed", str(speed)] if speed is not None else []
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     with open(params_path.parent / "plant.stderr", "w") as errors:
         plant = subprocess.Popen(
-            [sys.executable, "-m", "sim_bridge", "--port", str(ports["sim"]), "--spawn-alt", str(spawn_alt),
-             "--no-zenoh", "--summary", *pacing],
+            SimCommand(port=ports["sim"], spawn_alt=spawn_alt, realtime_speed=speed, zenoh=Zenoh.off(),
+                       summary=True).argv(),
             stdout=subprocess.PIPE, stderr=errors, text=True, env=env,
         )  # fmt: skip
-    spawn = ["--spawn-alt", str(spawn_alt)] if spawn_alt > 0 else []
     with open(params_path.parent / "autopilot.stderr", "w") as errors:
-        autopilot = subprocess.Popen(autopilot_command(ports, params_path, *spawn, *autopilot_args),
+        autopilot = subprocess.Popen(autopilot_command(ports, params_path, *autopilot_args, spawn_alt=spawn_alt),
                                      stdout=subprocess.PIPE, stderr=errors, text=True, env=env)  # fmt: skip
     return Sitl(plant, autopilot, ports, params_path, gs)

@@ -8,12 +8,11 @@ import math
 import random
 import socket
 import subprocess
-import sys
 import time
 
 import pytest
 
-from ground_tools.lockstep_flight import free_link_ports
+from ground_tools.processes import AutopilotCommand, Zenoh, free_link_ports
 from transport.mavlink import Link, mavlink
 from transport.udp import receive
 
@@ -65,8 +64,8 @@ class FakePlant:
 def autopilot_with_fake_plant():
     plant = FakePlant()
     process = subprocess.Popen(
-        [sys.executable, "-m", "autopilot", "--sim-port", str(plant.port), "--spawn-alt", "100", "--summary",
-         "--no-zenoh", *free_link_ports()],
+        AutopilotCommand(sim_port=plant.port, spawn_alt=100.0, summary=True, zenoh=Zenoh.off(),
+                         links=free_link_ports()).argv(),
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
     )  # fmt: skip
     plant.wait_for_autopilot()
@@ -162,7 +161,7 @@ def test_garbage_from_the_plant_is_dropped_and_said(autopilot_with_fake_plant):
     ],
 )
 def test_bad_autopilot_arguments_give_one_line_and_exit_2(args, expected):
-    result = subprocess.run([sys.executable, "-m", "autopilot", *args], capture_output=True, text=True, timeout=60)
+    result = subprocess.run(AutopilotCommand(extra=tuple(args)).argv(), capture_output=True, text=True, timeout=60)
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("vtol-autopilot: error:") and expected in lines[0]

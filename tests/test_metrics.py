@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from ground_tools.metrics import Circle, flight_metrics, mode_switches, tilt_tv_ratio, time_to_reach
+from ground_tools.metrics import flight_metrics, mode_switches, tilt_tv_ratio, time_to_reach
+from scenarios.experiments import Circle
 
 
 def synthetic_log(n: int = 1001, dt: float = 0.01) -> dict[str, np.ndarray]:

@@ -181,11 +181,11 @@ def test_failure_injection_over_the_link(start_plant, airframe):
 def test_stuck_servo_over_the_link_seen_in_zenoh_truth(start_plant, airframe):
     import zenoh
 
-    from ground_tools.lockstep_flight import free_tcp_port
+    from ground_tools.processes import free_zenoh_endpoint
     from transport.telemetry import decode_plant_state, plant_state_key
     from transport.zenoh_bus import session_config
 
-    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
+    endpoint = free_zenoh_endpoint()
     plant = start_plant("--spawn-alt", "100", "--zenoh-listen", endpoint)
     received = []
     session = zenoh.open(session_config(listen=[], connect=[endpoint]))

@@ -10,18 +10,19 @@ import subprocess
 import sys
 import threading
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from autopilot.stamped_setpoints import StampedSetpoints
-from ground_tools.figures import read_log
 from ground_tools.lockstep_client import PERIOD_MS, START_MS, grid_stamp, setpoint_for, tilt_commands_deg
-from ground_tools.lockstep_flight import free_link_ports, free_tcp_port, free_udp_port
+from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, free_link_ports, free_udp_port
 from ground_tools.scenario_report import acceptance, velocity_rmse, write_report
 from ground_tools.scenario_run import WALL_CLOCK_KEYS
-from ground_tools.scenarios import BANK_THEORY_DEG, SCENARIOS, Telemetry, servo_reaches, yaw_reaches
+from scenarios.experiments import BANK_THEORY_DEG, SCENARIOS, Telemetry, servo_reaches, yaw_reaches
+from transport.flight_log import ALLOCATED, T, read_flight_log
 from transport.mavlink import Link, mavlink
 from transport.ports import Ports
 
@@ -91,13 +92,13 @@ def test_offboard_lockstep_holds_the_simulation_until_stamped_setpoints_cover_it
     plant_port, gcs = free_udp_port(), socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     gcs.bind(("127.0.0.1", 0))
     gcs.settimeout(5.0)
-    links = list(free_link_ports())
-    links[links.index("--api-remote-port") + 1] = str(gcs.getsockname()[1])
-    plant = subprocess.Popen([sys.executable, "-m", "sim_bridge", "--port", str(plant_port), "--spawn-alt", "100",
-                              "--no-zenoh", "--lockstep-timeout", "30"], stderr=subprocess.DEVNULL)  # fmt: skip
-    autopilot = subprocess.Popen([sys.executable, "-m", "autopilot", "--sim-port", str(plant_port), "--spawn-alt",
-                                  "100", "--controller", "pid", "--offboard-lockstep", "--no-zenoh", "--quiet",
-                                  "--params", str(tmp_path / "params.json"), *links], stderr=subprocess.DEVNULL)
+    links = replace(free_link_ports(), api_remote=gcs.getsockname()[1])
+    plant = subprocess.Popen(SimCommand(port=plant_port, spawn_alt=100.0, zenoh=Zenoh.off(),
+                                        lockstep_timeout_s=30.0).argv(), stderr=subprocess.DEVNULL)  # fmt: skip
+    autopilot = subprocess.Popen(AutopilotCommand(sim_port=plant_port, spawn_alt=100.0, controller="pid",
+                                                  offboard_lockstep=True, zenoh=Zenoh.off(), quiet=True,
+                                                  params=tmp_path / "params.json", links=links).argv(),
+                                 stderr=subprocess.DEVNULL)  # fmt: skip
     link = Link(255, 190)
 
     def hold_times(wall_s: float) -> list[int]:
@@ -130,8 +131,8 @@ def test_offboard_lockstep_holds_the_simulation_until_stamped_setpoints_cover_it
 
 
 def test_offboard_lockstep_does_not_go_with_an_internal_profile() -> None:
-    result = subprocess.run([sys.executable, "-m", "autopilot", "--profile", "accel", "--offboard-lockstep"],
-                            capture_output=True, text=True, timeout=60)  # fmt: skip
+    result = subprocess.run(AutopilotCommand(profile="accel", offboard_lockstep=True).argv(), capture_output=True,
+                            text=True, timeout=60)  # fmt: skip
     assert result.returncode == 2
     assert result.stderr.count("\n") == 1 and "--offboard-lockstep" in result.stderr
 
@@ -274,9 +275,9 @@ def test_pid_flies_the_circle_from_50_hz_offboard_setpoints(tmp_path) -> None:
 
 def command_chatter(run_dir: Path, start_s: float, end_s: float) -> float:
     """RMS of the 10 ms change of the eight allocated commands (rotor thrusts, surfaces) over [start, end]."""
-    log = read_log(run_dir / "timeseries.csv")
-    window = (log["t"] >= start_s) & (log["t"] <= end_s)
-    u = np.array([log[f"u{i}"][window] for i in range(1, 9)])
+    log = read_flight_log(run_dir / "timeseries.csv")
+    window = (log[T] >= start_s) & (log[T] <= end_s)
+    u = np.array([log[name][window] for name in ALLOCATED])
     return float(np.sqrt(np.mean(np.diff(u, axis=1) ** 2)))
 
 

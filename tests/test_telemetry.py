@@ -4,37 +4,43 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 import time
 
 import zenoh
 
-from ground_tools.lockstep_flight import free_link_ports, free_udp_port
-from ground_tools.lockstep_flight import free_tcp_port
+from ground_tools.processes import (
+    AutopilotCommand,
+    Controller,
+    SimCommand,
+    Zenoh,
+    free_link_ports,
+    free_udp_port,
+    free_zenoh_endpoint,
+)
 from transport.telemetry import control_key, decode_plant_state, mpc_key, plant_state_key
 from transport.zenoh_bus import session_config
 
 
-def fly_with_subscriber(controller: str, duration: str, *keys: str) -> dict[str, list]:
+def fly_with_subscriber(controller: Controller, duration: str, *keys: str) -> dict[str, list]:
     """Plant + autopilot (lockstep, accel profile) with zenoh on loopback; what a subscriber got per key."""
-    plant_endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
-    autopilot_endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
-    port = str(free_udp_port())
+    plant_endpoint, autopilot_endpoint = free_zenoh_endpoint(), free_zenoh_endpoint()
+    port = free_udp_port()
     received: dict[str, list] = {key: [] for key in keys}
     session = zenoh.open(session_config(listen=[], connect=[plant_endpoint, autopilot_endpoint]))
     for key in keys:
         decode = decode_plant_state if key == plant_state_key(1) else json.loads
         session.declare_subscriber(key, lambda s, k=key, d=decode: received[k].append(d(bytes(s.payload))))
     plant = subprocess.Popen(
-        [sys.executable, "-m", "sim_bridge", "--port", port, "--spawn-alt", "100", "--duration", duration,
-         "--zenoh-listen", plant_endpoint], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        SimCommand(port=port, spawn_alt=100.0, duration_s=float(duration),
+                   zenoh=Zenoh.listening(plant_endpoint)).argv(),
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
     )  # fmt: skip
     try:
         time.sleep(1.0)  # let the subscriber's session reach the plant's endpoint before it steps
         autopilot = subprocess.run(
-            [sys.executable, "-m", "autopilot", "--sim-port", port, "--spawn-alt", "100", "--profile", "accel",
-             "--controller", controller, "--duration", duration, "--zenoh-listen", autopilot_endpoint,
-             *free_link_ports()],
+            AutopilotCommand(sim_port=port, spawn_alt=100.0, profile="accel", controller=controller,
+                             duration_s=float(duration), zenoh=Zenoh.listening(autopilot_endpoint),
+                             links=free_link_ports()).argv(),
             capture_output=True, text=True, timeout=300,
         )  # fmt: skip
         assert autopilot.returncode == 0, autopilot.stderr

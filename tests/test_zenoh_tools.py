@@ -17,8 +17,14 @@ import numpy as np
 import pytest
 
 from ground_tools import cli
-from ground_tools.lockstep_flight import free_link_ports, free_udp_port
-from ground_tools.lockstep_flight import free_tcp_port
+from ground_tools.processes import (
+    AutopilotCommand,
+    SimCommand,
+    Zenoh,
+    free_link_ports,
+    free_udp_port,
+    free_zenoh_endpoint,
+)
 from ground_tools.telemetry_record import (
     TelemetryRecorder,
     decode_payload,
@@ -41,7 +47,6 @@ from ground_tools.watch import (
     status_line,
     time_series,
 )
-from tests.conftest import vtol_sim_command
 from transport.telemetry import PLANT_STATE_FIELDS, control_key, encode_control, mpc_key, plant_state_key
 
 VTOL = [sys.executable, "-m", "ground_tools"]
@@ -235,7 +240,7 @@ def test_recorder_writes_every_sample_received_before_stop(tmp_path):
 
     from transport.zenoh_bus import session_config
 
-    endpoint = f"tcp/127.0.0.1:{free_tcp_port()}"
+    endpoint = free_zenoh_endpoint()
     path = tmp_path / "rec.jsonl"
     with zenoh.open(session_config(listen=[endpoint], connect=[])) as publisher:
         recorder = TelemetryRecorder([endpoint], path, sysid=1)
@@ -270,19 +275,20 @@ def vehicle(tmp_path_factory):
     yields their endpoints. Real time x1: on a loaded 2-core machine an autopilot that cannot keep up with a
     faster real-time plant (x5 PID, x2 MPC were seen) lets the vehicle fall, and the tests check ~100 m."""
     folder = tmp_path_factory.mktemp("vehicle")
-    port = str(free_udp_port())
-    plant_endpoint, autopilot_endpoint = (f"tcp/127.0.0.1:{free_tcp_port()}" for _ in range(2))
+    port = free_udp_port()
+    plant_endpoint, autopilot_endpoint = free_zenoh_endpoint(), free_zenoh_endpoint()
     processes = []
     try:
         with open(folder / "plant.err", "w") as plant_err, open(folder / "autopilot.err", "w") as autopilot_err:
             processes.append(subprocess.Popen(
-                vtol_sim_command("--port", port, "--spawn-alt", "100", "--realtime", "--speed", "1",
-                                 "--zenoh-listen", plant_endpoint, "--sysid", "1"),
+                SimCommand(port=port, spawn_alt=100.0, realtime_speed=1.0, zenoh=Zenoh.listening(plant_endpoint),
+                           extra=("--sysid", "1")).argv(),
                 stdout=subprocess.DEVNULL, stderr=plant_err))  # fmt: skip
             processes.append(subprocess.Popen(
-                [sys.executable, "-m", "autopilot", "--sim-port", port, "--spawn-alt", "100", "--controller", "pid",
-                 "--zenoh-listen", autopilot_endpoint, "--params", str(folder / "params.json"), "--quiet",
-                 *free_link_ports()], stdout=subprocess.DEVNULL, stderr=autopilot_err))  # fmt: skip
+                AutopilotCommand(sim_port=port, spawn_alt=100.0, controller="pid",
+                                 zenoh=Zenoh.listening(autopilot_endpoint), params=folder / "params.json", quiet=True,
+                                 links=free_link_ports()).argv(),
+                stdout=subprocess.DEVNULL, stderr=autopilot_err))  # fmt: skip
         time.sleep(1.0)
         for process in processes:
             assert process.poll() is None, (folder / "plant.err").read_text() + (folder / "autopilot.err").read_text()
@@ -356,7 +362,7 @@ def test_vtol_watch_prints_status_lines_and_writes_a_snapshot(tmp_path, vehicle)
 
 
 def test_vtol_watch_without_a_vehicle_says_so(tmp_path):
-    command = [*VTOL, "watch", "--text", "--duration", "1.2", "--connect", f"tcp/127.0.0.1:{free_tcp_port()}"]
+    command = [*VTOL, "watch", "--text", "--duration", "1.2", "--connect", free_zenoh_endpoint()]
     result = subprocess.run(command, capture_output=True, text=True, timeout=60)
     assert result.returncode == 0, result.stderr
     assert result.stdout.splitlines() == ["t=- (no plant state yet)  mode=-  mpc=-  (no new samples)"]

@@ -1,4 +1,4 @@
-"""The paper's five experiments (SPEC section 7) as data: profile, duration, failure trigger, what the paper saw.
+"""The paper's five experiments as data: profile, duration, failure and its trigger, what the paper saw.
 
 A failure is injected by the ground station (MAV_CMD_INJECT_FAILURE) the first time its trigger condition is
 seen in the MAVLink telemetry, as a tester at a ground station would.
@@ -12,18 +12,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from autopilot.setpoint_profiles import (
-    CIRCLE_RADIUS,
-    accel,
-    accel_decel,
-    circle,
-    circle_duration,
-    circle_start,
-)
-from ground_tools.metrics import Circle
+from aircraft.failures import Failure, FailureType, FailureUnit
+from scenarios.profiles import CIRCLE_RADIUS, CIRCLE_SPEED, PROFILES, circle_start
 
-MOTOR, SERVO = 101, 102  # MAV_CMD_INJECT_FAILURE units (FAILURE_UNIT_SYSTEM_MOTOR, _SERVO)
-OFF, STUCK = 1, 2  # failure types
+GRAVITY = 9.80665  # m/s^2, for the bank angle a coordinated turn needs
+
+
+@dataclass(frozen=True)
+class Circle:
+    """The intended circle of a circle scenario: it starts at `start_s`, flown clockwise seen from above
+    (north, then east) at the start heading north, with radius `radius`."""
+
+    start_s: float
+    radius: float
 
 
 @dataclass(frozen=True)
@@ -37,13 +38,10 @@ class Telemetry:
 
 
 @dataclass(frozen=True)
-class Failure:
-    """MAV_CMD_INJECT_FAILURE's parameters, sent when `condition` first holds."""
+class TriggeredFailure:
+    """A MAV_CMD_INJECT_FAILURE (`injection`), sent when `condition` first holds."""
 
-    unit: int
-    kind: int
-    instance: int
-    value: float
+    injection: Failure
     condition: Callable[[Telemetry], bool]
     trigger: str  # the condition in words
 
@@ -56,7 +54,7 @@ class Scenario:
     summary: str
     paper: str  # the paper's result to compare with
     circle: Circle | None = None
-    failure: Failure | None = None
+    failure: TriggeredFailure | None = None
 
 
 def servo_reaches(servo: int, angle_deg: float) -> Callable[[Telemetry], bool]:
@@ -69,25 +67,28 @@ def yaw_reaches(angle_deg: float) -> Callable[[Telemetry], bool]:
 
 
 CIRCLE = Circle(circle_start(0.0), CIRCLE_RADIUS)
-BANK_THEORY_DEG = math.degrees(math.atan(26.0**2 / (9.80665 * CIRCLE_RADIUS)))
+BANK_THEORY_DEG = math.degrees(math.atan(CIRCLE_SPEED**2 / (GRAVITY * CIRCLE_RADIUS)))
+SERVO_1_STUCK_AT_60 = TriggeredFailure(Failure(FailureUnit.SERVO, FailureType.STUCK, 1, 60.0), servo_reaches(1, 60.0),
+                                       "servo 1 command reaches 60 deg")  # fmt: skip
+ROTOR_1_OFF_AT_YAW_90 = TriggeredFailure(Failure(FailureUnit.MOTOR, FailureType.OFF, 1), yaw_reaches(90.0),
+                                         "yaw reaches 90 deg")  # fmt: skip
 
 SCENARIOS: dict[str, Scenario] = {
     s.name: s
     for s in (
-        Scenario("accel", accel, 25.0, "v_sp = (min(2t, 27.74), 0, 0): hover to cruise",
+        Scenario("accel", *PROFILES["accel"], "v_sp = (min(2t, 27.74), 0, 0): hover to cruise",
                  "reaches 27.74 m/s in ~14 s; near-zero v_z; max pitch -18 deg (MPC) vs -32 deg (PID); "
                  "tilt rises smoothly 0 -> 90 deg (PID in steps)"),
-        Scenario("accel-decel", accel_decel, 32.0, "v_x to 24 m/s at 2 m/s^2, then back to 0 from t = 15 s",
+        Scenario("accel-decel", *PROFILES["accel-decel"], "v_x to 24 m/s at 2 m/s^2, then back to 0 from t = 15 s",
                  "smooth both ways; while braking the MPC tilts the rotors back to about -7 deg near t = 22 s, "
                  "then forward to hover"),
-        Scenario("circle", circle, circle_duration(), "2 m/s^2 to 26 m/s, then one turn of a 250 m circle",
+        Scenario("circle", *PROFILES["circle"], "2 m/s^2 to 26 m/s, then one turn of a 250 m circle",
                  f"steady bank (paper 20 deg; v^2/(gR) gives {BANK_THEORY_DEG:.1f} deg), pitch up, yaw rising "
                  "steadily, on the 250 m circle", circle=CIRCLE),
-        Scenario("servo-failure", accel, 25.0, "accel with servo 1 stuck at 60 deg once it reaches 60 deg",
-                 "keeps tracking v_x; brief roll/yaw deviation, recovers",
-                 failure=Failure(SERVO, STUCK, 1, 60.0, servo_reaches(1, 60.0), "servo 1 command reaches 60 deg")),
-        Scenario("motor-failure", circle, circle_duration(), "circle with rotor 1 off once the yaw reaches 90 deg",
+        Scenario("servo-failure", *PROFILES["accel"], "accel with servo 1 stuck at 60 deg once it reaches 60 deg",
+                 "keeps tracking v_x; brief roll/yaw deviation, recovers", failure=SERVO_1_STUCK_AT_60),
+        Scenario("motor-failure", *PROFILES["circle"], "circle with rotor 1 off once the yaw reaches 90 deg",
                  "the other rotors (rotor 2 most) speed up; small roll/yaw error; stays on the circle",
-                 circle=CIRCLE, failure=Failure(MOTOR, OFF, 1, math.nan, yaw_reaches(90.0), "yaw reaches 90 deg")),
+                 circle=CIRCLE, failure=ROTOR_1_OFF_AT_YAW_90),
     )
 }  # fmt: skip

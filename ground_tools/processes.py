@@ -1,0 +1,180 @@
+"""The command lines of the two processes, `vtol-sim` (the plant) and `vtol-autopilot`, built from typed
+descriptions, and the free ports to put them on.
+
+A description's defaults are the program's own: a field left alone adds nothing to the command line. Each
+`argv()` runs the program's module with this interpreter ([sys.executable, "-m", "sim_bridge" | "autopilot",
+...]), so it works in a virtual environment whose scripts are not on PATH.
+"""
+
+from __future__ import annotations
+
+import socket
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+from transport.ports import LOOPBACK, Ports
+
+SIM_MODULE = "sim_bridge"
+AUTOPILOT_MODULE = "autopilot"
+Controller = Literal["mpc", "pid"]
+
+
+def python_module(module: str, args: list[str]) -> list[str]:
+    """[this interpreter, -m, module, *args]."""
+    return [sys.executable, "-m", module, *args]
+
+
+def _option(name: str, value: object | None) -> list[str]:
+    """[name, str(value)], or nothing for None."""
+    return [] if value is None else [name, str(value)]
+
+
+def _flag(name: str, on: bool) -> list[str]:
+    return [name] if on else []
+
+
+# ---- free ports --------------------------------------------------------------------------------------------------
+def _free_port(kind: socket.SocketKind) -> int:
+    with socket.socket(socket.AF_INET, kind) as s:
+        s.bind((LOOPBACK, 0))
+        return s.getsockname()[1]
+
+
+def free_udp_port() -> int:
+    """A UDP port on the loopback that nobody had bound a moment ago."""
+    return _free_port(socket.SOCK_DGRAM)
+
+
+def free_tcp_port() -> int:
+    """A TCP port on the loopback that nobody had bound a moment ago."""
+    return _free_port(socket.SOCK_STREAM)
+
+
+def free_zenoh_endpoint() -> str:
+    """A zenoh endpoint on a free loopback TCP port."""
+    return f"tcp/{LOOPBACK}:{free_tcp_port()}"
+
+
+@dataclass(frozen=True)
+class LinkPorts:
+    """The autopilot's two ground-station links: the UDP ports it binds and those it sends to until a client
+    speaks (GCS link, API/offboard link)."""
+
+    gcs_bind: int
+    gcs_remote: int
+    api_bind: int
+    api_remote: int
+
+    def argv(self) -> list[str]:
+        """The vtol-autopilot options that set them."""
+        return [*_option("--gcs-port", self.gcs_bind), *_option("--gcs-remote-port", self.gcs_remote),
+                *_option("--api-port", self.api_bind), *_option("--api-remote-port", self.api_remote)]  # fmt: skip
+
+
+def free_link_ports() -> LinkPorts:
+    """Ground-station links on free ports (nobody listens on the remote ones), so an autopilot can run beside a
+    `vtol up` or another one."""
+    return LinkPorts(free_udp_port(), free_udp_port(), free_udp_port(), free_udp_port())
+
+
+@dataclass(frozen=True)
+class VehiclePorts:
+    """Every port of one vehicle: the plant link, the ground-station links, both processes' zenoh endpoints."""
+
+    plant: int
+    links: LinkPorts
+    zenoh_plant: str
+    zenoh_autopilot: str
+
+    @classmethod
+    def of_instance(cls, instance: int) -> VehiclePorts:
+        """An instance's ports (`--instance I`)."""
+        ports = Ports(instance)
+        links = LinkPorts(ports.gcs_bind, ports.gcs_remote, ports.api_bind, ports.api_remote)
+        return cls(ports.plant, links, ports.zenoh_plant, ports.zenoh_autopilot)
+
+    @classmethod
+    def free(cls) -> VehiclePorts:
+        """Free ports, so a vehicle can run beside `vtol up` or another vehicle."""
+        return cls(free_udp_port(), free_link_ports(), free_zenoh_endpoint(), free_zenoh_endpoint())
+
+
+# ---- the command lines -----------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Zenoh:
+    """A process's zenoh telemetry: off, or on (at its instance's default endpoint unless `listen` names some)."""
+
+    enabled: bool = True
+    listen: tuple[str, ...] = ()
+
+    @classmethod
+    def off(cls) -> Zenoh:
+        return cls(enabled=False)
+
+    @classmethod
+    def listening(cls, *endpoints: str) -> Zenoh:
+        return cls(listen=endpoints)
+
+    def argv(self) -> list[str]:
+        if not self.enabled:
+            return ["--no-zenoh"]
+        return [arg for endpoint in self.listen for arg in ("--zenoh-listen", endpoint)]
+
+
+@dataclass(frozen=True)
+class SimCommand:
+    """A `vtol-sim` run: the plant, in lockstep with its autopilot or paced to the wall clock."""
+
+    instance: int | None = None  # shifts every default port (vtol-sim's default: 0)
+    port: int | None = None  # the plant link's UDP port (default 4560 + instance)
+    spawn_alt: float = 0.0  # m; above 0: spawned hovering there
+    realtime_speed: float | None = None  # None: lockstep; F: paced to F simulated seconds per wall second
+    duration_s: float | None = None  # simulated seconds, then stop
+    lockstep_timeout_s: float | None = None  # how long a step waits for its command (vtol-sim's default: 0.5 s)
+    summary: bool = False  # a JSON line of counters on stdout at the end
+    zenoh: Zenoh = field(default_factory=Zenoh)
+    airframe: Path | None = None
+    extra: tuple[str, ...] = ()  # further vtol-sim options, as they are
+
+    def argv(self) -> list[str]:
+        pacing = [] if self.realtime_speed is None else ["--realtime", "--speed", str(self.realtime_speed)]
+        return python_module(SIM_MODULE, [
+            *_option("--instance", self.instance), *_option("--port", self.port),
+            *_option("--spawn-alt", self.spawn_alt or None), *pacing, *_option("--duration", self.duration_s),
+            *_option("--lockstep-timeout", self.lockstep_timeout_s), *_flag("--summary", self.summary),
+            *self.zenoh.argv(), *_option("--airframe", self.airframe), *self.extra,
+        ])  # fmt: skip
+
+
+@dataclass(frozen=True)
+class AutopilotCommand:
+    """A `vtol-autopilot` run: the flight controller, talking to its plant and to ground stations."""
+
+    instance: int | None = None  # shifts every default port (vtol-autopilot's default: 0)
+    sim_port: int | None = None  # the plant's UDP port (default 4560 + instance)
+    links: LinkPorts | None = None  # the ground-station links (default: the instance's)
+    spawn_alt: float = 0.0  # m; above 0: starts hovering there, armed (as the plant is spawned)
+    controller: Controller | None = None  # default: the VT_CTRL parameter
+    params: Path | None = None  # the parameter file (default: the user's state folder)
+    airframe: Path | None = None  # airframe TOML for the controllers' model
+    profile: str | None = None  # an internal set-point profile (scenarios/profiles.py), flown from the start
+    offboard_lockstep: bool = False  # hold the lockstep in Offboard until stamped set-points cover the time
+    duration_s: float | None = None  # simulated seconds, then stop
+    log: Path | None = None  # the 100 Hz flight log (transport/flight_log.py)
+    summary: bool = False  # a JSON line of counters on stdout at the end
+    quiet: bool = False  # no flight events (STATUSTEXT) on stderr
+    zenoh: Zenoh = field(default_factory=Zenoh)
+    extra: tuple[str, ...] = ()  # further vtol-autopilot options, as they are
+
+    def argv(self) -> list[str]:
+        return python_module(AUTOPILOT_MODULE, [
+            *_option("--instance", self.instance), *_option("--sim-port", self.sim_port),
+            *(self.links.argv() if self.links is not None else []), *_option("--spawn-alt", self.spawn_alt or None),
+            *_option("--controller", self.controller), *_option("--params", self.params),
+            *_option("--airframe", self.airframe), *_option("--profile", self.profile),
+            *_flag("--offboard-lockstep", self.offboard_lockstep), *_option("--duration", self.duration_s),
+            *_option("--log", self.log), *_flag("--summary", self.summary), *_flag("--quiet", self.quiet),
+            *self.zenoh.argv(), *self.extra,
+        ])  # fmt: skip

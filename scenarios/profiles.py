@@ -1,0 +1,61 @@
+"""The paper's velocity set-point profiles as functions of time t (s) since the profile start.
+
+Each returns the NED velocity set-point (m/s). Used by the autopilot's internal set-point source (before a
+ground station streams set-points, `vtol-autopilot --profile`) and by the scenarios (experiments.py).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+ACCEL_TARGET = 27.74  # m/s
+CIRCLE_SPEED = 26.0  # m/s
+CIRCLE_RADIUS = 250.0  # m
+ACCELERATION = 2.0  # m/s^2
+
+
+def hover(t: float) -> np.ndarray:
+    return np.zeros(3)
+
+
+def accel(t: float) -> np.ndarray:
+    """v_x = min(2t, 27.74) (paper eq. for the acceleration test), 25 s."""
+    return np.array([min(ACCELERATION * t, ACCEL_TARGET), 0.0, 0.0])
+
+
+def accel_decel(t: float) -> np.ndarray:
+    """v_x = min(2t, 24) up to 15 s, then max(0, 24 - 2 (t - 15)); 32 s."""
+    if t <= 15.0:
+        return np.array([min(ACCELERATION * t, 24.0), 0.0, 0.0])
+    return np.array([max(0.0, 24.0 - ACCELERATION * (t - 15.0)), 0.0, 0.0])
+
+
+def circle_start(t: float) -> float:
+    """Time the circle begins: when the 2 m/s^2 ramp reaches 26 m/s."""
+    return CIRCLE_SPEED / ACCELERATION
+
+
+def circle(t: float) -> np.ndarray:
+    """Accelerate north at 2 m/s^2 to 26 m/s, then v = 26 (cos wt', sin wt', 0), w = 26/250, one full turn."""
+    start = circle_start(t)
+    if t < start:
+        return np.array([ACCELERATION * t, 0.0, 0.0])
+    angle = CIRCLE_SPEED / CIRCLE_RADIUS * (t - start)
+    return np.array([CIRCLE_SPEED * math.cos(angle), CIRCLE_SPEED * math.sin(angle), 0.0])
+
+
+def circle_duration() -> float:
+    """The ramp plus one full turn, rounded up to 10 ms."""
+    return math.ceil((circle_start(0.0) + 2 * math.pi * CIRCLE_RADIUS / CIRCLE_SPEED) * 100) / 100
+
+
+PROFILES: dict[str, tuple[Callable[[float], np.ndarray], float]] = {
+    "hover": (hover, 10.0),
+    "accel": (accel, 25.0),
+    "accel-decel": (accel_decel, 32.0),
+    "circle": (circle, circle_duration()),
+}
+"""Each profile by name: (set-point function, duration in s)."""
