@@ -14,13 +14,13 @@ from autopilot.control_telemetry import ControlTelemetry
 from autopilot.controllers import build_flight_controller, controller_kind
 from autopilot.failure_injection import FailureInjection, ScheduledFailure
 from autopilot.flight_controller import FlightController
-from autopilot.flight_log_writer import FlightLogWriter
+from autopilot.flight_logger import FlightLogger
 from autopilot.flight_stack import FlightStack
 from autopilot.mavlink.router import GroundLink, Router
 from autopilot.mavlink.services import MavlinkServices
 from autopilot.parameters import ParameterFileError, ParameterStore, default_parameter_path
 from autopilot.plant_loop import LoopOutputs, PlantLoop
-from autopilot.setpoint_profiles import PROFILES
+from scenarios.profiles import PROFILES
 from autopilot.vehicle_status import EventOutbox
 from transport.cli import (
     OneLineArgumentParser,
@@ -163,7 +163,7 @@ def main(argv: list[str] | None = None) -> int:
                                        params["VT_ARSP_BLEND"], params["VT_ARSP_TRANS"])  # fmt: skip
 
     outputs = LoopOutputs(
-        log=None if log is None else FlightLogWriter(log),
+        log=None if log is None else FlightLogger(log),
         telemetry=None if session is None else ControlTelemetry(session, system_id),
     )
     loop = PlantLoop(airframe, new_flight_controller, client, commander, params, injection, events,

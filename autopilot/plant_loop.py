@@ -32,7 +32,7 @@ from autopilot.commander import Commander
 from autopilot.control_telemetry import ControlTelemetry
 from autopilot.failure_injection import FailureInjection
 from autopilot.flight_controller import FlightController
-from autopilot.flight_log_writer import FlightLogWriter
+from autopilot.flight_logger import FlightLogger
 from autopilot.mavlink.services import MavlinkServices
 from autopilot.parameters import ParameterStore
 from autopilot.vehicle_state import VehicleState, update_from_hil_state
@@ -60,7 +60,7 @@ class LoopCounters:
 class LoopOutputs:
     """Where the loop writes besides the plant link: the CSV log and zenoh (each optional)."""
 
-    log: FlightLogWriter | None = None
+    log: FlightLogger | None = None
     telemetry: ControlTelemetry | None = None
 
 
