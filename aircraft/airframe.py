@@ -80,6 +80,9 @@ class Airframe:
     gear_damping: float
     gear_friction: float
     gear_friction_speed: float
+    # rotors, optional (defaults: the paper's vehicle)
+    thrust_planned_max: float = 23.0
+    yaw_tilt_thrust_min: float = 5.0
 
     @property
     def thrust_max(self) -> float:
@@ -163,7 +166,11 @@ _SCHEMA: dict[tuple[str, str], tuple[str, tuple[int, ...], str]] = {
     ("landing_gear", "damping"): ("gear_damping", (), "nonnegative"),
     ("landing_gear", "friction"): ("gear_friction", (), "nonnegative"),
     ("landing_gear", "friction_speed"): ("gear_friction_speed", (), "positive"),
+    ("rotors", "thrust_planned_max"): ("thrust_planned_max", (), "positive"),
+    ("rotors", "yaw_tilt_thrust_min"): ("yaw_tilt_thrust_min", (), "positive"),
 }
+# Keys a file may leave out: the Airframe field's default (the paper's vehicle) applies.
+_OPTIONAL = {("rotors", "thrust_planned_max"), ("rotors", "yaw_tilt_thrust_min")}
 
 
 def _number(value: Any, where: str) -> float:
@@ -217,6 +224,8 @@ def parse_airframe(document: dict[str, Any], origin: str) -> Airframe:
         for key in sorted(expected):
             where = f"{origin}: {section}.{key}"
             entry = table.get(key)
+            if entry is None and (section, key) in _OPTIONAL:
+                continue
             if entry is None:
                 raise AirframeError(f"{where}: missing")
             if not isinstance(entry, dict) or "value" not in entry:

@@ -1,7 +1,8 @@
 """What the autopilot knows about failed actuators, and the tilt servos' positions it cannot measure.
 
-The same failure semantics as the plant (sim_bridge/failures.py, SPEC section 5): a known failure changes the
-allocator's bounds or columns (SPEC 4.2) and the tilt estimate (a stuck servo stays where it stuck).
+A failure the plant accepted (aircraft/failures.py, the one failure vocabulary; the plant applies the same
+failure physically in sim_bridge/failures.py) changes the allocator's bounds or columns (docs/autopilot.md 3.6)
+and the tilt estimate (a stuck servo stays where it stuck).
 """
 
 from __future__ import annotations
@@ -10,14 +11,10 @@ import math
 
 import numpy as np
 
+from aircraft.actuators import ALLOCATED_ROTORS, ALLOCATED_SURFACES, ActuatorGroup, group_of, index_in_group
 from aircraft.airframe import Airframe
-from transport.mavlink import mavlink
+from aircraft.failures import Failure, FailureType
 from autopilot.allocation import ControlAllocator
-
-UNIT_MOTOR, UNIT_SERVO = mavlink.FAILURE_UNIT_SYSTEM_MOTOR, mavlink.FAILURE_UNIT_SYSTEM_SERVO  # 101, 102
-TYPE_OK, TYPE_OFF, TYPE_STUCK, TYPE_WRONG = (
-    mavlink.FAILURE_TYPE_OK, mavlink.FAILURE_TYPE_OFF, mavlink.FAILURE_TYPE_STUCK, mavlink.FAILURE_TYPE_WRONG
-)  # 0, 1, 2, 4
 
 
 class ServoEstimate:
@@ -52,48 +49,47 @@ class ActuatorHealth:
         self.allocator = allocator
         self.servos = servos
 
-    def apply(self, unit: int, kind: int, instance: int, value: float) -> None:
-        """Record a failure the plant has accepted (instance 1-based, 0 = all; value = param4)."""
-        count = 4 if unit == UNIT_MOTOR else 8
-        instances = range(1, count + 1) if instance == 0 else (instance,)
-        for number in instances:
-            if unit == UNIT_MOTOR:
-                self._motor(number - 1, kind, value)
-            elif number <= 4:
-                self._tilt_servo(number - 1, kind, value)
+    def apply(self, failure: Failure) -> None:
+        """Record a failure the plant has accepted, on every channel it addresses."""
+        for channel in failure.channels:
+            group, index = group_of(channel), index_in_group(channel)
+            if group is ActuatorGroup.ROTOR:
+                self._motor(ALLOCATED_ROTORS.start + index, failure)
+            elif group is ActuatorGroup.TILT:
+                self._tilt_servo(index, failure)
             else:
-                self._surface(4 + number - 5, kind, value)
+                self._surface(ALLOCATED_SURFACES.start + index, failure)
 
-    def _motor(self, index: int, kind: int, value: float) -> None:
-        allocator = self.allocator
+    def _motor(self, index: int, failure: Failure) -> None:
+        allocator, kind, value = self.allocator, failure.kind, failure.value
         allocator.clear(index)
-        if kind == TYPE_OFF:
+        if kind == FailureType.OFF:
             allocator.set_failed(index)
-        elif kind == TYPE_STUCK:
+        elif kind == FailureType.STUCK:
             held = allocator.u[index] if math.isnan(value) else value
             allocator.set_actuator_limit(index, held, held)
-        elif kind == TYPE_WRONG:
-            allocator.set_actuator_limit(index, 0.0, 0.5 if math.isnan(value) else value)
+        elif kind == FailureType.WRONG:
+            allocator.set_actuator_limit(index, 0.0, failure.wrong_fraction)
 
-    def _tilt_servo(self, index: int, kind: int, value: float) -> None:
-        servos = self.servos
+    def _tilt_servo(self, index: int, failure: Failure) -> None:
+        servos, kind, value = self.servos, failure.kind, failure.value
         servos.stuck[index] = np.nan
         servos.rate_scale[index] = 1.0
-        if kind == TYPE_OFF or (kind == TYPE_STUCK and math.isnan(value)):
+        if kind == FailureType.OFF or (kind == FailureType.STUCK and math.isnan(value)):
             servos.stuck[index] = servos.tilt[index]
-        elif kind == TYPE_STUCK:
+        elif kind == FailureType.STUCK:
             servos.stuck[index] = math.radians(value)
-        elif kind == TYPE_WRONG:
-            servos.rate_scale[index] = 0.5 if math.isnan(value) else value
+        elif kind == FailureType.WRONG:
+            servos.rate_scale[index] = failure.wrong_fraction
 
-    def _surface(self, index: int, kind: int, value: float) -> None:
-        allocator = self.allocator
+    def _surface(self, index: int, failure: Failure) -> None:
+        allocator, kind, value = self.allocator, failure.kind, failure.value
         allocator.clear(index)
-        if kind == TYPE_OFF or (kind == TYPE_STUCK and math.isnan(value)):
+        if kind == FailureType.OFF or (kind == FailureType.STUCK and math.isnan(value)):
             held = allocator.u[index]
             allocator.set_actuator_limit(index, held, held)
-        elif kind == TYPE_STUCK:
+        elif kind == FailureType.STUCK:
             held = max(-1.0, min(1.0, value / self.airframe.surface_max_deflection_deg))
             allocator.set_actuator_limit(index, held, held)
-        elif kind == TYPE_WRONG:
-            allocator.set_effectiveness(index, 0.5 if math.isnan(value) else value)
+        elif kind == FailureType.WRONG:
+            allocator.set_effectiveness(index, failure.wrong_fraction)

@@ -1,12 +1,12 @@
-"""Control allocation (SPEC section 4.2; paper section "Control allocation"): body wrench set-point -> 8 actuators.
+"""Control allocation (docs/autopilot.md 3; paper section "Control allocation"): body wrench set-point -> 8 actuators.
 
 Actuators u = (u1..u4 rotor thrust fractions 0..1, aileron L, aileron R, elevator, rudder -1..1), the order of
 aircraft.wrench.ALLOCATED_ACTUATORS. Tilts are not allocated: they are inputs (the velocity controller's).
 
 Every call linearises the shared model W(u) = aircraft.wrench.actuator_wrench(u; tilts, v_air_body, rates_body)
 (force N and moment N m in body FRD, gravity excluded, wing aerodynamics included) at the previous solution
-u_trim and solves the box-constrained least-squares QP of SPEC 4.2 (the paper's "Control Allocation" paragraph
-only says that a QP distributes the wrench W^B over all actuators at once; it gives no equation)
+u_trim and solves the box-constrained least-squares QP of docs/autopilot.md 3.1 (the paper's "Control Allocation"
+paragraph only says that a QP distributes the wrench W^B over all actuators at once; it gives no equation)
 
     min_du  1/2 (A du - dW)^T Q (A du - dW) + eps/2 ||u_trim + du||^2      s.t.  lb - u_trim <= du <= ub - u_trim
 
@@ -26,9 +26,9 @@ only says that a QP distributes the wrench W^B over all actuators at once; it gi
 
 u = u_trim + du is clipped to [lb, ub] (the solver meets the box only to its tolerance) and the achieved wrench
 W(u) is evaluated with the same model function. The QP is solved by proxsuite's dense solver with native box
-constraints, kept alive between calls and warm started from its previous result (NOTES-performance.md).
+constraints, kept alive between calls and warm started from its previous result (docs/performance.md).
 
-Failures (SPEC 4.2; sim_bridge/failures.py is the plant's side):
+Failures (docs/autopilot.md 3.6; sim_bridge/failures.py is the plant's side):
 
 | plant failure (MAV_CMD_INJECT_FAILURE)     | allocator call                                             |
 | rotor OFF                                  | set_failed(i): column zeroed, bounds [0, 0]                |
@@ -53,11 +53,12 @@ import casadi as ca
 import numpy as np
 import proxsuite
 
+from aircraft.actuators import ALLOCATED_COUNT
 from aircraft.airframe import Airframe
 from aircraft.codegen import compiled
 from aircraft.wrench import ALLOCATED_ACTUATORS, actuator_wrench
 
-N_ACTUATORS = 8
+N_ACTUATORS = ALLOCATED_COUNT
 N_WRENCH = 6
 LOWER_NOMINAL = np.array([0.0, 0.0, 0.0, 0.0, -1.0, -1.0, -1.0, -1.0])
 UPPER_NOMINAL = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0])
@@ -144,7 +145,7 @@ def build_allocation_functions(airframe: Airframe) -> tuple[ca.Function, ca.Func
 
 
 class ControlAllocator:
-    """Wrench set-point -> actuator commands, with failure-aware bounds (SPEC 4.2). One instance per vehicle."""
+    """Wrench set-point -> actuator commands, with failure-aware bounds (docs/autopilot.md 3); one per vehicle."""
 
     def __init__(
         self,
@@ -272,7 +273,7 @@ class ControlAllocator:
         """A persistent dense QP with native box constraints, warm started from its previous result.
 
         proxsuite 0.8.0 segfaults when a WARM_START_WITH_PREVIOUS_RESULT solve follows init + update before any
-        solve has run (NOTES-performance.md), so it is solved once here on a dummy problem.
+        solve has run (docs/performance.md), so it is solved once here on a dummy problem.
         """
         qp = _QP.dense.QP(N_ACTUATORS, 0, 0, True)
         qp.settings.eps_abs = self._eps_abs

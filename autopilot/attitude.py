@@ -1,4 +1,4 @@
-"""The attitude loop (SPEC section 4.1, paper "State Update"), defined once for the autopilot and the MPC.
+"""The attitude loop (docs/autopilot.md section 2, paper "State Update"), defined once for the autopilot and the MPC.
 
 P on attitude to a rate set-point, PD on rates to an angular-acceleration demand:
     rate_sp   = K_att (Psi_sp - Psi)                         (yaw wrapped, paper eq. for Psi_dot_sp; limited
@@ -31,7 +31,7 @@ class AttitudeGains:
     attitude: tuple[float, float, float] = (6.0, 6.0, 3.0)  # 1/s
     rate_p: tuple[float, float, float] = (20.0, 20.0, 10.0)  # 1/s
     rate_d: tuple[float, float, float] = (2.0, 2.0, 1.0)  # 1 (on the per-tick rate difference)
-    max_rate: tuple[float, float, float] = (math.pi, math.pi, math.pi)  # rad/s, SPEC 4.3 |Psi_dot| <= pi
+    max_rate: tuple[float, float, float] = (math.pi, math.pi, math.pi)  # rad/s, the MPC's |Psi_dot| <= pi
 
 
 DEFAULT_GAINS = AttitudeGains()
@@ -50,7 +50,7 @@ def wrap(angle: float) -> float:
 def attitude_law(
     euler: ca.SX, euler_rate: ca.SX, euler_rate_prev: ca.SX, euler_sp: ca.SX, gains: AttitudeGains = DEFAULT_GAINS
 ) -> ca.SX:
-    """Euler-angle acceleration demand (rad/s^2) of the attitude loop (SPEC 4.1)."""
+    """Euler-angle acceleration demand (rad/s^2) of the attitude loop (docs/autopilot.md 2.1)."""
     k_att, k_p, k_d = (ca.DM(g) for g in (gains.attitude, gains.rate_p, gains.rate_d))
     error = ca.vertcat(euler_sp[0] - euler[0], euler_sp[1] - euler[1], wrap_angle(euler_sp[2] - euler[2]))
     # Smooth rate limit (limit tanh(x / limit)): equal to the P law for small errors, bounded by the limit, and

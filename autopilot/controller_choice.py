@@ -1,32 +1,31 @@
-"""Which velocity controller flies: `--controller` at start, else the VT_CTRL parameter (0 PID, 1 MPC).
-
-A flight controller is built afresh at start and at every takeoff from the ground, with the parameters of the
-moment (VT_CTRL, VT_ARSP_BLEND, VT_ARSP_TRANS). If the MPC cannot be built, the vehicle says so and flies the
-PID baseline.
+"""Compatibility only, for the present autopilot/plant_loop.py and autopilot/cli.py until they build their flight
+controllers with autopilot.controllers (controller_kind, build_flight_controller) and hand failures over as
+aircraft.failures.Failure: delete this module then. No reflection: a thin adapter over the factory.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 from aircraft.airframe import Airframe
-from autopilot.flight_controller import FlightController
+from aircraft.failures import Failure, parse_failure
+from autopilot.controllers import build_flight_controller, controller_kind
+from autopilot.flight_controller import PID, FlightController
 from autopilot.parameters import ParameterStore
+from autopilot.pid_baseline import TransitionAirspeeds
 
-PID, MPC = "pid", "mpc"
 
+class LegacyFlightController(FlightController):
+    """A FlightController that also takes a failure as MAV_CMD_INJECT_FAILURE's four numbers (plant_loop's call)."""
 
-def pid_of(controller: FlightController):
-    """The PID baseline inside a flight controller (the MPC's back-up when the MPC flies)."""
-    return getattr(controller, "pid", None) or controller.velocity_controller
+    def apply_failure(self, failure: Failure | float, *params: float) -> None:  # type: ignore[override]
+        super().apply_failure(failure if isinstance(failure, Failure) else parse_failure(failure, *params))
 
 
 def set_pid_airspeeds(controller: FlightController, blend: float, trans: float) -> None:
-    """VT_ARSP_BLEND / VT_ARSP_TRANS into the PID baseline's parameters."""
-    pid = pid_of(controller)
-    if hasattr(pid, "p") and hasattr(pid.p, "arsp_blend"):
-        pid.p = replace(pid.p, arsp_blend=blend, arsp_trans=trans)
+    """VT_ARSP_BLEND / VT_ARSP_TRANS into the PID baseline (now FlightController.set_transition_airspeeds)."""
+    controller.set_transition_airspeeds(blend, trans)
 
 
 @dataclass
@@ -34,28 +33,12 @@ class ControllerChoice:
     airframe: Airframe
     params: ParameterStore
     forced: str | None = None  # --controller, when given
-    say: Callable[[str], None] = lambda text: None
+    say: Callable[[str], None] = lambda text: None  # unused: a broken MPC now raises instead of being announced
     flying: str = PID  # what the last built controller is
 
-    def wanted(self) -> str:
-        if self.forced is not None:
-            return self.forced
-        return MPC if self.params.get_int("VT_CTRL") == 1 else PID
-
     def build(self) -> FlightController:
-        kind = self.wanted()
-        controller = None
-        if kind == MPC:
-            try:
-                controller = FlightController(self.airframe, controller=MPC)
-                self.flying = MPC
-            except Exception as exc:  # no MPC in this build, or it cannot be set up: the PID flies
-                self.say(f"MPC not available ({type(exc).__name__}): flying the PID baseline")
-        if controller is None:
-            try:
-                controller = FlightController(self.airframe, controller=PID)
-            except TypeError:  # a FlightController without the choice: the PID baseline only
-                controller = FlightController(self.airframe)
-            self.flying = PID
-        set_pid_airspeeds(controller, self.params["VT_ARSP_BLEND"], self.params["VT_ARSP_TRANS"])
-        return controller
+        kind = controller_kind(self.forced, self.params.get_int("VT_CTRL"))
+        airspeeds = TransitionAirspeeds(self.params["VT_ARSP_BLEND"], self.params["VT_ARSP_TRANS"])
+        built = build_flight_controller(self.airframe, kind, airspeeds)
+        self.flying = built.kind
+        return LegacyFlightController(built.airframe, built.allocator, built.servos, built.pid, built.mpc)

@@ -1,5 +1,5 @@
 """The autopilot's control core: velocity controller at 100 Hz, attitude loop and allocation at 250 Hz, in
-simulation time, producing the 12 actuator commands of every 400 Hz plant step (SPEC section 4).
+simulation time, producing the 12 actuator commands of every 400 Hz plant step (docs/autopilot.md 1.1).
 
     measured velocity  --(400 Hz)--> VelocityEstimate (accelerometer-aided) --> the velocity the controllers use
     velocity set-point --(100 Hz)--> velocity controller --> attitude set-point, tilts, force set-point
@@ -8,60 +8,112 @@ simulation time, producing the 12 actuator commands of every 400 Hz plant step (
     tilts                         --> tilt servos directly (not allocated)
 
 The 250 Hz tasks run on the 400 Hz plant clock whenever their 4 ms period has elapsed (so 2.5 or 5 ms apart,
-250 Hz on average); the 100 Hz task runs every fourth step exactly.
+250 Hz on average); the 100 Hz task runs every fourth step exactly. The velocity controllers, the allocator and
+the servo estimate are built by autopilot.controllers.build_flight_controller and passed in.
 """
 
 from __future__ import annotations
 
 import dataclasses
+from typing import Literal
 
+import casadi as ca
 import numpy as np
 
+from aircraft.actuators import ALLOCATED_ROTORS, CHANNELS, TILTS, set_allocated
 from aircraft.airframe import Airframe
+from aircraft.failures import Failure
+from aircraft.rotors import rotor_wrench
 from autopilot.actuator_health import ActuatorHealth, ServoEstimate
 from autopilot.allocation import ControlAllocator
 from autopilot.attitude import AttitudeController
-from autopilot.mpc_controller import MpcVelocityController, solve_statistics
+from autopilot.mpc import MpcSolution
+from autopilot.mpc_controller import MpcVelocityController
 from autopilot.pid_baseline import PidVelocityController
 from autopilot.vehicle_state import VehicleState
 from autopilot.velocity_command import VelocityCommand
+from autopilot.velocity_controller import VelocityController
 from autopilot.velocity_estimate import VelocityEstimate
 
+ControllerKind = Literal["mpc", "pid"]
+MPC: ControllerKind = "mpc"  # the unified MPC, with the PID baseline as its back-up
+PID: ControllerKind = "pid"  # the PID baseline alone
 VELOCITY_PERIOD_USEC = 10_000  # 100 Hz
 ATTITUDE_PERIOD_USEC = 4_000  # 250 Hz
-# Differential tilt for hover yaw: tilting the right rotors (1, 2) back and the left ones (3, 4) forward by d
-# makes a yaw moment of about 2 T d (rotor arms 0.5 m to each side) and no net force.
-YAW_TILT_PATTERN = np.array([-1.0, -1.0, 1.0, 1.0])
-YAW_TILT_GAIN = 0.05  # per 250 Hz tick: the residual is integrated with a ~80 ms time constant
-YAW_TILT_MAX = np.radians(35.0)
 # Priorities when the demand is infeasible, as PX4's allocation has them: roll and pitch first (1 N m of
 # error costs like 10 N of force error), then thrust, yaw last (1 N m like 1 N).
 MOMENT_WEIGHTS = (100.0, 100.0, 1.0)
+YAW_MOMENT_ROW = 5  # of the allocator's wrench (force, moment)
+
+
+class YawByTilt:
+    """Hover yaw by differential tilt, as PX4 flies tiltrotors: the yaw the allocator could not make (the rotors'
+    reaction torque is only 0.05 of thrust) is integrated into opposite tilts of the rotors on either side.
+
+    The pattern and its yaw moment come from the rotor model, as PX4's ActuatorEffectivenessTilts derives its tilts'
+    yaw effect from the rotor positions: each rotor tilts the way that yaws the aircraft positive, and a tilt d of
+    the pattern makes a yaw moment of (sum over the rotors of |d yaw / d tilt| per newton) T d, no net force.
+    """
+
+    GAIN = 0.05  # per 250 Hz tick: the residual is integrated with a ~80 ms time constant
+    MAX = np.radians(35.0)
+
+    def __init__(self, airframe: Airframe) -> None:
+        self.thrust_max = airframe.thrust_max
+        self.thrust_min = airframe.yaw_tilt_thrust_min
+        tilts = ca.SX.sym("tilts", len(airframe.rotor_positions))
+        _, moment = rotor_wrench(airframe, ca.DM.ones(tilts.numel()), tilts)
+        yaw_per_tilt = ca.Function("yaw_per_tilt", [tilts], [ca.jacobian(moment[2], tilts)])
+        per_newton = np.asarray(yaw_per_tilt(np.zeros(tilts.numel()))).ravel()  # N m / (rad N) at tilt 0
+        self.pattern = np.sign(per_newton)
+        self.moment_per_tilt = float(self.pattern @ per_newton)  # N m / (rad N)
+        self.tilt = 0.0  # rad along the pattern
+
+    def update(self, active: bool, yaw_residual: float, thrust_fractions: np.ndarray) -> None:
+        """One attitude tick: integrate the yaw residual (N m) while active, else hand back smoothly."""
+        if not active:
+            self.tilt *= 1.0 - self.GAIN  # hand back to the velocity controller's tilts smoothly
+            return
+        thrust = max(float(np.mean(thrust_fractions)) * self.thrust_max, self.thrust_min)
+        self.tilt += self.GAIN * yaw_residual / (self.moment_per_tilt * thrust)
+        self.tilt = min(max(self.tilt, -self.MAX), self.MAX)
+
+    @property
+    def offsets(self) -> np.ndarray:
+        """What to add to the velocity controller's tilts (rad)."""
+        return self.tilt * self.pattern
 
 
 class FlightController:
-    """Velocity set-point in, physical actuator commands out (thrust fractions, tilts rad, deflections)."""
+    """Velocity set-point in, physical actuator commands out (thrust fractions, tilts rad, deflections).
 
-    def __init__(self, airframe: Airframe, controller: str = "pid") -> None:
-        """controller: "mpc" (the unified MPC, with the PID as its back-up) or "pid" (the baseline alone)."""
-        if controller not in ("mpc", "pid"):
-            raise ValueError(f"controller must be 'mpc' or 'pid', got {controller!r}")
+    Flies `mpc` when given, with `pid` as its back-up after repeated failed solves (paper), else `pid`.
+    """
+
+    def __init__(
+        self,
+        airframe: Airframe,
+        allocator: ControlAllocator,
+        servos: ServoEstimate,
+        pid: PidVelocityController,
+        mpc: MpcVelocityController | None = None,
+    ) -> None:
         self.airframe = airframe
-        hover = airframe.hover_thrust_per_rotor / airframe.thrust_max
-        self.allocator = ControlAllocator(airframe, u_initial=[hover] * 4 + [0.0] * 4)
+        self.allocator = allocator
+        self.servos = servos
+        self.pid = pid
+        self.mpc = mpc
+        self.velocity_controller: VelocityController = pid if mpc is None else mpc  # the one flying
         self.attitude = AttitudeController(airframe)
-        self.servos = ServoEstimate(airframe)
-        self.pid = PidVelocityController(airframe, dt=VELOCITY_PERIOD_USEC / 1e6)
-        self.mpc = MpcVelocityController(airframe, self.allocator, self.servos) if controller == "mpc" else None
-        self.velocity_controller: PidVelocityController | MpcVelocityController = self.mpc or self.pid
+        self.health = ActuatorHealth(airframe, allocator, servos)
+        self.yaw_tilt = YawByTilt(airframe)
         self.fell_back_to_pid = False
         self.events: list[str] = []  # what the vehicle should announce (STATUSTEXT), taken by pop_events()
-        self.health = ActuatorHealth(airframe, self.allocator, self.servos)
         self.velocity_command = VelocityCommand()
         self.velocity_estimate = VelocityEstimate(airframe.gravity)
         self.velocity_setpoint = np.zeros(3)
-        self.command = np.zeros(12)
-        self.command[0:4] = hover
+        self.command = np.zeros(CHANNELS)
+        set_allocated(self.command, allocator.u)  # rotors and surfaces where the allocator starts
         self.torque_sp = np.zeros(3)
         self.wrench_sp = np.zeros(6)
         self.residual = np.zeros(6)
@@ -70,12 +122,26 @@ class FlightController:
         self._next_attitude_usec = 0
         self._servo_time_usec = 0
         self._weights = np.array([1.0, 1.0, 1.0, *MOMENT_WEIGHTS])
-        self.yaw_tilt = 0.0  # rad: right rotors tilted back and left rotors forward by this much (yaw_by_tilt)
         self.allocator.set_wrench_weights(self._weights)
+
+    @property
+    def kind(self) -> ControllerKind:
+        """What was built: "mpc" (with the PID as back-up) or "pid"."""
+        return PID if self.mpc is None else MPC
 
     @property
     def mode(self) -> str:
         return self.velocity_command.mode
+
+    @property
+    def mode_switches(self) -> int:
+        """The flying velocity controller's phase changes."""
+        return self.velocity_controller.mode_switches
+
+    @property
+    def last_mpc_solution(self) -> MpcSolution | None:
+        """The MPC's latest solve (for telemetry), None without an MPC or before its first solve."""
+        return None if self.mpc is None else self.mpc.last_solution
 
     def set_velocity_setpoint(self, velocity_ned: np.ndarray) -> bool:
         """Accept a NED velocity set-point (m/s); a non-finite one is refused (False) and the last one kept."""
@@ -84,14 +150,24 @@ class FlightController:
         self.velocity_setpoint[:] = velocity_ned
         return True
 
+    def set_transition_airspeeds(self, blend: float, trans: float) -> None:
+        """VT_ARSP_BLEND and VT_ARSP_TRANS (m/s) for the PID baseline (flying, or the MPC's back-up)."""
+        self.pid.set_transition_airspeeds(blend, trans)
+
+    def apply_failure(self, failure: Failure) -> None:
+        """Tell the allocator and the servo estimate about a failure the plant accepted."""
+        self.health.apply(failure)
+
     def pop_events(self) -> list[str]:
         """Events since the last call (the MPC falling back to the PID), for STATUSTEXT."""
         events, self.events = self.events, []
         return events
 
     def controller_statistics(self) -> dict:
-        """The MPC's solver metrics (SPEC 7) when it flies, else empty."""
-        return {} if self.mpc is None else {**solve_statistics(self.mpc), "fell_back_to_pid": self.fell_back_to_pid}
+        """The MPC's solver metrics and whether the PID took over; empty for the PID alone."""
+        if self.mpc is None:
+            return {}
+        return {**self.mpc.statistics(), "fell_back_to_pid": self.fell_back_to_pid}
 
     def restart_clock(self) -> None:
         """The plant's clock went back (a new plant run): schedule the tasks afresh from the next step."""
@@ -116,20 +192,23 @@ class FlightController:
             self._next_velocity_usec += VELOCITY_PERIOD_USEC
             self.velocity_command = self.velocity_controller.update(state, self.velocity_setpoint, self.servos.tilt)
             if self.mpc is not None and self.mpc.fallback_requested and not self.fell_back_to_pid:
-                # Paper: the PID is the MPC's back-up after repeated failed solves.
-                self.fell_back_to_pid = True
-                self.velocity_controller = self.pid
-                self.events.append(f"MPC: {self.mpc.failures_in_row} failed solves in a row, PID back-up flying")
-                self.velocity_command = self.pid.update(state, self.velocity_setpoint, self.servos.tilt)
+                self._fall_back_to_pid(state, self.mpc)
         if t < self._next_attitude_usec:
             return False
         self._next_attitude_usec += ATTITUDE_PERIOD_USEC
         # The servos have been following the tilt command sent since the last tick: advance the estimate.
-        self.servos.advance(self.command[4:8], (t - self._servo_time_usec) / 1e6)
+        self.servos.advance(self.command[TILTS], (t - self._servo_time_usec) / 1e6)
         self._servo_time_usec = t
         self._attitude_and_allocation(state)
-        self.command[4:8] = self.velocity_command.tilt_sp + self.yaw_tilt * YAW_TILT_PATTERN
+        self.command[TILTS] = self.velocity_command.tilt_sp + self.yaw_tilt.offsets
         return True
+
+    def _fall_back_to_pid(self, state: VehicleState, mpc: MpcVelocityController) -> None:
+        """Paper: the PID is the MPC's back-up after repeated failed solves; it flies from this tick on."""
+        self.fell_back_to_pid = True
+        self.velocity_controller = self.pid
+        self.events.append(f"MPC: {mpc.failures_in_row} failed solves in a row, PID back-up flying")
+        self.velocity_command = self.pid.update(state, self.velocity_setpoint, self.servos.tilt)
 
     def _attitude_and_allocation(self, state: VehicleState) -> None:
         command = self.velocity_command
@@ -143,19 +222,5 @@ class FlightController:
         if result.fallback:
             self.allocation_fallbacks += 1
         self.residual = result.residual
-        self._update_yaw_tilt(command.yaw_by_tilt, result.residual[5], result.u[0:4])
-        self.command[0:4] = result.u[0:4]
-        self.command[8:12] = result.u[4:8]
-
-    def _update_yaw_tilt(self, active: bool, yaw_residual: float, thrust_fractions: np.ndarray) -> None:
-        """Integrate the yaw the allocator could not make into a differential tilt (d/d tilt of yaw = 2 T)."""
-        if not active:
-            self.yaw_tilt *= 1.0 - YAW_TILT_GAIN  # hand back to the velocity controller's tilts smoothly
-            return
-        thrust = max(float(np.mean(thrust_fractions)) * self.airframe.thrust_max, 5.0)
-        self.yaw_tilt += YAW_TILT_GAIN * yaw_residual / (2.0 * thrust)
-        self.yaw_tilt = min(max(self.yaw_tilt, -YAW_TILT_MAX), YAW_TILT_MAX)
-
-    def apply_failure(self, unit: int, kind: int, instance: int, value: float) -> None:
-        """Tell the allocator and the servo estimate about a failure the plant accepted (SPEC section 5)."""
-        self.health.apply(unit, kind, instance, value)
+        self.yaw_tilt.update(command.yaw_by_tilt, result.residual[YAW_MOMENT_ROW], result.u[ALLOCATED_ROTORS])
+        set_allocated(self.command, result.u)

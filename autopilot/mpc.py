@@ -1,6 +1,6 @@
-"""Real-time iteration (RTI) solver of the unified velocity MPC (SPEC 4.3), built once at start-up.
+"""Real-time iteration (RTI) solver of the unified velocity MPC (docs/mpc.md 3), built once at start-up.
 
-The paper rebuilt and solved the NLP with IPOPT at every call (~23 ms here, NOTES-performance.md). This is the
+The paper rebuilt and solved the NLP with IPOPT at every call (~23 ms here, docs/performance.md). This is the
 standard real-time NMPC instead: one Gauss-Newton SQP iteration per control step, warm started from the
 shifted previous plan, with the QP data (RK4 gaps and their Jacobians, Gauss-Newton Hessian blocks J^T J and
 gradients J^T r) from one CasADi function compiled to C, and the structured QP solved by HPIPM through
@@ -33,20 +33,20 @@ from autopilot.mpc_model import (
     NX,
     PSI,
     PSI_D,
+    PSI_D_INDEX,
     PSI_DOT,
-    PSI_DOT_PREV,
+    PSI_INDEX,
+    ROLL_PITCH,
+    ROLL_PITCH_D,
     THRUST,
-    V,
     MpcLimits,
     MpcWeights,
     SoftTiltCost,
+    V,
     discrete_dynamics,
     stage_residual,
     terminal_residual,
 )
-
-PSI_INDEX = 9  # x[PSI][2]
-PSI_D_INDEX = 10  # u[PSI_D][2]
 
 
 @dataclass
@@ -131,13 +131,13 @@ def build_qp_functions(
         lba.append(-gaps[:, k])
         uba.append(-gaps[:, k])
         offset = us_all[PSI_D_INDEX, k] - xs_all[PSI_INDEX, k]
-        lba.append(-math.pi / 2 - offset)
-        uba.append(math.pi / 2 - offset)
+        lba.append(-limits.yaw_sp_offset - offset)
+        uba.append(limits.yaw_sp_offset - offset)
     constraint_matrix = ca.vertcat(*rows)
     lbx = lbw - w
     ubx = ubw - w
     # The initial state is not free: its step is fixed to reach the measurement (dx0 = x0 - w0; a free dx0
-    # tracks wrongly, NOTES-performance.md).
+    # tracks wrongly, docs/performance.md).
     dx0 = x0 - w[0:NX]
     lbx = ca.vertcat(dx0, lbx[NX:])
     ubx = ca.vertcat(dx0, ubx[NX:])
@@ -227,13 +227,13 @@ class RtiSolver:
         x_lb[V], x_ub[V] = -np.array(lim.velocity), lim.velocity
         x_lb[CHI], x_ub[CHI] = a.tilt_min, a.tilt_max
         if self.weights.q_attitude_bound <= 0:  # else the roll and pitch bound is soft, in the cost (docs/mpc.md 2.8)
-            x_lb[7:9], x_ub[7:9] = -np.array(lim.attitude), lim.attitude
+            x_lb[ROLL_PITCH], x_ub[ROLL_PITCH] = -np.array(lim.attitude), lim.attitude
         x_lb[PSI_DOT], x_ub[PSI_DOT] = -lim.rate, lim.rate
         u_lb = np.full(NU, -np.inf)
         u_ub = np.full(NU, np.inf)
         u_lb[CHI_DOT], u_ub[CHI_DOT] = -lim.tilt_rate, lim.tilt_rate
-        u_lb[THRUST], u_ub[THRUST] = 0.0, lim.thrust_max
-        u_lb[8:10], u_ub[8:10] = -np.array(lim.attitude_sp), lim.attitude_sp
+        u_lb[THRUST], u_ub[THRUST] = 0.0, a.thrust_planned_max
+        u_lb[ROLL_PITCH_D], u_ub[ROLL_PITCH_D] = -np.array(lim.attitude_sp), lim.attitude_sp
         self._x_bounds, self._u_bounds = (x_lb, x_ub), (u_lb, u_ub)
         return self._stack(x_lb, u_lb), self._stack(x_ub, u_ub)
 
@@ -247,7 +247,7 @@ class RtiSolver:
         thrust_min: np.ndarray | None = None,
         tilt_rate_scale: np.ndarray | None = None,
     ) -> None:
-        """Failure awareness (SPEC 4.3): per-rotor thrust ceilings and floors (N; a stuck motor has both at its
+        """Failure awareness (docs/mpc.md 3.5): per-rotor thrust ceilings and floors (N; a stuck motor has both at its
         thrust), stuck tilts (rad, NaN = free) and per-servo tilt-rate fractions (a slowed servo)."""
         thrust_min = np.zeros(4) if thrust_min is None else thrust_min
         tilt_rate_scale = np.ones(4) if tilt_rate_scale is None else tilt_rate_scale
@@ -264,8 +264,8 @@ class RtiSolver:
         # not also bounded to the stuck angle: the servo drives there with its own lag (the estimate converges in
         # ~0.1 s), and x_0 != the stuck angle with zero rate made every QP infeasible right after a jam.
         stuck = ~np.isnan(tilt_fixed)
-        u_lb[0:4] = np.where(stuck, 0.0, u_lb[0:4])
-        u_ub[0:4] = np.where(stuck, 0.0, u_ub[0:4])
+        u_lb[CHI_DOT] = np.where(stuck, 0.0, u_lb[CHI_DOT])
+        u_ub[CHI_DOT] = np.where(stuck, 0.0, u_ub[CHI_DOT])
         self.lbw, self.ubw = self._stack(x_lb, u_lb), self._stack(x_ub, u_ub)
 
     # ---- solving ------------------------------------------------------------------------------------------
@@ -303,7 +303,7 @@ class RtiSolver:
         """Add delta (rad) to the yaw of every planned state and yaw set-point: the same plan, since the cost,
         the attitude law and the yaw set-point rows see yaw only through differences and wrapped angles."""
         stride = NX + NU
-        self.w[PSI_INDEX :: stride] += delta
+        self.w[PSI_INDEX::stride] += delta
         self.w[NX + PSI_D_INDEX :: stride] += delta
 
     def solve(self, x0: np.ndarray, params: np.ndarray) -> MpcSolution:
@@ -344,8 +344,8 @@ def solve_reference_nlp(solver: RtiSolver, x0: np.ndarray, params: np.ndarray, t
         lbg += [0.0] * NX
         ubg += [0.0] * NX
         constraints.append(us[k][PSI_D_INDEX] - xs[k][PSI_INDEX])
-        lbg.append(-math.pi / 2)
-        ubg.append(math.pi / 2)
+        lbg.append(-solver.limits.yaw_sp_offset)
+        ubg.append(solver.limits.yaw_sp_offset)
     cost += ca.sumsqr(model.terminal_residual(xs[n], params[:, n]))
     nlp = ca.nlpsol(
         "paper_nlp", "ipopt", {"x": w, "f": cost, "g": ca.vertcat(*constraints)},

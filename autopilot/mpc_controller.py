@@ -15,19 +15,37 @@ import math
 
 import numpy as np
 
+from aircraft.actuators import ALLOCATED_ROTORS
 from aircraft.airframe import Airframe
+from autopilot.actuator_health import ServoEstimate
 from autopilot.allocation import ControlAllocator
 from autopilot.attitude import wrap
-from autopilot.actuator_health import ServoEstimate
-from autopilot.mpc import PSI_INDEX, MpcSolution, RtiSolver, planned_force_function
-from autopilot.mpc_model import CHI, NP, NX, PSI_D, THRUST, MpcLimits, yaw_reference
+from autopilot.mpc import MpcSolution, RtiSolver, planned_force_function
+from autopilot.mpc_model import (
+    CHI,
+    NP,
+    NX,
+    P_FREE_TILT,
+    P_PHI_REF,
+    P_PSI_D_REF,
+    P_PSI_RATE_REF,
+    P_PSI_REF,
+    P_V_SP,
+    PSI_D,
+    PSI_INDEX,
+    THRUST,
+    MpcLimits,
+    V,
+    yaw_reference,
+)
 from autopilot.vehicle_state import VehicleState
 from autopilot.velocity_command import SetpointTrajectory, VelocityCommand, course_rate
 
+HORIZON = 25  # stages (paper)
+STEP_S = 0.01  # s per stage (paper)
 MAX_FAILURES = 3
 LEVENBERG = 0.1  # Marquardt damping of each RTI step (mpc.py)
 WARM_UP_ITERATIONS = 10  # RTI iterations at the first state, so the first plan is converged
-TILT_LEAD_STAGES = 3  # the servos lag ~30 ms: command the plan's tilt 3 stages (30 ms) ahead
 
 
 def coordinated_roll(acceleration_ned: np.ndarray, heading: float, gravity: float, limit: float) -> float:
@@ -54,8 +72,8 @@ class MpcVelocityController:
         airframe: Airframe,
         allocator: ControlAllocator,
         servos: ServoEstimate,
-        horizon: int = 25,
-        dt: float = 0.01,
+        horizon: int = HORIZON,
+        dt: float = STEP_S,
         limits: MpcLimits = MpcLimits(),
     ) -> None:
         self.airframe = airframe
@@ -67,7 +85,7 @@ class MpcVelocityController:
         self.force_function = planned_force_function(airframe)
         self.params = np.zeros((NP, horizon + 1))
         self.previous_rates: np.ndarray | None = None
-        self.mode_switches = 0  # the MPC has no modes; kept for the same counters as the PID
+        self.mode_switches = 0  # the MPC has no modes (VelocityController's counter)
         self.failures_in_row = 0
         self.solves_failed = 0
         self.solve_times_s: list[float] = []
@@ -75,13 +93,16 @@ class MpcVelocityController:
         self.last_solution: MpcSolution | None = None
         self.last_x0 = np.zeros(NX)
         self.trajectory = SetpointTrajectory()
+        # The servos lag by their time constant (30 ms): command the plan's tilt that far (3 stages) ahead.
+        self.tilt_lead_stages = min(round(airframe.servo_tau / dt), horizon)
 
     def _bounds_from_health(self) -> None:
-        """What the allocator and the servo estimate know of failures, as the MPC's bounds (SPEC 4.3)."""
-        t_max = self.airframe.thrust_max
-        working = self.allocator.effectiveness[0:4] > 0
-        thrust_max = np.where(working, np.minimum(self.limits.thrust_max, self.allocator.upper[0:4] * t_max), 0.0)
-        thrust_min = np.where(working, self.allocator.lower[0:4] * t_max, 0.0)
+        """What the allocator and the servo estimate know of failures, as the MPC's bounds (docs/mpc.md 3.5)."""
+        a, allocator = self.airframe, self.allocator
+        working = allocator.effectiveness[ALLOCATED_ROTORS] > 0
+        planned_max = np.minimum(a.thrust_planned_max, allocator.upper[ALLOCATED_ROTORS] * a.thrust_max)
+        thrust_max = np.where(working, planned_max, 0.0)
+        thrust_min = np.where(working, allocator.lower[ALLOCATED_ROTORS] * a.thrust_max, 0.0)
         self.solver.set_actuator_limits(thrust_max, self.servos.stuck, thrust_min, self.servos.rate_scale)
 
     def _set_parameters(self, v_sp: np.ndarray, yaw: float, time_usec: int) -> None:
@@ -91,20 +112,20 @@ class MpcVelocityController:
         rate = self.trajectory.update(time_usec, v_sp)
         v_sp = self.trajectory.now(time_usec)
         stage_times = np.arange(solver.horizon + 1) * solver.dt
-        params[0:3, :] = v_sp[:, None] + rate[:, None] * stage_times[None, :]
-        params[4:8, :] = np.isnan(self.servos.stuck)[:, None]
+        params[P_V_SP, :] = v_sp[:, None] + rate[:, None] * stage_times[None, :]
+        params[P_FREE_TILT, :] = np.isnan(self.servos.stuck)[:, None]
         yaw_gain = solver.gains.attitude[2]
         psi_ref = yaw
         for k in range(solver.horizon + 1):
-            north, east = params[0, k], params[1, k]
-            psi_ref = yaw_reference(north, east, psi_ref)
+            v_sp_k = params[P_V_SP, k]
+            psi_ref = yaw_reference(v_sp_k[0], v_sp_k[1], psi_ref)
             # The set-point's course rate, while it has a course (the yaw reference follows it).
-            turn_rate = course_rate(params[0:3, k], rate)
-            params[3, k] = psi_ref
-            params[8, k] = coordinated_roll(rate, psi_ref, self.airframe.gravity, self.limits.attitude[0])
-            params[9, k] = turn_rate
+            turn_rate = course_rate(v_sp_k, rate)
+            params[P_PSI_REF, k] = psi_ref
+            params[P_PHI_REF, k] = coordinated_roll(rate, psi_ref, self.airframe.gravity, self.limits.attitude[0])
+            params[P_PSI_RATE_REF, k] = turn_rate
             # The yaw set-point that holds the attitude loop on a yaw turning at turn_rate: it leads by rate / K_att.
-            params[10, k] = psi_ref + turn_rate / yaw_gain
+            params[P_PSI_D_REF, k] = psi_ref + turn_rate / yaw_gain
 
     def update(self, state: VehicleState, v_sp: np.ndarray, tilts: np.ndarray) -> VelocityCommand:
         rates = euler_rates(state.euler, state.body_rates)
@@ -147,36 +168,35 @@ class MpcVelocityController:
         command = VelocityCommand(mode="MPC")
         command.euler_sp[:] = u0[PSI_D]
         command.euler_sp[2] = wrap(u0[PSI_D][2])
-        command.tilt_sp[:] = states[min(TILT_LEAD_STAGES, solver.horizon)][CHI]
+        command.tilt_sp[:] = states[self.tilt_lead_stages][CHI]
         command.force_sp_body[:] = np.asarray(self.force_function(states[0], u0)).ravel()
         command.force_weights[:] = 1.0
         return command
 
-
-def solve_statistics(controller: MpcVelocityController) -> dict:
-    """SPEC 7's solver metrics: solve time median / p99 / max (ms) and the count of failed solves."""
-    times = np.array(controller.solve_times_s) * 1e3
-    if times.size == 0:
-        return {"solve_ms_median": None, "solve_ms_p99": None, "solve_ms_max": None, "solves_failed": 0}
-    return {
-        "solve_ms_median": float(np.median(times)),
-        "solve_ms_p99": float(np.percentile(times, 99)),
-        "solve_ms_max": float(times.max()),
-        "solves_failed": controller.solves_failed,
-    }
+    def statistics(self) -> dict:
+        """The solver metrics of a flight's summary: solve time median / p99 / max (ms), the failed solves."""
+        times = np.array(self.solve_times_s) * 1e3
+        if times.size == 0:
+            return {"solve_ms_median": None, "solve_ms_p99": None, "solve_ms_max": None, "solves_failed": 0}
+        return {
+            "solve_ms_median": float(np.median(times)),
+            "solve_ms_p99": float(np.percentile(times, 99)),
+            "solve_ms_max": float(times.max()),
+            "solves_failed": self.solves_failed,
+        }
 
 
 def solution_summary(solution: MpcSolution) -> dict:
-    """Telemetry payload of one solve (SPEC 6): predicted velocities and tilts, solve time, iterations, status."""
+    """Telemetry payload of one solve (docs/telemetry.md): predicted velocities and tilts, solve time, iterations,
+    status."""
     return {
         "ok": solution.ok,
         "status": solution.status,
         "solve_time_ms": solution.solve_time_s * 1e3,
         "qp_iterations": solution.iterations,
         "cost": solution.cost,
-        "predicted_velocity": solution.x[:, 0:3].tolist(),
-        "predicted_tilt": solution.x[:, 3:7].tolist(),
+        "predicted_velocity": solution.x[:, V].tolist(),
+        "predicted_tilt": solution.x[:, CHI].tolist(),
         "thrust": solution.u[0][THRUST].tolist(),
         "attitude_sp": solution.u[0][PSI_D].tolist(),
     }
-

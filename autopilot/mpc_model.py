@@ -1,4 +1,4 @@
-"""The unified velocity MPC's optimal control problem (paper section "Model Predictive Control"; SPEC 4.3).
+"""The unified velocity MPC's optimal control problem (paper section "Model Predictive Control"; docs/mpc.md 1).
 
 State x (16):  v (NED, m/s) | tilts chi_1..4 (rad) | Psi = (roll, pitch, yaw) | Psi_dot | Psi_dot_prev
 Input u (11):  tilt rates chi_dot_1..4 (rad/s) | thrusts T_1..4 (N) | attitude set-point Psi_d (rad)
@@ -47,15 +47,19 @@ from autopilot.velocity_command import setpoint_course
 
 NX, NU = 16, 11
 V, CHI, PSI, PSI_DOT, PSI_DOT_PREV = slice(0, 3), slice(3, 7), slice(7, 10), slice(10, 13), slice(13, 16)
+ROLL_PITCH, PSI_INDEX = slice(7, 9), 9  # within PSI: roll and pitch, yaw
 CHI_DOT, THRUST, PSI_D = slice(0, 4), slice(4, 8), slice(8, 11)
-# Parameters per stage: v_sp (3), psi_ref, free_tilt (4: 1 for a working servo, 0 for a stuck one), and the rest
-# of the set-point trajectory's coordinated-turn attitude: phi_ref, psi_rate_ref, psi_d_ref (docs/mpc.md 2.5).
+ROLL_PITCH_D, PSI_D_INDEX = slice(8, 10), 10  # within PSI_D
+# Parameters per stage: v_sp (3), psi_ref, free_tilt (4: 1 for a working servo, 0 for a stuck one; the MPC's own
+# layout, not the actuators'), and the rest of the set-point trajectory's coordinated-turn attitude: phi_ref,
+# psi_rate_ref, psi_d_ref (docs/mpc.md 2.5).
 NP = 11
+P_V_SP, P_PSI_REF, P_FREE_TILT, P_PHI_REF, P_PSI_RATE_REF, P_PSI_D_REF = slice(0, 3), 3, slice(4, 8), 8, 9, 10
 
 
 @dataclass(frozen=True)
 class MpcWeights:
-    """Paper Table 2 (SPEC 4.3)."""
+    """Paper Table 2 (docs/mpc.md 1.5)."""
 
     q_ref: tuple[float, float, float] = (20.0, 10.0, 50.0)
     q_final: tuple[float, float, float] = (20.0, 10.0, 50.0)
@@ -76,7 +80,7 @@ class MpcWeights:
 class SoftTiltCost:
     """J_soft = exp(a v_B chi + b chi + c v_B + d), chi = mean tilt in degrees, v_B forward body speed (m/s).
 
-    The authors' final constants (SPEC 4.3); the paper's stated ones contradict its own table. The exponent is
+    The authors' final constants (docs/mpc.md 1.6); the paper's stated ones contradict its own table. The exponent is
     capped so the solver stays well conditioned.
     """
 
@@ -96,15 +100,15 @@ class SoftTiltCost:
 
 @dataclass(frozen=True)
 class MpcLimits:
-    """Constraints (paper eq. for the constraints; SPEC 4.3)."""
+    """Constraints (paper eq. for the constraints; docs/mpc.md 1.4)."""
 
     attitude: tuple[float, float] = (math.pi / 4, math.pi / 4)  # |phi|, |theta|
     attitude_sp: tuple[float, float] = (math.pi / 3, math.pi / 3)  # |phi_d|, |theta_d|
     yaw_sp_offset: float = math.pi / 2  # |psi_d - psi|
     rate: float = math.pi  # |Psi_dot|
     velocity: tuple[float, float, float] = (30.0, 30.0, 10.0)
-    thrust_max: float = 23.0  # N per rotor (the paper's, below the rotor's 26.4 N: margin for attitude)
     tilt_rate: float = math.pi / 4  # rad/s
+    # The thrust bound per rotor (the paper's 23 N) is the airframe's thrust_planned_max; the tilt range its own.
 
 
 def continuous_dynamics(airframe: Airframe, gains: AttitudeGains, x: ca.SX, u: ca.SX) -> ca.SX:
@@ -141,7 +145,7 @@ def attitude_bound_residual(weights: MpcWeights, limits: MpcLimits, x: ca.SX) ->
     if weights.q_attitude_bound <= 0:
         return ca.SX.zeros(0)
     width = weights.attitude_bound_width
-    angles = x[PSI][0:2]
+    angles = x[ROLL_PITCH]
     bound = ca.DM(limits.attitude)
     excess = ca.vertcat(angles - bound, -angles - bound) / width
     softplus = ca.if_else(excess > 30, excess, ca.log1p(ca.exp(ca.fmin(excess, 30))))
@@ -158,8 +162,8 @@ def stage_residual(
     limits: MpcLimits | None = None,
 ) -> ca.SX:
     """Residual r with |r|^2 = the stage cost (Gauss-Newton form)."""
-    v_sp, psi_ref, free_tilt = p[0:3], p[3], p[4:8]
-    phi_ref, psi_rate_ref, psi_d_ref = p[8], p[9], p[10]
+    v_sp, psi_ref, free_tilt = p[P_V_SP], p[P_PSI_REF], p[P_FREE_TILT]
+    phi_ref, psi_rate_ref, psi_d_ref = p[P_PHI_REF], p[P_PSI_RATE_REF], p[P_PSI_D_REF]
     euler = x[PSI]
     forward_speed = (rotation_from_euler(euler).T @ x[V])[0]
     # Mean over the servos that work: a stuck servo's tilt is not the controller's to choose, and counting it
@@ -186,13 +190,13 @@ def stage_residual(
 
 def terminal_residual(weights: MpcWeights, x: ca.SX, p: ca.SX, limits: MpcLimits | None = None) -> ca.SX:
     return ca.vertcat(
-        ca.sqrt(ca.DM(weights.q_final)) * (x[V] - p[0:3]), attitude_bound_residual(weights, limits or MpcLimits(), x)
+        ca.sqrt(ca.DM(weights.q_final)) * (x[V] - p[P_V_SP]), attitude_bound_residual(weights, limits or MpcLimits(), x)
     )
 
 
 def yaw_reference(v_sp_north: float, v_sp_east: float, yaw_now: float) -> float:
     """psi_ref: the set-point's course (autopilot.velocity_command.setpoint_course), else the current yaw
-    (SPEC 4.3); unwrapped to within pi of the current yaw so that the plan never turns the long way round."""
+    (docs/mpc.md 1.7); unwrapped to within pi of the current yaw so that the plan never turns the long way round."""
     course = setpoint_course(v_sp_north, v_sp_east)
     if course is None:
         return yaw_now

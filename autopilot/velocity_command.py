@@ -11,7 +11,7 @@ YAW_FROM_COURSE_SPEED = 3.0  # m/s: above this horizontal set-point speed the no
 
 
 def setpoint_course(v_sp_north: float, v_sp_east: float) -> float | None:
-    """The course (rad) both velocity controllers point the nose along (SPEC 4.3: psi_ref), or None when the
+    """The course (rad) both velocity controllers point the nose along (docs/mpc.md 1.7: psi_ref), or None when the
     horizontal set-point is too slow to have one (then the controller keeps its yaw)."""
     if math.hypot(v_sp_north, v_sp_east) <= YAW_FROM_COURSE_SPEED:
         return None
@@ -72,7 +72,7 @@ def course_rate(v_sp: np.ndarray, rate: np.ndarray) -> float:
 
 @dataclass
 class VelocityCommand:
-    """Outer-loop output, refreshed at 100 Hz (SPEC section 4).
+    """Outer-loop output, refreshed at 100 Hz (docs/autopilot.md 1.2).
 
     euler_sp: attitude set-point (roll, pitch, yaw) in rad for the attitude loop.
     tilt_sp: tilt servo set-points chi_1..4 in rad, sent straight to the servos (not allocated).

@@ -16,11 +16,10 @@ import time
 import numpy as np
 
 from aircraft.airframe import load_airframe
-from autopilot.flight_controller import FlightController
+from autopilot.controllers import MPC, build_flight_controller
 from autopilot.mpc import solve_reference_nlp
-from autopilot.mpc_controller import MpcVelocityController
-from autopilot.setpoint_profiles import accel
 from autopilot.vehicle_state import VehicleState, euler_from_quaternion
+from scenarios.profiles import accel
 from sim_bridge.plant import Plant, Spawn
 
 
@@ -41,10 +40,7 @@ def closed_loop(seconds: float, horizon: int = 25, ipopt_every: int = 0):
     """Fly the acceleration profile; returns (controller, IPOPT times, max deviation RTI vs IPOPT first input)."""
     airframe = load_airframe()
     plant = Plant(airframe, Spawn(altitude=100.0))
-    controller = FlightController(airframe, "mpc")
-    if horizon != 25:
-        controller.mpc = MpcVelocityController(airframe, controller.allocator, controller.servos, horizon=horizon)
-        controller.velocity_controller = controller.mpc
+    controller = build_flight_controller(airframe, MPC, mpc_horizon=horizon)
     state = VehicleState()
     ipopt_times = []
     solves_seen = 0

@@ -1,6 +1,7 @@
-"""Control allocation (SPEC 4.2): hand-checkable hover cases, saturation, failures, cruise redistribution, NaN safety.
+"""Control allocation (docs/autopilot.md 3): hand-checkable hover cases, saturation, failures, cruise
+redistribution, NaN safety.
 
-Hand derivation used below (SPEC section 3, body FRD, zero tilt): rotor i pushes F_i = T_i (0, 0, -1), so its
+Hand derivation used below (docs/model.md, body FRD, zero tilt): rotor i pushes F_i = T_i (0, 0, -1), so its
 moment is r_i x F_i = (-y_i T_i, x_i T_i, 0) plus the reaction torque d_i (c_K/c_F) T_i (0, 0, -1):
   roll  L = -sum y_i T_i         -> positive roll (right wing down) needs the LEFT rotors 3, 4 (y = -0.5);
   pitch M = +sum x_i T_i         -> positive pitch (nose up) needs the FRONT rotors 1, 4 (x = +0.866);
@@ -19,6 +20,7 @@ import casadi as ca
 import numpy as np
 import pytest
 
+from aircraft.actuators import ALLOCATED_ROTORS, ALLOCATED_SURFACES
 from aircraft.airframe import Airframe, load_airframe
 from aircraft.wrench import actuator_wrench
 from autopilot.allocation import STATUS_INVALID_INPUT, AllocationResult, ControlAllocator
@@ -76,9 +78,10 @@ def test_hover_from_rest(airframe: Airframe, model: ca.Function) -> None:
     allocator = ControlAllocator(airframe)  # previous solution: everything at 0
     result = allocator.allocate(np.array([0.0, 0.0, -weight(airframe), 0.0, 0.0, 0.0]), ZERO4, ZERO3, ZERO3)
     assert result.status == "solved" and result.ok and not result.fallback
-    np.testing.assert_allclose(result.u[0:4], 0.6906, atol=1e-3)
-    np.testing.assert_allclose(result.u[0:4], hover_fraction(airframe), atol=1e-6)
-    np.testing.assert_allclose(result.u[4:8], 0.0, atol=1e-9)  # no effect at zero airspeed: least effort keeps 0
+    np.testing.assert_allclose(result.u[ALLOCATED_ROTORS], 0.6906, atol=1e-3)
+    np.testing.assert_allclose(result.u[ALLOCATED_ROTORS], hover_fraction(airframe), atol=1e-6)
+    # No effect at zero airspeed: least effort keeps 0.
+    np.testing.assert_allclose(result.u[ALLOCATED_SURFACES], 0.0, atol=1e-9)
     np.testing.assert_allclose(result.achieved, wrench_of(model, result.u), atol=1e-9)
     np.testing.assert_allclose(result.residual, [0, 0, -weight(airframe), 0, 0, 0] - result.achieved, atol=1e-12)
     assert np.linalg.norm(result.residual) < 1e-4
@@ -107,10 +110,10 @@ def test_pure_torque_around_hover(
     np.testing.assert_allclose(result.achieved, wrench_of(model, result.u), atol=1e-9)
     delta = torque / (4 * lever * airframe.thrust_max)  # hand derivation in the module docstring
     expected = hover_fraction(airframe) + delta * np.array(pattern)
-    np.testing.assert_allclose(result.u[0:4], expected, atol=1e-3 * abs(delta))
-    signs = np.sign(result.u[0:4] - hover_fraction(airframe))
+    np.testing.assert_allclose(result.u[ALLOCATED_ROTORS], expected, atol=1e-3 * abs(delta))
+    signs = np.sign(result.u[ALLOCATED_ROTORS] - hover_fraction(airframe))
     np.testing.assert_array_equal(signs, np.sign(torque) * np.array(pattern))
-    np.testing.assert_allclose(result.u[4:8], 0.0, atol=1e-9)
+    np.testing.assert_allclose(result.u[ALLOCATED_SURFACES], 0.0, atol=1e-9)
 
 
 def test_extra_upward_force_raises_all_rotors_equally(airframe: Airframe) -> None:
@@ -118,8 +121,8 @@ def test_extra_upward_force_raises_all_rotors_equally(airframe: Airframe) -> Non
     extra = 10.0  # N upward, i.e. -z
     result = allocator.allocate(np.array([0.0, 0.0, -weight(airframe) - extra, 0, 0, 0]), ZERO4, ZERO3, ZERO3)
     expected = (weight(airframe) + extra) / 4 / airframe.thrust_max
-    np.testing.assert_allclose(result.u[0:4], expected, atol=1e-6)
-    assert np.ptp(result.u[0:4]) < 1e-9
+    np.testing.assert_allclose(result.u[ALLOCATED_ROTORS], expected, atol=1e-6)
+    assert np.ptp(result.u[ALLOCATED_ROTORS]) < 1e-9
     assert np.linalg.norm(result.residual) < 1e-3
 
 
@@ -128,7 +131,7 @@ def test_saturation_reports_the_residual(airframe: Airframe, model: ca.Function)
     demand = np.array([0.0, 0.0, -200.0, 0.0, 0.0, 0.0])  # capacity is 4 x 26.37 = 105.5 N
     result = allocator.allocate(demand, ZERO4, ZERO3, ZERO3)
     assert result.ok
-    np.testing.assert_array_equal(result.u[0:4], 1.0)  # at the upper bound, exactly (clipped)
+    np.testing.assert_array_equal(result.u[ALLOCATED_ROTORS], 1.0)  # at the upper bound, exactly (clipped)
     np.testing.assert_allclose(result.achieved, wrench_of(model, result.u), atol=1e-9)
     np.testing.assert_allclose(result.residual, demand - result.achieved, atol=1e-12)
     assert result.residual[2] == pytest.approx(-200.0 + 4 * airframe.thrust_max, abs=1e-6)
@@ -140,7 +143,8 @@ def test_saturated_roll_uses_the_full_range(airframe: Airframe) -> None:
     demand = np.array([0.0, 0.0, -weight(airframe), 100.0, 0.0, 0.0])  # far beyond the rotors' roll authority
     result = allocator.allocate(demand, ZERO4, ZERO3, ZERO3)
     assert_clean(result, allocator)
-    np.testing.assert_allclose(result.u[0:4], [0.0, 0.0, 1.0, 1.0], atol=1e-6)  # bounds, to solver tolerance
+    # At the bounds, to the solver's tolerance.
+    np.testing.assert_allclose(result.u[ALLOCATED_ROTORS], [0.0, 0.0, 1.0, 1.0], atol=1e-6)
     assert result.residual[3] > 0 and np.linalg.norm(result.residual) > 1.0
 
 
@@ -165,7 +169,7 @@ def test_partial_rotor_cap_is_respected(airframe: Airframe) -> None:
     result = allocator.allocate(demand, ZERO4, ZERO3, ZERO3)
     assert_clean(result, allocator)
     assert result.u[1] == pytest.approx(0.7, abs=1e-12)
-    np.testing.assert_allclose(allocator.upper[0:4], [1.0, 0.7, 1.0, 1.0])
+    np.testing.assert_allclose(allocator.upper[ALLOCATED_ROTORS], [1.0, 0.7, 1.0, 1.0])
     # The four rotors are the only effective actuators in hover (a square system), so with rotor 2 capped the yaw
     # cannot be met; the least-squares compromise keeps the strong axes and gives up most of the weak yaw.
     assert 0.0 < result.achieved[5] < 0.2 and result.residual[5] > 0.8
@@ -221,7 +225,7 @@ def test_cruise_rotor1_failure_is_redistributed(airframe: Airframe, model: ca.Fu
     allocator = ControlAllocator(airframe)
     trim = np.array([6.44, 0.0, -weight(airframe), 0.0, 0.0, 0.0])  # drag ~6.4 N; the wing lifts only 63.7 N
     healthy = allocator.allocate(trim, CRUISE_TILTS, CRUISE_AIR, ZERO3)
-    assert healthy.ok and np.ptp(healthy.u[0:4]) < 1e-6
+    assert healthy.ok and np.ptp(healthy.u[ALLOCATED_ROTORS]) < 1e-6
     feasible = healthy.achieved
     allocator.set_failed(0)
     for _ in range(3):  # the closed loop calls it every 4 ms; the least-change bias decays geometrically
@@ -231,7 +235,7 @@ def test_cruise_rotor1_failure_is_redistributed(airframe: Airframe, model: ca.Fu
     assert np.linalg.norm(result.residual) < 1e-6 * np.linalg.norm(feasible)
     np.testing.assert_allclose(result.achieved, wrench_of(model, result.u, CRUISE_TILTS, CRUISE_AIR), atol=1e-9)
     assert result.u[1] == pytest.approx(2 * healthy.u[1], rel=1e-3)  # yaw balance: T2 = T3 + T4, Fx = 2 T2
-    assert result.u[1] == max(result.u[0:4])
+    assert result.u[1] == max(result.u[ALLOCATED_ROTORS])
     assert abs(result.u[4] - result.u[5]) > 1e-2  # differential aileron cancels rotor 2's reaction roll
 
 
@@ -283,7 +287,7 @@ def test_effectiveness_matrix_matches_finite_differences(airframe: Airframe, mod
         numeric[:, j] = (wrench_of(model, u0 + e, tilts, v_air, rates) - wrench_of(model, u0 - e, tilts, v_air, rates))
         numeric[:, j] /= 2 * step
     np.testing.assert_allclose(allocator.effectiveness_matrix, numeric, atol=1e-6)
-    assert np.abs(numeric[3:6, 4:8]).max() > 1.0  # the surfaces act at 15 m/s: the check covers them too
+    assert np.abs(numeric[3:6, ALLOCATED_SURFACES]).max() > 1.0  # the surfaces act at 15 m/s: the check covers them too
 
 
 def test_vm_and_compiled_agree(airframe: Airframe) -> None:

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 from autopilot.mpc import RtiSolver, solve_reference_nlp
-from autopilot.mpc_model import CHI, NP, NX, SoftTiltCost
+from autopilot.mpc_model import CHI, NP, NX, P_FREE_TILT, P_PSI_D_REF, P_PSI_REF, SoftTiltCost
 
 # Paper Table 3, (mean tilt deg, forward speed m/s) -> J_soft. Two cells disagree with every constant set,
-# including the paper's own (its table is inconsistent, SPEC 4.3): (45, 15) and (90, 10); left out.
+# including the paper's own (its table is inconsistent, docs/mpc.md 1.6): (45, 15) and (90, 10); left out.
 PAPER_TABLE = {
     (0, 0): 0.10, (0, 5): 0.0092, (0, 10): 8.40e-4, (0, 15): 3.12e-4,
     (45, 0): 1.50e34, (45, 5): 20.1, (45, 10): 6.67e-33,
@@ -52,7 +52,7 @@ def test_iterated_rti_reaches_the_optimum_of_the_same_nlp_solved_by_ipopt(solver
     x0[CHI] = math.radians(10)
     params = np.zeros((NP, solver.horizon + 1))
     params[0, :] = 9.0
-    params[4:8, :] = 1.0
+    params[P_FREE_TILT, :] = 1.0
     solver.set_actuator_limits(np.full(4, 23.0), np.full(4, np.nan))
     converge(solver, x0, params)
     reference = solve_reference_nlp(solver, x0, params)
@@ -64,7 +64,7 @@ def test_failures_enter_the_plan_as_bounds(solver):
     x0[CHI] = (0.0, math.radians(60), 0.0, 0.0)
     params = np.zeros((NP, solver.horizon + 1))
     params[0, :] = 3.0
-    params[4:8, :] = np.array([1.0, 0.0, 1.0, 1.0])[:, None]
+    params[P_FREE_TILT, :] = np.array([1.0, 0.0, 1.0, 1.0])[:, None]
     solver.set_actuator_limits(np.array([0.0, 23.0, 23.0, 23.0]), np.array([np.nan, math.radians(60), np.nan, np.nan]))
     converge(solver, x0, params, iterations=20)
     inputs, states = solver.inputs(), solver.states()
@@ -79,7 +79,7 @@ def test_a_stuck_motor_and_a_slow_servo_enter_the_plan_too(solver):
     x0 = np.zeros(NX)
     params = np.zeros((NP, solver.horizon + 1))
     params[0, :] = 3.0
-    params[4:8, :] = 1.0
+    params[P_FREE_TILT, :] = 1.0
     solver.set_actuator_limits(np.array([12.0, 23.0, 23.0, 23.0]), np.full(4, np.nan),
                                thrust_min=np.array([12.0, 0.0, 0.0, 0.0]), tilt_rate_scale=np.array([1, 0.5, 1, 1]))
     converge(solver, x0, params, iterations=20)
@@ -93,8 +93,8 @@ def test_a_stuck_motor_and_a_slow_servo_enter_the_plan_too(solver):
 
 from autopilot.actuator_health import ServoEstimate  # noqa: E402
 from autopilot.allocation import ControlAllocator  # noqa: E402
-from autopilot.mpc import PSI_INDEX  # noqa: E402
 from autopilot.mpc_controller import MpcVelocityController, SetpointTrajectory, coordinated_roll  # noqa: E402
+from autopilot.mpc_model import PSI_INDEX  # noqa: E402
 from autopilot.vehicle_state import VehicleState  # noqa: E402
 
 
@@ -177,9 +177,9 @@ def test_shift_yaw_moves_the_whole_plan_by_whole_turns(solver):
     x0 = np.zeros(NX)
     x0[PSI_INDEX] = 3.0
     params = np.zeros((NP, solver.horizon + 1))
-    params[3, :] = 3.0
-    params[4:8, :] = 1.0
-    params[10, :] = 3.0
+    params[P_PSI_REF, :] = 3.0
+    params[P_FREE_TILT, :] = 1.0
+    params[P_PSI_D_REF, :] = 3.0
     solver.set_actuator_limits(np.full(4, 23.0), np.full(4, np.nan))
     converge(solver, x0, params, iterations=5)
     before = solver.w.copy()
@@ -249,7 +249,7 @@ def test_a_servo_stuck_near_its_estimate_leaves_the_qp_feasible(solver):
     x0[CHI] = (math.radians(60.07), math.radians(60), math.radians(60), math.radians(60))
     params = np.zeros((NP, solver.horizon + 1))
     params[0, :] = 12.0
-    params[4:8, :] = np.array([0.0, 1.0, 1.0, 1.0])[:, None]
+    params[P_FREE_TILT, :] = np.array([0.0, 1.0, 1.0, 1.0])[:, None]
     solver.set_actuator_limits(np.full(4, 23.0), np.array([math.radians(60), np.nan, np.nan, np.nan]))
     solver.initialise(x0, solver.airframe.hover_thrust_per_rotor)
     solver.levenberg = 0.1
@@ -303,7 +303,7 @@ def pitching_through_the_bound() -> tuple[np.ndarray, np.ndarray]:
     x0[11] = x0[14] = 1.67  # pitch rate, and the previous tick's
     params = np.zeros((NP, 26))
     params[0, :] = 9.4 - 2.0 * np.arange(26) * 0.01
-    params[4:8, :] = 1.0
+    params[P_FREE_TILT, :] = 1.0
     return x0, params
 
 

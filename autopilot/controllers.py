@@ -1,0 +1,53 @@
+"""The one place flight controllers are built: the velocity controllers (the unified MPC with the PID baseline as
+its back-up, or the PID alone), the allocator and the servo estimate they share, wired into a FlightController.
+
+Which kind flies is the caller's choice: `--controller` when given, else the VT_CTRL parameter (controller_kind).
+A flight controller is built afresh at start and at every takeoff from the ground. An MPC that cannot be built is
+a bug: the error propagates, nothing falls back silently.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from aircraft.actuators import ALLOCATED_COUNT, ALLOCATED_ROTORS
+from aircraft.airframe import Airframe
+from autopilot.actuator_health import ServoEstimate
+from autopilot.allocation import ControlAllocator
+from autopilot.flight_controller import MPC, PID, VELOCITY_PERIOD_USEC, ControllerKind, FlightController
+from autopilot.mpc_controller import HORIZON, MpcVelocityController
+from autopilot.pid_baseline import PidVelocityController, TransitionAirspeeds
+
+KINDS: tuple[ControllerKind, ...] = (MPC, PID)
+VT_CTRL_MPC = 1  # VT_CTRL: 0 the PID baseline, 1 the MPC
+
+
+def controller_kind(forced: str | None, vt_ctrl: int) -> ControllerKind:
+    """The kind to build: `forced` (--controller) when given, else VT_CTRL's. Raises ValueError for another name."""
+    if forced is None:
+        return MPC if vt_ctrl == VT_CTRL_MPC else PID
+    if forced not in KINDS:
+        raise ValueError(f"controller must be one of {', '.join(KINDS)}, got {forced!r}")
+    return MPC if forced == MPC else PID
+
+
+def build_flight_controller(
+    airframe: Airframe,
+    kind: ControllerKind,
+    transition_airspeeds: TransitionAirspeeds | None = None,
+    *,
+    mpc_horizon: int = HORIZON,
+) -> FlightController:
+    """A fresh flight controller of `kind` ("mpc" or "pid"); transition_airspeeds: VT_ARSP_BLEND / VT_ARSP_TRANS
+    for the PID (None: PidParameters' defaults); mpc_horizon: the MPC's stages. Raises ValueError for another kind."""
+    if kind not in KINDS:
+        raise ValueError(f"controller must be one of {', '.join(KINDS)}, got {kind!r}")
+    u_initial = np.zeros(ALLOCATED_COUNT)
+    u_initial[ALLOCATED_ROTORS] = airframe.hover_thrust_per_rotor / airframe.thrust_max  # hover trim
+    allocator = ControlAllocator(airframe, u_initial=u_initial)
+    servos = ServoEstimate(airframe)
+    pid = PidVelocityController(airframe, dt=VELOCITY_PERIOD_USEC / 1e6)
+    if transition_airspeeds is not None:
+        pid.set_transition_airspeeds(*transition_airspeeds)
+    mpc = MpcVelocityController(airframe, allocator, servos, horizon=mpc_horizon) if kind == MPC else None
+    return FlightController(airframe, allocator, servos, pid, mpc)

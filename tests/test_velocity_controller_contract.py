@@ -1,0 +1,117 @@
+"""Every velocity controller keeps the VelocityController contract (autopilot/velocity_controller.py), checked
+through the real classes as autopilot.controllers builds them: finite commands for a range of states and
+set-points, attitude and tilt set-points within the controller's limits, a phase name, the same commands for the
+same inputs, the caller's arrays left alone."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from aircraft.airframe import Airframe, load_airframe
+from aircraft.frames import quaternion_from_euler
+from autopilot.controllers import KINDS, build_flight_controller
+from autopilot.flight_controller import MPC, VELOCITY_PERIOD_USEC
+from autopilot.mpc_controller import MpcVelocityController
+from autopilot.pid_baseline import PidVelocityController
+from autopilot.vehicle_state import VehicleState
+from autopilot.velocity_command import VelocityCommand
+from autopilot.velocity_controller import VelocityController
+
+TICKS = 25  # 0.25 s at 100 Hz per case
+TOLERANCE = 1e-6  # rad: the MPC meets its bounds to the QP's tolerance
+
+
+@pytest.fixture(scope="module")
+def airframe() -> Airframe:
+    return load_airframe()
+
+
+def state_at(time_usec: int, velocity, euler_deg, rates=(0.0, 0.0, 0.0)) -> VehicleState:
+    euler = np.radians(euler_deg)
+    state = VehicleState(time_usec=time_usec, valid=True)
+    state.velocity_ned = np.array(velocity, dtype=float)
+    state.euler = euler
+    state.quaternion = np.asarray(quaternion_from_euler(*euler), dtype=float).ravel()
+    state.body_rates = np.array(rates, dtype=float)
+    state.airspeed = float(np.linalg.norm(state.velocity_ned))
+    return state
+
+
+# (state velocity NED m/s, Euler deg, body rates rad/s, tilts deg, set-point NED m/s)
+CASES = {
+    "hover, hold": ((0, 0, 0), (0, 0, 0), (0, 0, 0), 0, (0, 0, 0)),
+    "hover, climb and slide": ((0, 0, 0), (0, 0, 30), (0, 0, 0), 0, (0, 3, -2)),
+    "hover, cruise asked": ((0, 0, 0), (0, 0, 0), (0, 0, 0), 0, (27.74, 0, 0)),
+    "transition, brake": ((15, 0, 0), (0, 5, 0), (0, 0.1, 0), 45, (0, 0, 0)),
+    "cruise, hold": ((26, 0, 0), (0, 2, 0), (0, 0, 0), 90, (26, 0, 0)),
+    "cruise, turn and sink": ((25, 5, 1), (20, 3, 11), (0.1, 0, 0.2), 85, (20, 15, 2)),
+    "heading near 180": ((-10, 0.1, 0), (0, 0, 179.9), (0, 0, 0), 30, (-10, -0.5, 0)),
+    "upset": ((3, -4, 3), (40, -30, -90), (1.0, -1.0, 0.5), 20, (0, 0, 0)),
+}
+
+
+def build(airframe: Airframe, kind: str) -> VelocityController:
+    controller = build_flight_controller(airframe, kind).velocity_controller
+    assert isinstance(controller, MpcVelocityController if kind == MPC else PidVelocityController)
+    return controller
+
+
+def attitude_limit(controller: VelocityController) -> float:
+    """The largest roll or pitch set-point the controller may ask for (rad), from its own declared limits."""
+    if isinstance(controller, MpcVelocityController):
+        return max(controller.limits.attitude_sp)
+    p = controller.p
+    return math.radians(max(p.mc_tilt_max_deg, p.fw_roll_max_deg, p.fw_pitch_max_deg))
+
+
+def fly(controller: VelocityController, case: str) -> list[VelocityCommand]:
+    velocity, euler, rates, tilt_deg, v_sp = CASES[case]
+    tilts = np.full(4, math.radians(tilt_deg))
+    setpoint = np.array(v_sp, dtype=float)
+    commands = []
+    for tick in range(TICKS):
+        state = state_at(tick * VELOCITY_PERIOD_USEC, velocity, euler, rates)
+        tilts_before, setpoint_before = tilts.copy(), setpoint.copy()
+        commands.append(controller.update(state, setpoint, tilts))
+        assert np.array_equal(tilts, tilts_before) and np.array_equal(setpoint, setpoint_before)  # inputs untouched
+    return commands
+
+
+def arrays(command: VelocityCommand) -> tuple[np.ndarray, ...]:
+    return command.euler_sp, command.tilt_sp, command.force_sp_body, command.force_weights
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+@pytest.mark.parametrize("kind", KINDS)
+def test_commands_are_finite_and_within_the_limits(airframe, kind, case):
+    controller = build(airframe, kind)
+    limit = attitude_limit(controller)
+    switches = controller.mode_switches
+    for command in fly(controller, case):
+        for values in arrays(command):
+            assert values.shape in ((3,), (4,)) and np.all(np.isfinite(values))
+        assert np.all(np.abs(command.euler_sp[0:2]) <= limit + TOLERANCE)
+        assert np.all(command.tilt_sp >= airframe.tilt_min - TOLERANCE)
+        assert np.all(command.tilt_sp <= airframe.tilt_max + TOLERANCE)
+        assert np.all((command.force_weights >= 0.0) & (command.force_weights <= 1.0))
+        assert isinstance(command.mode, str) and command.mode
+        assert isinstance(controller.mode_switches, int) and controller.mode_switches >= switches
+        switches = controller.mode_switches
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_the_same_inputs_give_the_same_commands(airframe, kind):
+    for case in ("hover, cruise asked", "cruise, turn and sink"):
+        first, second = fly(build(airframe, kind), case), fly(build(airframe, kind), case)
+        for a, b in zip(first, second):
+            assert a.mode == b.mode and a.yaw_by_tilt == b.yaw_by_tilt
+            for values_a, values_b in zip(arrays(a), arrays(b)):
+                assert np.array_equal(values_a, values_b)
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_a_controller_starts_without_mode_switches(airframe, kind):
+    assert build(airframe, kind).mode_switches == 0
