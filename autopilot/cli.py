@@ -19,6 +19,7 @@ from autopilot.flight_stack import FlightStack
 from autopilot.mavlink.router import GroundLink, Router
 from autopilot.mavlink.services import MavlinkServices
 from autopilot.parameters import ParameterFileError, ParameterStore, default_parameter_path
+from autopilot.pid_baseline import TransitionAirspeeds
 from autopilot.plant_loop import LoopOutputs, PlantLoop
 from scenarios.profiles import PROFILES
 from autopilot.vehicle_status import EventOutbox
@@ -160,7 +161,7 @@ def main(argv: list[str] | None = None) -> int:
     def new_flight_controller() -> FlightController:
         """Built at start and at every takeoff from the ground, with the parameters of the moment."""
         return build_flight_controller(airframe, controller_kind(args.controller, params.get_int("VT_CTRL")),
-                                       params["VT_ARSP_BLEND"], params["VT_ARSP_TRANS"])  # fmt: skip
+                                       TransitionAirspeeds(params["VT_ARSP_BLEND"], params["VT_ARSP_TRANS"]))
 
     outputs = LoopOutputs(
         log=None if log is None else FlightLogger(log),
