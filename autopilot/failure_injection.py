@@ -108,6 +108,8 @@ class FailureInjection:
         self._awaiting.clear()
 
     def drain_outcomes(self) -> tuple[InjectionOutcome, ...]:
+        if not self._outcomes:
+            return ()
         outcomes = tuple(self._outcomes)
         self._outcomes.clear()
         return outcomes

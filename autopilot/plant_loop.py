@@ -188,7 +188,7 @@ class PlantLoop:
 
     def _status(self, t_usec: int, sample: PlantSample, pwm: list[int]) -> VehicleStatus:
         c, report, hil = self.controller, self.commander.report(), sample.state
-        throttle = int(round(float(np.mean(c.command[ROTORS])) * 100)) if report.flying else 0
+        throttle = int(round(sum(c.command[ROTORS].tolist()) / ROTOR_COUNT * 100)) if report.flying else 0
         return VehicleStatus(
             time_usec=t_usec, started=report.started, armed=report.armed, mode=report.mode,
             landed_state=report.landed_state, flying=report.flying,

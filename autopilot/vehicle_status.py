@@ -8,7 +8,6 @@ mavlink streams read vehicle_status and friends, never the commander.
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -53,7 +52,7 @@ class GlobalPosition:
     vd_cms: int
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class VehicleStatus:
     time_usec: int
     started: bool
@@ -79,28 +78,25 @@ class VehicleStatus:
 
 
 def vtol_state(tilt_estimate: np.ndarray, tilt_command: np.ndarray) -> int:
-    """MAV_VTOL_STATE from the rotors' mean tilt (rad) and where the tilt command takes them."""
-    mean = float(np.mean(tilt_estimate))
+    """MAV_VTOL_STATE from the rotors' mean tilt (rad) and where the tilt command takes them. Plain Python: every
+    plant step builds a status."""
+    estimate = tilt_estimate.tolist()
+    mean = sum(estimate) / len(estimate)
     if mean < MC_TILT_MAX:
         return mavlink.MAV_VTOL_STATE_MC
     if mean > FW_TILT_MIN:
         return mavlink.MAV_VTOL_STATE_FW
-    if float(np.mean(tilt_command)) >= mean:
+    command = tilt_command.tolist()
+    if sum(command) / len(command) >= mean:
         return mavlink.MAV_VTOL_STATE_TRANSITION_TO_FW
     return mavlink.MAV_VTOL_STATE_TRANSITION_TO_MC
 
 
 def copy_state(state: VehicleState) -> VehicleState:
     """A copy of the estimate that the next step's update does not change."""
-    return dataclasses.replace(
-        state,
-        position_ned=state.position_ned.copy(),
-        velocity_ned=state.velocity_ned.copy(),
-        quaternion=state.quaternion.copy(),
-        euler=state.euler.copy(),
-        body_rates=state.body_rates.copy(),
-        specific_force=state.specific_force.copy(),
-    )
+    return VehicleState(state.time_usec, state.position_ned.copy(), state.velocity_ned.copy(), state.quaternion.copy(),
+                        state.euler.copy(), state.body_rates.copy(), state.airspeed, state.specific_force.copy(),
+                        state.valid)  # fmt: skip
 
 
 @dataclass
