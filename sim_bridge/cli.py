@@ -9,7 +9,7 @@ import sys
 from aircraft.airframe import AirframeError, load_airframe
 from sim_bridge.plant import Plant, Spawn
 from sim_bridge.sensors import SensorSuite
-from sim_bridge.server import PlantServer
+from sim_bridge.server import Pacing, PlantServer
 from transport.cli import (
     OneLineArgumentParser,
     bounded_int,
@@ -41,7 +41,14 @@ def build_parser() -> OneLineArgumentParser:
                         help="with --spawn-alt: rotors at hover trim (default) or stopped (a drop test)")
     parser.add_argument("--spawn-yaw", type=finite_float, default=0.0, metavar="DEG",
                         help="initial heading in degrees (default 0, north)")
-    parser.add_argument("--realtime", action="store_true", help="pace to the wall clock instead of lockstep")
+    parser.add_argument("--realtime", action="store_true",
+                        help="pace the lockstep to the wall clock times --speed (interactive sessions); when the "
+                             "autopilot cannot keep up the simulation slows down, never integrating on a stale "
+                             "command")  # fmt: skip
+    parser.add_argument("--free-running", action="store_true",
+                        help="with --realtime: step on the wall clock with the latest command whatever its age "
+                             "(a slow autopilot then flies on stale commands; the vehicle may fall on a busy "
+                             "machine)")  # fmt: skip
     parser.add_argument("--speed", type=positive_float, default=1.0, metavar="F",
                         help="with --realtime: simulated seconds per wall second (default 1)")
     parser.add_argument("--airframe", metavar="FILE", help="airframe TOML file (default: the paper's vehicle)")
@@ -73,6 +80,11 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     if args.speed != 1.0 and not args.realtime:
         fail(PROG, "--speed only applies with --realtime")
+    if args.free_running and not args.realtime:
+        fail(PROG, "--free-running only applies with --realtime")
+    pacing = Pacing.LOCKSTEP
+    if args.realtime:
+        pacing = Pacing.FREE_RUNNING if args.free_running else Pacing.PACED
     try:
         airframe = load_airframe(args.airframe)
     except AirframeError as exc:
@@ -105,11 +117,11 @@ def main(argv: list[str] | None = None) -> int:
     stop_requested = stop_on_signals()
     server = PlantServer(
         plant, sock, link, sensors,
-        lockstep=not args.realtime, speed=args.speed, lockstep_timeout_s=args.lockstep_timeout,
+        pacing=pacing, speed=args.speed, lockstep_timeout_s=args.lockstep_timeout,
         peer_lost_after=args.peer_lost_after,
         duration_s=args.duration, zenoh_session=session, should_stop=stop_requested,
     )  # fmt: skip
-    mode = f"real time x{args.speed:g}" if args.realtime else "lockstep"
+    mode = f"{pacing.value} x{args.speed:g}" if args.realtime else "lockstep"
     print(f"{PROG}: {airframe.name}, {mode}, listening on udp {LOOPBACK}:{port}", file=sys.stderr, flush=True)
     try:
         server.run()

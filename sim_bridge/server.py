@@ -4,7 +4,12 @@ Lockstep: for each step k the plant sends the state at t_k, then waits for SERVO
 t_k mod 2^32 before it integrates to t_{k+1}. If none comes within the timeout it holds the last command,
 counts a missed step and goes on, so a silent peer never hangs the plant; after `peer_lost_after` missed
 steps in a row it pauses (not stepping) until an autopilot speaks again, then resends the current state.
-Real time: the plant paces itself to the wall clock (times a speed factor) and uses the latest command it has.
+Paced (`--realtime`, interactive sessions): the same lockstep, paced to the wall clock times the speed factor.
+When the autopilot cannot keep up (a busy machine) the simulation slows down instead of integrating on a stale
+command, and says so (achieved speed factor on stderr, to the autopilot as STATUSTEXT, on zenoh, in the summary),
+as PX4 SITL with its lockstep simulators does.
+Free-running (`--realtime --free-running`, explicit): paced to the wall clock with whatever command is latest,
+however old; a slow autopilot then flies on stale commands (the vehicle can fall on a busy machine).
 
 Everything received is untrusted: the Link parser drops and counts bad frames; out-of-range PWM is
 clamped and counted; commands for other components are ignored and counted.
@@ -17,6 +22,7 @@ import sys
 import time
 from collections import Counter
 from dataclasses import dataclass, field
+from enum import Enum
 from typing import Any, Callable
 
 from aircraft.actuators import pwm_to_command
@@ -34,6 +40,16 @@ from transport.udp import SPIN_WINDOW_S, receive
 from transport.telemetry import encode_event, encode_plant_state, plant_events_key, plant_state_key
 
 USEC_WRAP = 1 << 32
+LAG_LIMIT_S = 0.05  # paced: this far behind the wall clock, the schedule moves (the simulation slows down)
+SPEED_WINDOW_S = 2.0  # wall seconds over which the achieved speed factor is measured
+SLOW_FRACTION = 0.9  # below this fraction of the speed asked for, the slowdown is said
+SLOW_NOTICE_S = 10.0  # at most once per this many wall seconds
+
+
+class Pacing(Enum):
+    LOCKSTEP = "lockstep"  # every step waits for its command; as fast as both processes go
+    PACED = "paced"  # lockstep, and no faster than the wall clock times the speed factor
+    FREE_RUNNING = "free-running"  # the wall clock times the speed factor, with the latest command whatever its age
 
 
 @dataclass
@@ -49,6 +65,7 @@ class PlantCounters:
     ignored: Counter[str] = field(default_factory=Counter)
     failures_applied: int = 0
     failures_rejected: int = 0
+    slowdowns: int = 0  # paced: times the simulation fell behind the wall clock and slowed down
 
 
 class PlantServer:
@@ -61,7 +78,7 @@ class PlantServer:
         link: Link,
         sensors: SensorSuite,
         *,
-        lockstep: bool = True,
+        pacing: Pacing = Pacing.LOCKSTEP,
         speed: float = 1.0,
         lockstep_timeout_s: float = 0.5,
         peer_lost_after: int = 10,
@@ -73,7 +90,8 @@ class PlantServer:
         self.sock = sock
         self.link = link
         self.sensors = sensors
-        self.lockstep = lockstep
+        self.pacing = pacing
+        self.lockstep = pacing != Pacing.FREE_RUNNING  # every step waits for its command
         self.speed = speed
         self.timeout_s = lockstep_timeout_s
         self.peer_lost_after = peer_lost_after
@@ -92,6 +110,10 @@ class PlantServer:
         self._got_command = False
         self.wall_time_s = 0.0
         self.wait_time_s = 0.0  # time spent waiting for datagrams; the rest of wall time is the plant's work
+        self.achieved_speed: float | None = None  # paced: over the last SPEED_WINDOW_S
+        self._pace_start = 0.0  # paced: wall time (monotonic) of step 0 on the current schedule
+        self._window = (0.0, 0)  # paced: (wall time, step) where the current speed window began
+        self._slow_said = -SLOW_NOTICE_S
 
     # ---- receiving -------------------------------------------------------------------------------------
     def _handle_datagram(self, data: bytes, sender: tuple[str, int]) -> None:
@@ -153,11 +175,11 @@ class PlantServer:
         )
         self._send(self.link.pack(ack), sender)
 
-    def _announce(self, text: str, severity: int, sender: tuple[str, int]) -> None:
+    def _announce(self, text: str, severity: int, sender: tuple[str, int], event: str = "failure") -> None:
         status = self.link.mav.statustext_encode(severity, text.encode()[:50])
         self._send(self.link.pack(status), sender)
         if self._event_publisher is not None:
-            self._event_publisher.put(encode_event(self.plant.time_usec / 1e6, "failure", text))
+            self._event_publisher.put(encode_event(self.plant.time_usec / 1e6, event, text))
 
     def _send(self, data: bytes, address: tuple[str, int]) -> None:
         try:
@@ -209,6 +231,8 @@ class PlantServer:
         if not self.wait_for_peer():
             return self.counters
         start = time.monotonic()
+        self._pace_start = start
+        self._window = (start, 0)
         self.wait_time_s = 0.0
         silent_steps = 0
         plant = self.plant
@@ -235,9 +259,13 @@ class PlantServer:
                             break
                         silent_steps = 0
                         continue  # resend this step's state to the (new) peer, then wait for its answer
+                    if self.pacing == Pacing.PACED:
+                        continue  # never integrate on a stale command: resend the state, wait again
                 else:
                     silent_steps = 0
-            else:
+            if self.pacing == Pacing.PACED:
+                self._pace()
+            elif self.pacing == Pacing.FREE_RUNNING:
                 self._drain()
                 deadline = start + (plant.step_count + 1) * DT / self.speed
                 self._receive_until(deadline, stop_on_command=False)
@@ -245,6 +273,29 @@ class PlantServer:
             self.counters.steps += 1
         self.wall_time_s = time.monotonic() - start
         return self.counters
+
+    def _pace(self) -> None:
+        """Paced lockstep: wait for the wall clock to reach this step's time; when the loop is behind it by more
+        than LAG_LIMIT_S, move the schedule (slow down) rather than race to catch up."""
+        plant = self.plant
+        deadline = self._pace_start + (plant.step_count + 1) * DT / self.speed
+        now = time.monotonic()
+        if now < deadline:
+            self._receive_until(deadline, stop_on_command=False)
+        elif now - deadline > LAG_LIMIT_S:
+            self._pace_start = now - (plant.step_count + 1) * DT / self.speed
+            self.counters.slowdowns += 1
+        window_start, window_step = self._window
+        if now - window_start >= SPEED_WINDOW_S:
+            self.achieved_speed = (plant.step_count - window_step) * DT / (now - window_start)
+            self._window = (now, plant.step_count)
+            if self.achieved_speed < SLOW_FRACTION * self.speed and now - self._slow_said >= SLOW_NOTICE_S:
+                self._slow_said = now
+                text = (f"plant: slowed to x{self.achieved_speed:.2f} of x{self.speed:g}: the autopilot cannot keep "
+                        "up (lockstep holds)")  # fmt: skip
+                print(f"vtol-sim: {text}", file=sys.stderr, flush=True)
+                if self.peer is not None:
+                    self._announce(text, mavlink.MAV_SEVERITY_WARNING, self.peer, event="slowdown")
 
     def summary(self) -> dict[str, Any]:
         c = self.counters
@@ -266,4 +317,7 @@ class PlantServer:
             "dropped": dict(self.link.dropped),
             "failures_applied": c.failures_applied,
             "failures_rejected": c.failures_rejected,
+            "pacing": self.pacing.value,
+            "speed": self.speed if self.pacing != Pacing.LOCKSTEP else None,
+            "slowdowns": c.slowdowns,
         }

@@ -274,8 +274,8 @@ def test_help_works_through_the_console_script():
     assert result.returncode == 0 and "--spawn-alt" in result.stdout
 
 
-def test_realtime_mode_paces_itself_and_uses_the_latest_command(start_plant, airframe):
-    plant = start_plant("--spawn-alt", "100", "--realtime", "--speed", "5", "--duration", "1")
+def test_free_running_mode_paces_itself_and_uses_the_latest_command(start_plant, airframe):
+    plant = start_plant("--spawn-alt", "100", "--realtime", "--free-running", "--speed", "5", "--duration", "1")
     sample = plant.first_sample()
     plant.client.send_pwm(0, hover_pwm(airframe))  # any stamp: real time uses whatever came last
     times = [sample.time_usec]
@@ -285,6 +285,30 @@ def test_realtime_mode_paces_itself_and_uses_the_latest_command(start_plant, air
     assert times[-1] == 1_000_000 and summary["steps"] == 400 and summary["missed_commands"] == 0
     assert summary["commands_used"] == 1
     assert summary["real_time_factor"] < 6  # paced, not free-running (lockstep would be > 20x)
+
+
+def test_paced_lockstep_waits_for_every_command_and_slows_down_when_the_autopilot_is_slow(start_plant, airframe):
+    """--realtime keeps the lockstep: a step is integrated only with its own command, never faster than the wall
+    clock times the speed; an autopilot that answers late slows the simulation down, which the plant says."""
+    plant = start_plant("--spawn-alt", "100", "--realtime", "--speed", "5", "--duration", "2")
+    sample = plant.first_sample()
+    pwm = hover_pwm(airframe)
+    texts, times, started = [], [], time.monotonic()
+    while sample is not None:
+        times.append(sample.time_usec)
+        texts += [m.text for m in plant.client.received_other if m.get_type() == "STATUSTEXT"]
+        plant.client.received_other.clear()
+        if sample.time_usec >= 1_000_000:
+            time.sleep(0.004)  # from 1 s on, 4 ms per step: the autopilot manages x0.6, not x5
+        plant.client.send_pwm(sample.time_usec, pwm)
+        sample = plant.client.receive_step(5.0)
+    wall = time.monotonic() - started
+    summary = plant.stop()
+    assert times == [2500 * k for k in range(801)]  # every step, in order, none skipped
+    assert summary["commands_used"] == 800 and summary["missed_commands"] == 0 and summary["stale_commands"] == 0
+    assert summary["pacing"] == "paced" and summary["slowdowns"] >= 1
+    assert wall > 0.2 + 400 * 0.004  # 1 s at x5, then as long as the autopilot needed: 4 ms per 2.5 ms step
+    assert any("slowed to" in text for text in texts)
 
 
 def test_two_instances_use_shifted_ports():
