@@ -1,5 +1,5 @@
 """Position logic of the PX4-like modes: each turns the vehicle state into a velocity set-point (NED, m/s) for
-the velocity controller (SPEC section 5). Runs at the velocity controller's 100 Hz, in simulation time.
+the velocity controller (docs/mavlink.md). Runs at the velocity controller's 100 Hz, in simulation time.
 
     Hold      brake to a stop (from forward flight the velocity controller decelerates and tilts the rotors
               back), then hold the position where it stopped and the altitude where Hold began: a P controller

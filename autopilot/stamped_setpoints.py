@@ -1,4 +1,4 @@
-"""Offboard set-points stamped with the simulation time they are meant for (`--offboard-lockstep`, SPEC 7).
+"""Offboard set-points stamped with the simulation time they are meant for (`--offboard-lockstep`, docs/scenarios.md).
 
 A scripted ground station that must stay in step with a lockstep simulation stamps each
 SET_POSITION_TARGET_* with the vehicle's `time_boot_ms` at which it should take effect. The autopilot keeps

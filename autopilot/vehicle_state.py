@@ -1,4 +1,4 @@
-"""What the autopilot knows of the vehicle each step: ground truth from HIL_STATE_QUATERNION (SPEC section 3)."""
+"""What the autopilot knows of the vehicle each step: ground truth from HIL_STATE_QUATERNION (docs/model.md)."""
 
 from __future__ import annotations
 

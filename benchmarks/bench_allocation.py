@@ -1,4 +1,4 @@
-"""Control allocation speed: 5000 allocations along a slowly varying, closed-loop-like demand (SPEC 4.2, 250 Hz).
+"""Control allocation speed: 5000 allocations along a slowly varying, closed-loop-like demand (docs/autopilot.md, 250 Hz).
 
     python benchmarks/bench_allocation.py [--solves 5000] [--no-compile]
 
@@ -8,7 +8,7 @@ failed for the last fifth. Prints the median and p99 in microseconds of
   - allocate(): the whole call from Python (model evaluation, QP update and solve, clipping, result object);
   - the proxsuite solve alone: the same QP sequence replayed on an identical persistent solver, timing solve()
     (and update() + solve()) from Python, plus proxsuite's own C++ timer.
-Goal (NOTES-performance.md): allocate() median <= 50 us.
+Goal: allocate() median <= 50 us (docs/performance.md).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""`vtol`: ground tools (SPEC section 1).
+"""`vtol`: ground tools (docs/architecture.md).
 
     vtol fly PROFILE [--controller pid|mpc] [--out DIR]
     vtol scenario NAME|all [--controller mpc|pid|both] [--out DIR] [--instance I] [--no-record] [--no-progress]

@@ -1,4 +1,4 @@
-"""A scripted ground station that flies a scenario through MAVLink in step with a lockstep simulation (SPEC 7).
+"""A scripted ground station that flies a scenario through MAVLink in step with a lockstep simulation (docs/scenarios.md).
 
 The autopilot runs with `--offboard-lockstep` (docs/mavlink.md): each time it holds the simulation for
 set-points it sends SYSTEM_TIME with time_boot_ms = T, its simulation time. This client answers each such hold
@@ -30,7 +30,7 @@ from scenarios.experiments import Scenario, Telemetry
 from transport.mavlink import MAV_RESULT_ACCEPTED, Link, mavlink
 
 M = mavlink
-PERIOD_MS = 20  # set-points at 50 Hz of simulation time (SPEC 7: at least 20 Hz)
+PERIOD_MS = 20  # set-points at 50 Hz of simulation time (at least 20 Hz)
 START_MS = 1000  # the profile starts after 1 s of hovering in Offboard: its t = 0
 BATCH = 5  # set-points per answer once no trigger is pending (the profile is known ahead: fewer holds)
 STREAM_RATES_HZ = {M.MAVLINK_MSG_ID_ATTITUDE: 50.0, M.MAVLINK_MSG_ID_LOCAL_POSITION_NED: 50.0,

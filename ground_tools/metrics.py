@@ -1,4 +1,4 @@
-"""The scenario metrics of SPEC section 7, computed from a flight log's columns (transport/flight_log.py).
+"""The scenario metrics of docs/scenarios.md, computed from a flight log's columns (transport/flight_log.py).
 
 Pure functions of arrays, so each metric can be checked by hand on a synthetic flight. SI units unless the
 key says otherwise; NED axes: x = north, y = east, z = down.
@@ -72,7 +72,7 @@ def flight_metrics(
     circle: Circle | None = None,
     failure_s: float | None = None,
 ) -> dict[str, float | int | bool | None]:
-    """SPEC 7's keys for one run, and a few more the scenarios' acceptance needs (`bank_mean_deg`,
+    """The keys of docs/scenarios.md for one run, and a few more the scenarios' acceptance needs (`bank_mean_deg`,
     `alt_loss_max_m`, `final_speed`, `failure_t_s`, `vx_rmse_after_failure`). `solver`: the autopilot's MPC
     statistics (absent for the PID); `failure_s`: when a failure was injected. `log`: the flight log's numeric
     columns by name, `modes` its mode column."""

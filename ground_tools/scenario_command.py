@@ -36,7 +36,7 @@ def add_scenario_arguments(parser: argparse.ArgumentParser) -> None:
                         help="velocity controller(s) to fly (default both, overlaid in the figures)")
     parser.add_argument("--out", default="runs", metavar="DIR", help="output folder (default ./runs)")
     parser.add_argument("--instance", type=bounded_int(0, 999), metavar="I",
-                        help="use instance I's ports (SPEC 2), e.g. for `vtol watch --instance I`; default: free ports")
+                        help="use instance I's ports (docs/plant-link.md), e.g. for `vtol watch --instance I`; default: free ports")
     parser.add_argument("--duration", type=positive_float, metavar="S",
                         help="fly only the first S seconds of each profile (quick looks, tests; no acceptance checks)")
     parser.add_argument("--no-record", action="store_true", help="no zenoh telemetry and no recording of it")

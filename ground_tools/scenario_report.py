@@ -1,4 +1,4 @@
-"""The acceptance checks of the scenarios and the Markdown report of `vtol scenario all` (SPEC 7, issue 6).
+"""The acceptance checks of the scenarios and the Markdown report of `vtol scenario all` (docs/scenarios.md).
 
 Everything is read back from the run folders (`<out>/<scenario>/<controller>/metrics.json`, `run.json`), so
 the report can be rewritten from any set of finished runs.

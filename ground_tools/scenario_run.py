@@ -1,4 +1,4 @@
-"""One scenario with one controller, end to end (SPEC 7): processes, MAVLink flight, recording, run folder.
+"""One scenario with one controller, end to end (docs/scenarios.md): processes, MAVLink flight, recording, run folder.
 
 The plant (`vtol-sim`, lockstep) and the autopilot (`vtol-autopilot --offboard-lockstep`) start on free ports
 (or an instance's ports), spawned hovering at 100 m. The scripted ground station (lockstep_client.py) flies the
@@ -7,7 +7,7 @@ autopilot's control and MPC samples. The run folder `<out>/<scenario>/<controlle
 
     flight.tlog        every MAVLink message sent and received (pymavlink's mavlogdump reads it)
     timeseries.csv     the autopilot's 100 Hz log (truth state, set-points, actuators), t = 0 at the profile start
-    metrics.json       SPEC 7's metrics (ground_tools/metrics.py)
+    metrics.json       the metrics of docs/scenarios.md (ground_tools/metrics.py)
     telemetry.jsonl.gz the zenoh recording, gzip JSON lines (ground_tools/telemetry_record.py), unless --no-record
     run.json           the processes' summaries, the flight's events, ports and timings
     autopilot.log, plant.log   the processes' stderr
@@ -43,7 +43,7 @@ WALL_CLOCK_KEYS = ("solve_ms_median", "solve_ms_p99", "solve_ms_max")  # measure
 
 
 def run_ports(instance: int | None) -> VehiclePorts:
-    """An instance's ports (SPEC 2), or free ones (so a scenario can run beside `vtol up` or another scenario)."""
+    """An instance's ports (docs/plant-link.md), or free ones (so a scenario can run beside `vtol up` or another scenario)."""
     return VehiclePorts.free() if instance is None else VehiclePorts.of_instance(instance)
 
 

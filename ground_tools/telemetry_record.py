@@ -1,4 +1,4 @@
-"""Record zenoh telemetry (SPEC section 6) to a JSON-lines file: `vtol record` and the scenario runner.
+"""Record zenoh telemetry (docs/telemetry.md) to a JSON-lines file: `vtol record` and the scenario runner.
 
 One JSON object per line, in arrival order (gzip-compressed when the file name ends in .gz):
 

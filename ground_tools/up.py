@@ -1,4 +1,4 @@
-"""`vtol up`: the plant in real time and the autopilot, ready for a ground station (SPEC section 1).
+"""`vtol up`: the plant in real time and the autopilot, ready for a ground station (docs/architecture.md).
 
 Both processes print to this terminal. Ctrl-C (SIGINT to the terminal's process group) or SIGTERM to `vtol` stops
 both: the signal is passed on to each, each stops at its next turn, and `vtol up` waits for them (killing a

@@ -1,4 +1,4 @@
-"""`vtol watch`: a live view of a running vehicle's zenoh telemetry (SPEC section 6).
+"""`vtol watch`: a live view of a running vehicle's zenoh telemetry (docs/telemetry.md).
 
 With a display: a matplotlib window redrawn at ~5 Hz (velocities and set-points, attitude, tilts, rotor thrust
 commands, the MPC's predicted velocity over its horizon, MPC solve times). Without one (or with --text): one

@@ -1,5 +1,5 @@
 """The commander's rules in simulation time, without processes: arming checks, mode entry, the Offboard loss
-failsafe, takeoff to Hold, touchdown and the automatic disarms (SPEC 5)."""
+failsafe, takeoff to Hold, touchdown and the automatic disarms (docs/mavlink.md)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The vehicle's MAVLink interface against one hovering vehicle (SPEC 5, 8): identity, streams and their rates,
+"""The vehicle's MAVLink interface against one hovering vehicle (docs/mavlink.md): identity, streams and their rates,
 requests, offboard set-point checks, refused commands, failure injection, and junk on both links."""
 
 from __future__ import annotations

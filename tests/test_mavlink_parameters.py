@@ -1,4 +1,4 @@
-"""Parameters (SPEC 5, 8): PX4 bytewise encoding, list/read/set over MAVLink with refusals, a parameter file that
+"""Parameters (docs/mavlink.md): PX4 bytewise encoding, list/read/set over MAVLink with refusals, a parameter file that
 survives a restart and is never broken by a kill -9 in the middle of a write."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""SPEC 7's scenario metrics on synthetic flights whose answers are known by hand."""
+"""The scenario metrics (docs/scenarios.md) on synthetic flights whose answers are known by hand."""
 
 from __future__ import annotations
 

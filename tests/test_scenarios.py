@@ -195,7 +195,7 @@ def test_mpc_scenario_run_folder_tlog_recording_and_report(tmp_path) -> None:
 
 
 def _free_instance() -> int:
-    """An instance whose ports (SPEC 2) are all free right now."""
+    """An instance whose ports (docs/plant-link.md) are all free right now."""
     for instance in range(300, 999, 7):
         ports = Ports(instance)
         try:

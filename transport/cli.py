@@ -1,4 +1,4 @@
-"""Command-line conventions shared by vtol-sim, vtol-autopilot and vtol (SPEC section 8).
+"""Command-line conventions shared by vtol-sim, vtol-autopilot and vtol (docs/mavlink.md).
 
 Bad arguments give exactly one line on stderr, "<prog>: error: <what>", and exit code 2.
 """

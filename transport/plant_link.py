@@ -1,7 +1,7 @@
 """The autopilot's end of the plant link: receive each step's state, answer with SERVO_OUTPUT_RAW.
 
 Used by the autopilot process, by the test peers and by the benchmarks, so every one of them speaks the
-lockstep protocol the same way (SPEC section 2).
+lockstep protocol the same way (docs/plant-link.md).
 """
 
 from __future__ import annotations

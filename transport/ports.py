@@ -1,4 +1,4 @@
-"""Default ports and how `--instance I` shifts them (SPEC sections 1, 2 and 6). All on 127.0.0.1."""
+"""Default ports and how `--instance I` shifts them (docs/plant-link.md, docs/mavlink.md, docs/telemetry.md). All on 127.0.0.1."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""zenoh sessions for telemetry (SPEC section 6): loopback endpoints, multicast scouting off, optional.
+"""zenoh sessions for telemetry (docs/telemetry.md): loopback endpoints, multicast scouting off, optional.
 
 No traffic leaves the machine unless a user gives non-loopback endpoints. When zenoh cannot start (port in
 use, library missing), `open_session` says why on stderr and returns None: the flight goes on without it.
