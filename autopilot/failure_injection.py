@@ -12,7 +12,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from aircraft.failures import Failure
-from autopilot.vehicle_status import InjectionOutcome
+from autopilot.vehicle_status import InjectionOutcome, drain
 from transport.mavlink import MAV_RESULT_ACCEPTED, MAV_RESULT_FAILED
 
 INJECTION_TIMEOUT_USEC = 1_000_000  # a forwarded failure the plant has not acknowledged by then has failed
@@ -108,11 +108,7 @@ class FailureInjection:
         self._awaiting.clear()
 
     def drain_outcomes(self) -> tuple[InjectionOutcome, ...]:
-        if not self._outcomes:
-            return ()
-        outcomes = tuple(self._outcomes)
-        self._outcomes.clear()
-        return outcomes
+        return drain(self._outcomes)
 
     def _outcome(self, pending: PendingInjection, result: int, text: str) -> None:
         if pending.ticket is not None:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TypeVar
 
 import numpy as np
 
@@ -18,6 +19,7 @@ from autopilot.vehicle_state import VehicleState
 from transport.geodesy import Home
 from transport.mavlink import mavlink
 
+T = TypeVar("T")
 MC_TILT_MAX = math.radians(5.0)  # mean tilt below this: multicopter
 FW_TILT_MIN = math.radians(85.0)  # mean tilt above this: fixed wing
 
@@ -109,8 +111,13 @@ class EventOutbox:
         self.pending.append(Event(severity, text, key))
 
     def drain(self) -> tuple[Event, ...]:
-        if not self.pending:
-            return ()
-        events = tuple(self.pending)
-        self.pending.clear()
-        return events
+        return drain(self.pending)
+
+
+def drain(items: list[T]) -> tuple[T, ...]:
+    """What a list collected since the last snapshot, emptying it (no allocation when it is empty)."""
+    if not items:
+        return ()
+    taken = tuple(items)
+    items.clear()
+    return taken
