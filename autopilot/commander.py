@@ -22,19 +22,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from autopilot.navigator import LandDetector, Navigator
-from autopilot.offboard_setpoint import OffboardSetpoint, in_envelope
+from autopilot.offboard_setpoint import OffboardSetpoint
 from autopilot.parameters import ParameterStore
-from autopilot.requests import (
-    Arm,
-    Disarm,
-    Land,
-    OffboardVelocity,
-    Reply,
-    Request,
-    SetMode,
-    Takeoff,
-    Transition,
-)
+from autopilot.requests import (Arm, Disarm, Land, OffboardPosition, OffboardVelocity, Reply, Request, SetMode,
+                                Takeoff, Transition)  # fmt: skip
 from autopilot.vehicle_state import VehicleState
 from transport.mavlink import mavlink
 
@@ -157,6 +148,8 @@ class Commander:
             self.navigator.start_land(state)
             self.land_detector.reset()
             self.transition_target = VTOL_MC
+        elif mode == OFFBOARD and self.mode != OFFBOARD:
+            self.navigator.start_tracking(state)
         if mode != self.mode:
             self.mode = mode
             self.state_version += 1
@@ -316,13 +309,11 @@ class Commander:
                 return self.set_mode(mode, state)
             case Transition(target=target):
                 return self.transition(target, state)
-            case OffboardVelocity(velocity=velocity, body=body, stamp_ms=stamp_ms):
-                velocity, clamped = in_envelope(velocity, body, float(state.euler[2]))
-                if clamped:
+            case OffboardVelocity() | OffboardPosition():
+                if self.offboard.accept(request, state, self.now_usec):
                     self.setpoints_clamped += 1
                     self.say(mavlink.MAV_SEVERITY_WARNING, "Set-point clamped to |v| <= (30, 30, 10) m/s",
                              key="clamped")  # fmt: skip
-                self.offboard_setpoint(velocity, stamp_ms)
                 return ACCEPTED, None
         return UNSUPPORTED, f"{type(request).__name__} is not the commander's"
 
@@ -367,7 +358,7 @@ class Commander:
             else:
                 return self.navigator.takeoff(state)
         if self.mode == OFFBOARD:
-            setpoint = self.offboard.velocity
+            setpoint = self._offboard_velocity(state)
         elif self.mode == LAND:
             setpoint = self.navigator.land(state)
         else:
@@ -383,6 +374,12 @@ class Commander:
             self.land_detector.reset()
         return setpoint
 
+    def _offboard_velocity(self, state: VehicleState) -> np.ndarray:
+        """The Offboard velocity set-point: as received, or the one that flies to the position set-point."""
+        if self.offboard.position is None:
+            return self.offboard.velocity
+        return self.navigator.track(state, self.offboard.position, self.offboard.velocity)
+
     def _on_ground(self, state: VehicleState, time_usec: int) -> None:
         p = self.params
         if self._landed_usec is not None and time_usec - self._landed_usec >= p["COM_DISARM_LAND"] * 1e6:
@@ -392,9 +389,10 @@ class Commander:
                 and time_usec - self._armed_on_ground_usec >= p["COM_DISARM_PRFLT"] * 1e6:  # fmt: skip
             self._set_armed(False, f"Disarmed: no takeoff within {p['COM_DISARM_PRFLT']:g} s")
             return None
-        if self.mode == TAKEOFF or (self.mode == OFFBOARD and self.offboard.velocity[2] < -OFFBOARD_TAKEOFF_CLIMB):
+        if self.mode == TAKEOFF or (self.mode == OFFBOARD and
+                                    self._offboard_velocity(state)[2] < -OFFBOARD_TAKEOFF_CLIMB):  # fmt: skip
             self._lift_off()
             if self.mode == TAKEOFF:
                 return self.navigator.takeoff(state)
-            return self.offboard.velocity
+            return self._offboard_velocity(state)
         return None

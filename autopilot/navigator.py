@@ -22,6 +22,7 @@ from autopilot.vehicle_state import VehicleState
 BRAKED_SPEED = 1.0  # m/s: Hold locks its position once the horizontal speed is below this
 LOITER_CONVERGENCE = 50.0  # m off the circle where the set-point points 45 deg towards it
 TAKEOFF_DONE_M = 0.5  # m below the takeoff altitude: takeoff complete
+TICK_S = 0.01  # the navigator runs at the velocity controller's 100 Hz
 
 
 def _limit_norm(vector: np.ndarray, limit: float) -> np.ndarray:
@@ -38,6 +39,7 @@ class Navigator:
         self.hold_down = 0.0
         self.loiter_center: np.ndarray | None = None  # set: fixed-wing hold
         self.takeoff_xy = np.zeros(2)
+        self.tracked_velocity = np.zeros(3)  # Offboard position: the velocity set-point of the last tick
         self.takeoff_down = -2.5
 
     # ---- entering modes ------------------------------------------------------------------------------------
@@ -99,6 +101,30 @@ class Navigator:
         p = self.params
         horizontal = _limit_norm(p["MPC_XY_P"] * (self.takeoff_xy - state.position_ned[0:2]), p["MPC_XY_CRUISE"])
         return np.array([*horizontal, self._vertical_to(state, self.takeoff_down, p["MPC_TKO_SPEED"])])
+
+    def start_tracking(self, state: VehicleState) -> None:
+        """Offboard begins: the position set-points' velocity starts from the vehicle's."""
+        self.tracked_velocity = state.velocity_ned.copy()
+
+    def track(self, state: VehicleState, position: np.ndarray, feed_forward: np.ndarray) -> np.ndarray:
+        """Offboard position (at 100 Hz): the velocity that stops at the position with MPC_ACC_HOR (sqrt(2 a d),
+        P near it), plus the feed-forward, bounded by MPC_XY_VEL_MAX and MPC_Z_VEL_MAX_UP/DN, and changed by at
+        most MPC_ACC_HOR per second, so the velocity controller gets a ramp, not a step (PX4 shapes its position
+        set-points with jerk-limited trajectories for the same reason)."""
+        p = self.params
+        accel = p["MPC_ACC_HOR"]
+        error = position[0:2] - state.position_ned[0:2]
+        distance = float(np.hypot(*error))
+        speed = min(math.sqrt(2.0 * accel * distance), p["MPC_XY_P"] * distance)
+        horizontal = _limit_norm(error * (speed / distance if distance > 0 else 0.0) + feed_forward[0:2],
+                                 p["MPC_XY_VEL_MAX"])  # fmt: skip
+        vz = p["MPC_Z_P"] * (position[2] - float(state.position_ned[2])) + feed_forward[2]
+        wanted = np.array([*horizontal, min(max(vz, -p["MPC_Z_VEL_MAX_UP"]), p["MPC_Z_VEL_MAX_DN"])])
+        step = wanted - self.tracked_velocity
+        limit = accel * TICK_S
+        norm = float(np.linalg.norm(step))
+        self.tracked_velocity = self.tracked_velocity + (step * (limit / norm) if norm > limit else step)
+        return self.tracked_velocity.copy()
 
     def takeoff_done(self, state: VehicleState) -> bool:
         return float(state.position_ned[2]) <= self.takeoff_down + TAKEOFF_DONE_M

@@ -1,5 +1,6 @@
-"""The Offboard velocity set-point as the commander keeps it: the latest one, when it arrived (for the
-COM_OF_LOSS_T failsafe), and, with `--offboard-lockstep`, the stamped ones waiting for their simulation time.
+"""The Offboard set-point as the commander keeps it: the latest velocity, or position with a velocity
+feed-forward, when it arrived (for the COM_OF_LOSS_T failsafe), and, with `--offboard-lockstep`, the stamped
+velocity set-points waiting for their simulation time.
 """
 
 from __future__ import annotations
@@ -8,26 +9,46 @@ import math
 
 import numpy as np
 
+from autopilot.requests import OffboardPosition, OffboardVelocity
 from autopilot.stamped_setpoints import StampedSetpoints
+from autopilot.vehicle_state import VehicleState
 
 SETPOINT_LIMITS = np.array([30.0, 30.0, 10.0])  # m/s: the MPC's velocity envelope; set-points are clamped to it
+
+
+def to_ned(vector: np.ndarray, yaw: float) -> np.ndarray:
+    """A vector of a yaw-rotated (body NED) frame in NED."""
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([c * vector[0] - s * vector[1], s * vector[0] + c * vector[1], vector[2]])
 
 
 def in_envelope(velocity: np.ndarray, body: bool, yaw: float) -> tuple[np.ndarray, bool]:
     """A set-point in NED (rotated by the yaw when it is in a body frame), clamped to SETPOINT_LIMITS; True when
     it had to be clamped."""
     if body:
-        c, s = math.cos(yaw), math.sin(yaw)
-        velocity = np.array([c * velocity[0] - s * velocity[1], s * velocity[0] + c * velocity[1], velocity[2]])
+        velocity = to_ned(velocity, yaw)
     clamped = np.clip(velocity, -SETPOINT_LIMITS, SETPOINT_LIMITS)
     return clamped, not np.array_equal(clamped, velocity)
 
 
 class OffboardSetpoint:
     def __init__(self, stamped: bool) -> None:
-        self.velocity = np.zeros(3)  # NED, m/s
+        self.velocity = np.zeros(3)  # NED, m/s (with a position: its feed-forward)
+        self.position: np.ndarray | None = None  # NED from home, m; None: a velocity set-point
         self.received_usec: int | None = None
         self.stamped = StampedSetpoints() if stamped else None
+
+    def accept(self, request: OffboardVelocity | OffboardPosition, state: VehicleState, now_usec: int) -> bool:
+        """A client's set-point in NED (body frames rotated by the yaw, offsets from where the vehicle is), its
+        velocity clamped to the envelope; True when it had to be clamped."""
+        yaw = float(state.euler[2])
+        velocity, clamped = in_envelope(request.velocity, request.body, yaw)
+        if isinstance(request, OffboardVelocity):
+            self.receive(velocity, request.stamp_ms, now_usec)
+            return clamped
+        offset = to_ned(request.position, yaw) if request.body else request.position
+        self.receive_position(state.position_ned + offset if request.relative else offset, velocity, now_usec)
+        return clamped
 
     def receive(self, velocity_ned: np.ndarray, stamp_ms: int | None, now_usec: int) -> None:
         """A set-point received now; a stamped one (--offboard-lockstep) takes effect at its time_boot_ms."""
@@ -35,12 +56,20 @@ class OffboardSetpoint:
             self.stamped.add(stamp_ms, velocity_ned)
             return
         self.velocity = velocity_ned
+        self.position = None
+        self.received_usec = now_usec
+
+    def receive_position(self, position_ned: np.ndarray, velocity_ned: np.ndarray, now_usec: int) -> None:
+        """A position set-point (NED from home) with its velocity feed-forward, received now."""
+        self.position = position_ned
+        self.velocity = velocity_ned
         self.received_usec = now_usec
 
     def take_due(self, time_usec: int) -> None:
         """The newest stamped set-point whose time has come takes effect."""
         if self.stamped is not None and (due := self.stamped.due(time_usec)) is not None:
             self.velocity = due
+            self.position = None
             self.received_usec = time_usec
 
     def covers(self, time_usec: int) -> bool:

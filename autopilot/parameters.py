@@ -66,7 +66,11 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
     P("MPC_LAND_SPEED", REAL32, 0.7, 0.2, 3.0, "m/s", "landing descent speed below MPC_LAND_ALT2"),
     P("MPC_LAND_ALT2", REAL32, 5.0, 0.0, 100.0, "m", "below this height above home land at MPC_LAND_SPEED"),
     P("MPC_XY_CRUISE", REAL32, 5.0, 0.5, 12.0, "m/s", "fastest horizontal speed when returning to a hold point"),
-    P("MPC_XY_P", REAL32, 0.95, 0.0, 2.0, "1/s", "horizontal position gain (Hold, Takeoff, Land)"),
+    P("MPC_XY_VEL_MAX", REAL32, 12.0, 1.0, 30.0, "m/s", "fastest horizontal speed flying to an Offboard position "
+      "set-point"),
+    P("MPC_ACC_HOR", REAL32, 2.0, 0.5, 10.0, "m/s^2", "acceleration of the velocity set-points that fly to an "
+      "Offboard position set-point"),
+    P("MPC_XY_P", REAL32, 0.95, 0.0, 2.0, "1/s", "horizontal position gain (Hold, Takeoff, Land, Offboard position)"),
     P("MPC_Z_P", REAL32, 1.0, 0.0, 2.0, "1/s", "vertical position gain (Hold, Takeoff)"),
     P("VT_ARSP_BLEND", REAL32, 13.5, 5.0, 40.0, "m/s", "PID baseline: airspeed where MC/FW blending starts"),
     P("VT_ARSP_TRANS", REAL32, 23.0, 5.0, 40.0, "m/s", "PID baseline: airspeed where the transition completes"),

@@ -58,6 +58,17 @@ class OffboardVelocity:
 
 
 @dataclass(frozen=True)
+class OffboardPosition:
+    """A finite position set-point (m, NED from home; with `relative`, an offset from where the vehicle is, rotated
+    by its yaw when `body`) and a velocity feed-forward (m/s, NED or body like the position)."""
+
+    position: np.ndarray
+    velocity: np.ndarray
+    relative: bool
+    body: bool
+
+
+@dataclass(frozen=True)
 class InjectFailure:
     """MAV_CMD_INJECT_FAILURE, checked against the failure vocabulary; `ticket` names it in the outcome."""
 
@@ -65,7 +76,7 @@ class InjectFailure:
     ticket: int
 
 
-Request = Arm | Disarm | Takeoff | Land | SetMode | Transition | OffboardVelocity | InjectFailure
+Request = Arm | Disarm | Takeoff | Land | SetMode | Transition | OffboardVelocity | OffboardPosition | InjectFailure
 
 
 class RequestHandler(Protocol):

@@ -227,8 +227,8 @@ def test_offboard_set_point_checks_and_frames(hovering):
                                            0, 0)  # fmt: skip
     mav.set_position_target_local_ned_send(0, 1, 1, M.MAV_FRAME_LOCAL_NED, VELOCITY_MASK, 0, 0, 0, math.inf, 0, 0, 0, 0,
                                            0, 0, 0)  # fmt: skip
-    mav.set_position_target_local_ned_send(0, 1, 1, M.MAV_FRAME_LOCAL_NED, 0b110111111000, 10, 0, 0, 0, 0, 0, 0, 0, 0,
-                                           0, 0)  # fmt: skip  (a position set-point)
+    mav.set_position_target_local_ned_send(0, 1, 1, M.MAV_FRAME_LOCAL_NED, 0b110000111111, 0, 0, 0, 0, 0, 0, 1, 0, 0,
+                                           0, 0)  # fmt: skip  (an acceleration set-point)
     mav.set_position_target_local_ned_send(0, 1, 1, 99, VELOCITY_MASK, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0)
     gs.wait(lambda: sum("Set-point dropped" in t for t in gs.statustexts[texts:]) >= 3, "the drops")
     assert gs.set_mode(OFFBOARD).result == M.MAV_RESULT_TEMPORARILY_REJECTED  # nothing valid received

@@ -1,66 +1,91 @@
-"""Offboard set-points: SET_POSITION_TARGET_LOCAL_NED and SET_POSITION_TARGET_GLOBAL_INT with velocity fields
-(MAVSDK's type_mask 0x9C7), in a local, body or global frame, to typed requests. Anything else is dropped with a
-STATUSTEXT saying why; a non-finite velocity never reaches the flight stack."""
+"""Offboard set-points: SET_POSITION_TARGET_LOCAL_NED and SET_POSITION_TARGET_GLOBAL_INT with velocity (MAVSDK's
+type_mask 0x9C7), position (0x9F8), or position with a velocity feed-forward, in local, body or global frames,
+to typed requests. Acceleration set-points are refused; yaw and yaw rate are not taken (both velocity controllers
+point the nose along the set-point's course, docs/mavlink.md). Anything refused is dropped with a STATUSTEXT
+saying why; a non-finite value never reaches the flight stack."""
 
 from __future__ import annotations
 
 from typing import Any
 
 import numpy as np
+import pymap3d
 
 from autopilot.mavlink.commands import for_us
 from autopilot.mavlink.router import GroundLink
 from autopilot.mavlink.statustext import Announcer
-from autopilot.requests import OffboardVelocity, RequestHandler
+from autopilot.requests import OffboardPosition, OffboardVelocity, RequestHandler
+from transport.geodesy import Home
 from transport.mavlink import mavlink as M
 
-# frame -> the velocity is in a yaw-rotated (body) frame
-LOCAL_FRAMES = {M.MAV_FRAME_LOCAL_NED: False, M.MAV_FRAME_LOCAL_OFFSET_NED: False, M.MAV_FRAME_BODY_NED: True,
-                M.MAV_FRAME_BODY_OFFSET_NED: True, M.MAV_FRAME_BODY_FRD: True}  # fmt: skip
-GLOBAL_FRAMES = (M.MAV_FRAME_GLOBAL, M.MAV_FRAME_GLOBAL_RELATIVE_ALT, M.MAV_FRAME_GLOBAL_INT,
-                 M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, M.MAV_FRAME_GLOBAL_TERRAIN_ALT,
-                 M.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT)  # fmt: skip
+# frame -> (position relative to the vehicle, yaw-rotated (body) frame)
+LOCAL_FRAMES = {M.MAV_FRAME_LOCAL_NED: (False, False), M.MAV_FRAME_LOCAL_OFFSET_NED: (True, False),
+                M.MAV_FRAME_BODY_NED: (True, True), M.MAV_FRAME_BODY_OFFSET_NED: (True, True),
+                M.MAV_FRAME_BODY_FRD: (True, True)}  # fmt: skip
+RELATIVE_ALT_FRAMES = (M.MAV_FRAME_GLOBAL_RELATIVE_ALT, M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT)
+GLOBAL_FRAMES = (M.MAV_FRAME_GLOBAL, M.MAV_FRAME_GLOBAL_INT, *RELATIVE_ALT_FRAMES)
 POSITION_IGNORE = 0b111
 VELOCITY_IGNORE = 0b111 << 3
+ACCELERATION_IGNORE = 0b111 << 6
+FORCE_SETPOINT = 1 << 9
 
 
 class OffboardService:
-    def __init__(self, flight_stack: RequestHandler, announcer: Announcer, *, system_id: int) -> None:
+    def __init__(self, flight_stack: RequestHandler, announcer: Announcer, *, system_id: int, home: Home) -> None:
         self.flight_stack = flight_stack
         self.announcer = announcer
         self.system_id = system_id
+        self.home = home
         self.dropped = 0
 
     def on_position_target_local(self, link: GroundLink, message: Any) -> None:
         if not for_us(self.system_id, message.target_system, message.target_component):
             return
-        body = LOCAL_FRAMES.get(message.coordinate_frame)
-        if body is None:
-            self._drop(f"frame {message.coordinate_frame} not supported (LOCAL_NED, BODY_NED)")
+        frame = LOCAL_FRAMES.get(message.coordinate_frame)
+        if frame is None:
+            self._drop(f"frame {message.coordinate_frame} not supported (LOCAL_NED, LOCAL_OFFSET_NED, BODY_NED)")
             return
-        self._velocity(message, body)
+        relative, body = frame
+        self._setpoint(message, np.array([message.x, message.y, message.z], dtype=float), relative, body)
 
     def on_position_target_global(self, link: GroundLink, message: Any) -> None:
         if not for_us(self.system_id, message.target_system, message.target_component):
             return
         if message.coordinate_frame not in GLOBAL_FRAMES:
-            self._drop(f"frame {message.coordinate_frame} not a global frame")
+            self._drop(f"frame {message.coordinate_frame} not a global frame (GLOBAL_INT, GLOBAL_RELATIVE_ALT_INT)")
             return
-        self._velocity(message, body=False)
+        position = None
+        if message.type_mask & POSITION_IGNORE != POSITION_IGNORE:
+            lat, lon, alt = message.lat_int * 1e-7, message.lon_int * 1e-7, float(message.alt)
+            if message.coordinate_frame in RELATIVE_ALT_FRAMES:
+                alt += self.home.alt
+            if not (np.isfinite(alt) and -90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
+                self._drop("position not a place on Earth")
+                return
+            position = np.array(pymap3d.geodetic2ned(lat, lon, alt, self.home.lat, self.home.lon, self.home.alt))
+        self._setpoint(message, position, relative=False, body=False)
 
-    def _velocity(self, message: Any, body: bool) -> None:
+    def _setpoint(self, message: Any, position: np.ndarray | None, relative: bool, body: bool) -> None:
         mask = message.type_mask
-        if mask & VELOCITY_IGNORE:
-            self._drop("velocity only: type_mask must use vx vy vz")
+        uses_position = mask & POSITION_IGNORE != POSITION_IGNORE
+        uses_velocity = mask & VELOCITY_IGNORE != VELOCITY_IGNORE
+        if mask & FORCE_SETPOINT or mask & ACCELERATION_IGNORE != ACCELERATION_IGNORE:
+            self._drop("acceleration and force set-points not supported: position and/or velocity")
             return
-        if (mask & POSITION_IGNORE) != POSITION_IGNORE:
-            self._drop("position set-points not supported: velocity only")
+        if (mask & POSITION_IGNORE) not in (0, POSITION_IGNORE) or (mask & VELOCITY_IGNORE) not in (0, VELOCITY_IGNORE):
+            self._drop("type_mask must use all three of x y z and of vx vy vz, or none")
             return
-        velocity = np.array([message.vx, message.vy, message.vz], dtype=float)
-        if not np.all(np.isfinite(velocity)):
+        if not (uses_position or uses_velocity):
+            self._drop("type_mask ignores position and velocity")
+            return
+        velocity = np.array([message.vx, message.vy, message.vz], dtype=float) if uses_velocity else np.zeros(3)
+        if not np.all(np.isfinite(velocity)) or (uses_position and not np.all(np.isfinite(position))):
             self._drop("not finite (NaN/Inf)")
             return
-        self.flight_stack.handle(OffboardVelocity(velocity, body, message.time_boot_ms))
+        if uses_position:
+            self.flight_stack.handle(OffboardPosition(position, velocity, relative, body))
+        else:
+            self.flight_stack.handle(OffboardVelocity(velocity, body, message.time_boot_ms))
 
     def _drop(self, why: str) -> None:
         self.dropped += 1

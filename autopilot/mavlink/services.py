@@ -46,7 +46,7 @@ class MavlinkServices:
         self.view = StatusView()
         self.announcer = Announcer(router, self.view.clock, events_publisher, quiet)
         self.commands = CommandService(flight_stack, self.view, self.announcer, system_id=system_id, home=home)
-        self.offboard = OffboardService(flight_stack, self.announcer, system_id=system_id)
+        self.offboard = OffboardService(flight_stack, self.announcer, system_id=system_id, home=home)
         self.parameters = ParameterService(params, router, self.announcer, system_id=system_id)
         self.missions = MissionService(self.announcer, system_id=system_id)
         self.holds = 0  # --offboard-lockstep: steps held for set-points, and the wall time spent holding
