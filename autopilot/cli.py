@@ -18,6 +18,7 @@ from autopilot.flight_logger import FlightLogger
 from autopilot.flight_stack import FlightStack
 from autopilot.mavlink.router import GroundLink, Router
 from autopilot.mavlink.services import MavlinkServices
+from autopilot.mission_store import MissionFileError, MissionStore, default_mission_path
 from autopilot.parameters import ParameterFileError, ParameterStore, default_parameter_path
 from autopilot.pid_baseline import TransitionAirspeeds
 from autopilot.plant_loop import LoopOutputs, PlantLoop
@@ -77,6 +78,9 @@ def build_parser() -> OneLineArgumentParser:
     parser.add_argument("--params", metavar="FILE",
                         help="parameter file (default $XDG_STATE_HOME/tiltrotor-sitl/params-I.json, "
                              "~/.local/state when unset)")  # fmt: skip
+    parser.add_argument("--missions", metavar="FILE",
+                        help="mission file: mission, geofence and rally points, kept across restarts (default "
+                             "missions-I.json beside the parameter file)")  # fmt: skip
     parser.add_argument("--airframe", metavar="FILE", help="airframe TOML for the controllers' model")
     parser.add_argument("--spawn-alt", type=nonnegative_float, default=0.0, metavar="M",
                         help="the plant spawned hovering: start armed, in Hold (0 = on the ground, disarmed)")
@@ -126,6 +130,12 @@ def main(argv: list[str] | None = None) -> int:
         fail(PROG, str(exc))
     for warning in params.warnings:
         print(f"{PROG}: warning: {warning}", file=sys.stderr)
+    assert params.path is not None
+    missions = MissionStore(Path(args.missions) if args.missions else default_mission_path(params.path, args.instance))
+    try:
+        missions.load()
+    except MissionFileError as exc:
+        fail(PROG, str(exc))
     system_id = args.sysid if args.sysid is not None else params.get_int("MAV_SYS_ID")
     sim_port = args.sim_port if args.sim_port is not None else ports.plant
     router = Router([
@@ -152,7 +162,7 @@ def main(argv: list[str] | None = None) -> int:
         session = open_session(args.zenoh_listen or [ports.zenoh_autopilot], args.zenoh_connect, PROG)
     home = Home()
     services = MavlinkServices(
-        router, params, FlightStack(commander, injection, params), system_id=system_id, home=home,
+        router, params, FlightStack(commander, injection, params, missions), system_id=system_id, home=home,
         events_publisher=None if session is None else session.declare_publisher(autopilot_events_key(system_id)),
         quiet=args.quiet,
     )  # fmt: skip
@@ -169,20 +179,20 @@ def main(argv: list[str] | None = None) -> int:
     )
     loop = PlantLoop(airframe, new_flight_controller, client, commander, params, injection, events,
                      services=services, home=home, outputs=outputs, duration_s=args.duration,
-                     offboard_lockstep=args.offboard_lockstep, should_stop=stop_requested)  # fmt: skip
+                     offboard_lockstep=args.offboard_lockstep, should_stop=stop_requested, missions=missions)  # fmt: skip
     gcs, api = router.links
     print(f"{PROG}: {kind} controller, plant link udp {LOOPBACK}:{sim_port}, "
           f"GCS udp {LOOPBACK}:{gcs.bind_port} -> {gcs.default_remote[1]}, "
           f"API udp {LOOPBACK}:{api.bind_port} -> {api.default_remote[1]}, "
-          f"parameters {params.path}", file=sys.stderr, flush=True)  # fmt: skip
+          f"parameters {params.path}, missions {missions.path}", file=sys.stderr, flush=True)  # fmt: skip
     try:
         loop.run()
     finally:
         client.close()
         services.close()
-        error = params.flush()
-        if error:
-            print(f"{PROG}: {error}", file=sys.stderr)
+        for error in (params.flush(), missions.flush()):
+            if error:
+                print(f"{PROG}: {error}", file=sys.stderr)
         if log is not None:
             log.close()
         if session is not None:

@@ -1,21 +1,25 @@
 """The flight stack as the MAVLink services see it: it takes their typed requests. Arming, modes, takeoff,
 landing, transitions and Offboard set-points go to the commander; a failure injection, once SYS_FAILURE_EN
-allows it (as PX4's commander checks it), goes to the plant link and is answered when the plant has."""
+allows it (as PX4's commander checks it), goes to the plant link and is answered when the plant has. Mission
+uploads, clears and the current item go to the mission store (autopilot/mission_store.py), which the navigator reads."""
 
 from __future__ import annotations
 
 from autopilot.commander import Commander
 from autopilot.failure_injection import FailureInjection
+from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
-from autopilot.requests import InjectFailure, Reply, Request
+from autopilot.requests import ClearMission, InjectFailure, Reply, Request, SetMissionCurrent, StoreMission
 from transport.mavlink import mavlink
 
 
 class FlightStack:
-    def __init__(self, commander: Commander, injection: FailureInjection, params: ParameterStore) -> None:
+    def __init__(self, commander: Commander, injection: FailureInjection, params: ParameterStore,
+                 missions: MissionStore) -> None:  # fmt: skip
         self.commander = commander
         self.injection = injection
         self.params = params
+        self.missions = missions
 
     def handle(self, request: Request) -> Reply | None:
         if isinstance(request, InjectFailure):
@@ -23,4 +27,14 @@ class FlightStack:
                 return mavlink.MAV_RESULT_DENIED, "Failure injection disabled: set SYS_FAILURE_EN to 1"
             self.injection.request(request.failure, self.commander.now_usec, request.ticket)
             return None  # answered when the plant has acknowledged it
+        if isinstance(request, StoreMission):
+            self.missions.store(request.mission_type, request.items, request.current)
+            return mavlink.MAV_RESULT_ACCEPTED, None
+        if isinstance(request, ClearMission):
+            self.missions.clear(request.mission_type)
+            return mavlink.MAV_RESULT_ACCEPTED, None
+        if isinstance(request, SetMissionCurrent):
+            if not self.missions.set_current(request.seq):
+                return mavlink.MAV_RESULT_DENIED, f"Mission item {request.seq} not in the mission"
+            return mavlink.MAV_RESULT_ACCEPTED, None
         return self.commander.handle(request)

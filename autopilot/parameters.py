@@ -125,7 +125,7 @@ class ParameterStore:
         self.path = path
         self.version = 0  # counts changes: the flight stack hands changed values on when it sees a new one
         self.warnings: list[str] = []
-        self._writer = _BackgroundWriter(path) if path is not None else None
+        self._writer = BackgroundWriter(path, "parameter file") if path is not None else None
 
     # ---- access ------------------------------------------------------------------------------------------
     def __getitem__(self, name: str) -> float:
@@ -203,7 +203,7 @@ class ParameterStore:
         """Read the file if it exists (a missing file means all defaults); raise ParameterFileError if broken."""
         if self.path is None:
             return
-        _remove_stale_temporaries(self.path)
+        remove_stale_temporaries(self.path)
         try:
             text = self.path.read_text(encoding="utf-8")
         except FileNotFoundError:
@@ -239,7 +239,7 @@ class ParameterStore:
             raise ParameterFileError(f"{where}: VT_ARSP_BLEND must be below VT_ARSP_TRANS")
 
 
-def _remove_stale_temporaries(path: Path) -> None:
+def remove_stale_temporaries(path: Path) -> None:
     """Temporary files left by a writer that was killed mid-write (the real file is intact)."""
     try:
         for stale in path.parent.glob(f".{path.name}.*.tmp"):
@@ -282,11 +282,13 @@ def write_atomically(path: Path, text: str) -> None:
         os.close(folder)
 
 
-class _BackgroundWriter:
-    """Writes the newest submitted document on a daemon thread (older unwritten ones are skipped)."""
+class BackgroundWriter:
+    """Writes the newest submitted document to `path` on a daemon thread (older unwritten ones are skipped);
+    `what` names the file in errors ("parameter file")."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, what: str) -> None:
         self.path = path
+        self.what = what
         self._condition = threading.Condition()
         self._pending: str | None = None
         self._busy = False
@@ -298,7 +300,8 @@ class _BackgroundWriter:
         with self._condition:
             self._pending = text
             if self._thread is None:
-                self._thread = threading.Thread(target=self._run, name="parameter-writer", daemon=True)
+                self._thread = threading.Thread(target=self._run, name=self.what.replace(" ", "-") + "-writer",
+                                                daemon=True)
                 self._thread.start()
             self._condition.notify_all()
 
@@ -313,7 +316,7 @@ class _BackgroundWriter:
                 write_atomically(self.path, text)
                 error = None
             except OSError as exc:
-                error = f"cannot write the parameter file {self.path}: {exc.strerror or exc}"
+                error = f"cannot write the {self.what} {self.path}: {exc.strerror or exc}"
                 print(f"vtol-autopilot: {error}", file=sys.stderr, flush=True)
             with self._condition:
                 self._busy = False

@@ -34,6 +34,7 @@ from autopilot.failure_injection import FailureInjection
 from autopilot.flight_controller import FlightController
 from autopilot.flight_logger import FlightLogger
 from autopilot.mavlink.services import MavlinkServices
+from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
 from autopilot.vehicle_state import VehicleState, update_from_hil_state
 from autopilot.vehicle_status import EventOutbox, GlobalPosition, VehicleStatus, copy_state, vtol_state
@@ -83,6 +84,7 @@ class PlantLoop:
         duration_s: float | None = None,
         offboard_lockstep: bool = False,
         should_stop: Callable[[], bool] = lambda: False,
+        missions: MissionStore | None = None,
     ) -> None:
         self.airframe = airframe
         self.controller_factory = controller_factory
@@ -99,6 +101,7 @@ class PlantLoop:
         self.offboard_lockstep = offboard_lockstep
         self.should_stop = should_stop
         self.services = services
+        self.missions = missions if missions is not None else MissionStore()
         self.state = VehicleState()
         self.counters = LoopCounters()
         self.controllers_started = 1
@@ -197,7 +200,7 @@ class PlantLoop:
             position=GlobalPosition(hil.lat, hil.lon, hil.alt, hil.vx, hil.vy, hil.vz),
             home=self.home, pwm=tuple(pwm), throttle_percent=throttle, controller=c.kind,
             failures=tuple(self.injection.known), events=self.events.drain(),
-            injections=self.injection.drain_outcomes(),
+            injections=self.injection.drain_outcomes(), missions=self.missions.snapshot,
         )  # fmt: skip
 
     # ---- the loop ------------------------------------------------------------------------------------------------

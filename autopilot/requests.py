@@ -14,6 +14,7 @@ from typing import Protocol
 import numpy as np
 
 from aircraft.failures import Failure
+from autopilot.mission_items import MissionItem
 
 Reply = tuple[int, str | None]  # (MAV_RESULT, reason or None)
 
@@ -76,7 +77,28 @@ class InjectFailure:
     ticket: int
 
 
-Request = Arm | Disarm | Takeoff | Land | SetMode | Transition | OffboardVelocity | OffboardPosition | InjectFailure
+@dataclass(frozen=True)
+class StoreMission:
+    """A complete, checked upload (mission protocol): replaces the list of `mission_type`; `current` is the item
+    the upload marked current (0 when none)."""
+
+    mission_type: int  # MAV_MISSION_TYPE_MISSION, _FENCE or _RALLY
+    items: tuple[MissionItem, ...]
+    current: int = 0
+
+
+@dataclass(frozen=True)
+class ClearMission:
+    mission_type: int  # one type, or MAV_MISSION_TYPE_ALL
+
+
+@dataclass(frozen=True)
+class SetMissionCurrent:
+    seq: int
+
+
+Request = (Arm | Disarm | Takeoff | Land | SetMode | Transition | OffboardVelocity | OffboardPosition | InjectFailure
+           | StoreMission | ClearMission | SetMissionCurrent)  # fmt: skip
 
 
 class RequestHandler(Protocol):

@@ -1,7 +1,8 @@
 """The vehicle's status snapshot: what the flight stack publishes once per plant step for the MAVLink services.
 
 The services (autopilot/mavlink/) read only this: arming, mode, landed and VTOL state, the state estimate, the
-position as the GPS sees it, home, the actuator outputs, the controller flying, the failures known, and what
+position as the GPS sees it, home, the actuator outputs, the controller flying, the failures known, the stored
+missions and their progress (MISSION_CURRENT, MISSION_ITEM_REACHED, downloads), and what
 happened since the last snapshot (events to announce, failure injections answered by the plant). As PX4's
 mavlink streams read vehicle_status and friends, never the commander.
 """
@@ -15,6 +16,8 @@ from typing import TypeVar
 import numpy as np
 
 from aircraft.failures import Failure
+from autopilot.mission_store import EMPTY as NO_MISSIONS
+from autopilot.mission_store import Missions
 from autopilot.vehicle_state import VehicleState
 from transport.geodesy import Home
 from transport.mavlink import mavlink
@@ -73,6 +76,7 @@ class VehicleStatus:
     failures: tuple[Failure, ...] = ()  # known to the controllers
     events: tuple[Event, ...] = ()  # since the last snapshot
     injections: tuple[InjectionOutcome, ...] = ()  # answered since the last snapshot
+    missions: Missions = NO_MISSIONS  # stored mission, fence, rally; current item, state, last reached (immutable)
 
     @property
     def time_boot_ms(self) -> int:

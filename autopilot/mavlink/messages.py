@@ -119,6 +119,13 @@ def autopilot_version(mav: Any) -> Any:
                                         0x5452_5300 + mav.srcSystem)  # fmt: skip
 
 
+def mission_current(mav: Any, status: VehicleStatus) -> Any:
+    """MISSION_CURRENT as PX4 fills it: total UINT16_MAX without a mission, mission_mode 1 in Mission mode else 2."""
+    m = status.missions
+    total = len(m.mission) if m.mission else 0xFFFF
+    return mav.mission_current_encode(m.current, total, m.state, 1 if status.mode == "Mission" else 2)
+
+
 BUILDERS: dict[int, Callable[[Any, VehicleStatus], Any]] = {
     M.MAVLINK_MSG_ID_HEARTBEAT: heartbeat,
     M.MAVLINK_MSG_ID_SYS_STATUS: sys_status,
@@ -134,6 +141,7 @@ BUILDERS: dict[int, Callable[[Any, VehicleStatus], Any]] = {
     M.MAVLINK_MSG_ID_HOME_POSITION: lambda mav, status: home_position(mav, status.home, status.time_usec),
     M.MAVLINK_MSG_ID_SYSTEM_TIME: lambda mav, status: system_time(mav, status.time_usec),
     M.MAVLINK_MSG_ID_AUTOPILOT_VERSION: lambda mav, status: autopilot_version(mav),
+    M.MAVLINK_MSG_ID_MISSION_CURRENT: mission_current,
 }
 
 

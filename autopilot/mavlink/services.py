@@ -48,7 +48,7 @@ class MavlinkServices:
         self.commands = CommandService(flight_stack, self.view, self.announcer, system_id=system_id, home=home)
         self.offboard = OffboardService(flight_stack, self.announcer, system_id=system_id, home=home)
         self.parameters = ParameterService(params, router, self.announcer, system_id=system_id)
-        self.missions = MissionService(self.announcer, system_id=system_id)
+        self.missions = MissionService(flight_stack, self.view, router, self.announcer, system_id=system_id)
         self.holds = 0  # --offboard-lockstep: steps held for set-points, and the wall time spent holding
         self.hold_wall_s = 0.0
         self._heartbeat_version = 0
@@ -63,8 +63,15 @@ class MavlinkServices:
             "PARAM_REQUEST_READ": self.parameters.on_request_read,
             "PARAM_SET": self.parameters.on_set,
             "MISSION_REQUEST_LIST": self.missions.on_request_list,
+            "MISSION_REQUEST_INT": self.missions.on_request_int,
+            "MISSION_REQUEST": self.missions.on_request,
             "MISSION_COUNT": self.missions.on_count,
+            "MISSION_ITEM_INT": self.missions.on_item_int,
+            "MISSION_ITEM": self.missions.on_item,
+            "MISSION_ACK": self.missions.on_ack,
             "MISSION_CLEAR_ALL": self.missions.on_clear_all,
+            "MISSION_SET_CURRENT": self.missions.on_set_current,
+            "MISSION_WRITE_PARTIAL_LIST": self.missions.on_write_partial_list,
             "TIMESYNC": self._on_timesync,
         }
 
@@ -79,6 +86,7 @@ class MavlinkServices:
             for link in ready:
                 for data, sender in link.receive(deadline):
                     self._datagram(link, data, sender)
+        self.missions.tick()
         return bool(ready)
 
     def publish(self, status: VehicleStatus) -> None:
@@ -91,6 +99,7 @@ class MavlinkServices:
         if status.state_version != self._heartbeat_version:  # a HEARTBEAT right after every change, as PX4
             self._heartbeat_version = status.state_version
             self.router.queue_all(lambda link: messages.heartbeat(link.mav, status))
+        self.missions.publish(status)
         for link in self.router.links:
             for msgid in link.streams.due(status.time_usec, idle=not link.clients):
                 message = messages.build(msgid, link.mav, status)

@@ -1,0 +1,321 @@
+"""The mission protocol (issue 11 item 1, docs/mavlink.md "Missions"): uploads and downloads of missions, fences and
+rally points through the real processes, clear, current item, persistence across a restart, bad input refused with
+PX4's MISSION_ACK results and the stored lists left intact, an abandoned upload."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import time
+
+import pytest
+
+from autopilot.mission_items import MissionItem, check_item
+from autopilot.mission_store import MissionFileError, MissionStore, document, parse_document
+from tests.mavlink_sitl import start_sitl
+from transport.mavlink import mavlink as M
+
+LAT, LON = 473977420, 85455940
+REL = M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+MISSION_MESSAGES = ["MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK", "MISSION_COUNT", "MISSION_ITEM_INT",
+                    "MISSION_ITEM", "MISSION_CURRENT", "MISSION_ITEM_REACHED", "STATUSTEXT"]  # fmt: skip
+
+# (frame, command, p1, p2, p3, p4, x, y, z)
+SURVEY = [
+    (REL, M.MAV_CMD_NAV_VTOL_TAKEOFF, 0, 0, 0, math.nan, LAT, LON, 30.0),
+    (REL, M.MAV_CMD_NAV_WAYPOINT, 0, 10, 0, math.nan, LAT + 36000, LON, 40.0),
+    (M.MAV_FRAME_MISSION, M.MAV_CMD_DO_CHANGE_SPEED, 1, 20, -1, 0, 0, 0, 0),
+    (M.MAV_FRAME_MISSION, M.MAV_CMD_DO_VTOL_TRANSITION, 4, 0, 0, 0, 0, 0, 0),
+    (M.MAV_FRAME_GLOBAL_INT, M.MAV_CMD_NAV_LOITER_TIME, 5, 0, 80, 0, LAT + 36000, LON + 54000, 528.0),
+    (M.MAV_FRAME_MISSION, M.MAV_CMD_DO_JUMP, 1, 2, 0, 0, 0, 0, 0),
+    (M.MAV_FRAME_MISSION, M.MAV_CMD_NAV_DELAY, 3, -1, -1, -1, 0, 0, 0),
+    (M.MAV_FRAME_MISSION, M.MAV_CMD_NAV_RETURN_TO_LAUNCH, 0, 0, 0, 0, 0, 0, 0),
+    (REL, M.MAV_CMD_NAV_VTOL_LAND, 0, 0, 0, math.nan, LAT, LON, 0.0),
+]
+FENCE = [(REL, M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION, 3, 0, 0, 0, LAT + d[0], LON + d[1], 0.0)
+         for d in ((-9000, -9000), (9000, -9000), (9000, 9000))] + [
+        (REL, M.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, 50, 0, 0, 0, LAT + 3000, LON, 0.0)]  # fmt: skip
+RALLY = [(REL, M.MAV_CMD_NAV_RALLY_POINT, 0, 0, 0, 0, LAT + 1000, LON - 2000, 20.0)]
+TYPES = {M.MAV_MISSION_TYPE_MISSION: SURVEY, M.MAV_MISSION_TYPE_FENCE: FENCE, M.MAV_MISSION_TYPE_RALLY: RALLY}
+
+
+def item(row: tuple) -> MissionItem:
+    frame, command, p1, p2, p3, p4, x, y, z = row
+    return MissionItem(frame, command, 1, float(p1), float(p2), float(p3), float(p4), x, y, float(z))
+
+
+# ---- pure checks and the file -----------------------------------------------------------------------------------------
+BAD_ITEMS = [
+    ("unknown command", (REL, 31337, 0, 0, 0, 0, LAT, LON, 10.0), M.MAV_MISSION_UNSUPPORTED),
+    ("DO_ item in a global frame", (REL, M.MAV_CMD_DO_JUMP, 1, 1, 0, 0, LAT, LON, 0.0), M.MAV_MISSION_UNSUPPORTED),
+    ("local frame", (M.MAV_FRAME_LOCAL_NED, M.MAV_CMD_NAV_WAYPOINT, 0, 0, 0, 0, 0, 0, 10.0),
+     M.MAV_MISSION_UNSUPPORTED_FRAME),
+    ("waypoint in MISSION frame", (M.MAV_FRAME_MISSION, M.MAV_CMD_NAV_WAYPOINT, 0, 0, 0, 0, 0, 0, 10.0),
+     M.MAV_MISSION_UNSUPPORTED_FRAME),
+    ("latitude beyond 90", (REL, M.MAV_CMD_NAV_WAYPOINT, 0, 0, 0, 0, 900_000_001, LON, 10.0),
+     M.MAV_MISSION_INVALID_PARAM5_X),
+    ("longitude beyond 180", (REL, M.MAV_CMD_NAV_WAYPOINT, 0, 0, 0, 0, LAT, -1_800_000_001, 10.0),
+     M.MAV_MISSION_INVALID_PARAM6_Y),
+    ("NaN altitude", (REL, M.MAV_CMD_NAV_WAYPOINT, 0, 0, 0, 0, LAT, LON, math.nan), M.MAV_MISSION_INVALID_PARAM7),
+    ("infinite param2", (REL, M.MAV_CMD_NAV_WAYPOINT, 0, math.inf, 0, 0, LAT, LON, 10.0),
+     M.MAV_MISSION_INVALID_PARAM2),
+    ("fence item in a mission", FENCE[0], M.MAV_MISSION_ERROR),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("why, row, result", BAD_ITEMS, ids=[case[0] for case in BAD_ITEMS])
+def test_bad_items_get_px4s_result(why, row, result):
+    assert check_item(M.MAV_MISSION_TYPE_MISSION, item(row)) == result
+
+
+def test_supported_items_pass_and_fence_polygons_need_three_vertices():
+    for kind, rows in TYPES.items():
+        assert all(check_item(kind, item(row)) == M.MAV_MISSION_ACCEPTED for row in rows)
+    two = item((REL, M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION, 2, 0, 0, 0, LAT, LON, 0.0))
+    assert check_item(M.MAV_MISSION_TYPE_FENCE, two) == M.MAV_MISSION_ERROR
+    assert check_item(M.MAV_MISSION_TYPE_RALLY, item(SURVEY[1])) == M.MAV_MISSION_ERROR
+
+
+def test_the_mission_file_round_trips_and_broken_ones_are_refused(tmp_path):
+    store = MissionStore(tmp_path / "missions-0.json")
+    for kind, rows in TYPES.items():
+        store.store(kind, tuple(item(r) for r in rows), current=2 if kind == M.MAV_MISSION_TYPE_MISSION else 0)
+    assert store.flush() is None
+    again = MissionStore(store.path)
+    again.load()
+    assert again.snapshot.mission == store.snapshot.mission and again.snapshot.fence == store.snapshot.fence
+    assert again.snapshot.rally == store.snapshot.rally and again.snapshot.current == 2
+    good = json.loads(document(store.snapshot))
+    broken = [
+        "{", json.dumps({**good, "format": "x"}), json.dumps({**good, "version": 2}),
+        json.dumps({**good, "current": 99}), json.dumps({**good, "mission": [{"frame": 3}]}),
+        json.dumps({**good, "fence": good["mission"]}),
+        json.dumps({**good, "mission": [{**good["mission"][1], "command": 31337}]}),
+    ]  # fmt: skip
+    for text in broken:
+        with pytest.raises(MissionFileError):
+            parse_document(text, "test file")
+
+
+def test_the_autopilot_refuses_a_broken_mission_file_with_one_line_and_exit_2(tmp_path):
+    (tmp_path / "missions-0.json").write_text('{"format": "tiltrotor-sitl missions", "version": 1, "mission": 5}')
+    sitl = start_sitl(tmp_path / "params.json", ground_station=False)
+    try:
+        assert sitl.autopilot.wait(timeout=60) == 2
+        lines = sitl.stderr().strip().splitlines()
+        assert len(lines) == 1 and "mission file" in lines[0], lines
+    finally:
+        sitl.kill()
+
+
+# ---- through the real processes -----------------------------------------------------------------------------------------
+class Client:
+    """The mission side of a pymavlink ground station (system 255, component 190)."""
+
+    def __init__(self, gs) -> None:
+        self.gs = gs
+        self.mav = gs.conn.mav
+        self.statustexts: list[str] = []
+        self.seen: list = []
+
+    def next(self, *kinds: str, timeout_s: float = 15.0):
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            message = self.gs.conn.recv_match(type=MISSION_MESSAGES, blocking=True, timeout=0.2)
+            if message is None:
+                continue
+            if message.get_type() == "STATUSTEXT":
+                self.statustexts.append(message.text)
+            self.seen.append(message)
+            if message.get_type() in kinds:
+                return message
+        raise AssertionError(f"no {kinds} within {timeout_s} s; STATUSTEXT {self.statustexts[-4:]}")
+
+    def send_item(self, seq: int, row: tuple, kind: int, *, current: int = 0) -> None:
+        frame, command, p1, p2, p3, p4, x, y, z = row
+        self.mav.mission_item_int_send(1, 1, seq, frame, command, current, 1, p1, p2, p3, p4, x, y, z, kind)
+
+    def upload(self, kind: int, rows: list[tuple]) -> int:
+        self.mav.mission_count_send(1, 1, len(rows), kind)
+        for seq, row in enumerate(rows):
+            request = self.next("MISSION_REQUEST_INT", "MISSION_ACK")
+            if request.get_type() == "MISSION_ACK":
+                return request.type
+            assert (request.seq, request.mission_type) == (seq, kind)
+            self.send_item(seq, row, kind, current=int(seq == 0))
+        return self.next("MISSION_ACK").type
+
+    def download(self, kind: int) -> list:
+        self.mav.mission_request_list_send(1, 1, kind)
+        count = self.next("MISSION_COUNT")
+        assert count.mission_type == kind
+        items = []
+        for seq in range(count.count):
+            self.mav.mission_request_int_send(1, 1, seq, kind)
+            items.append(self.next("MISSION_ITEM_INT"))
+        self.mav.mission_ack_send(1, 1, M.MAV_MISSION_ACCEPTED, kind)
+        return items
+
+
+def rows_of(items: list) -> list[tuple]:
+    return [(i.frame, i.command, i.param1, i.param2, i.param3, i.param4, i.x, i.y, i.z) for i in items]
+
+
+def same(a: list[tuple], b: list[tuple]) -> bool:
+    """Equal item lists (NaN parameters equal too)."""
+    return repr([item(r) for r in a]) == repr([item(r) for r in b])
+
+
+@pytest.fixture(scope="module")
+def vehicle(tmp_path_factory):
+    sitl = start_sitl(tmp_path_factory.mktemp("missions") / "params.json", speed=4.0)
+    try:
+        sitl.gs.connect()
+        yield sitl, Client(sitl.gs)
+    finally:
+        sitl.kill()
+
+
+def test_round_trip_of_each_type_clear_and_current(vehicle):
+    sitl, client = vehicle
+    for kind, rows in TYPES.items():
+        assert client.upload(kind, rows) == M.MAV_MISSION_ACCEPTED
+    for kind, rows in TYPES.items():
+        assert same(rows_of(client.download(kind)), rows), kind
+    current = client.next("MISSION_CURRENT")
+    assert current.total == len(SURVEY) and current.mission_state == M.MISSION_STATE_NOT_STARTED
+
+    client.mav.mission_set_current_send(1, 1, 4)
+    deadline = time.monotonic() + 10
+    while client.next("MISSION_CURRENT").seq != 4:
+        assert time.monotonic() < deadline
+    client.mav.mission_set_current_send(1, 1, 99)
+    while not any("99" in t for t in client.statustexts):
+        client.next("STATUSTEXT")
+    assert [i.current for i in client.download(M.MAV_MISSION_TYPE_MISSION)] == [0, 0, 0, 0, 1, 0, 0, 0, 0]
+
+    client.mav.mission_clear_all_send(1, 1, M.MAV_MISSION_TYPE_RALLY)
+    assert client.next("MISSION_ACK").type == M.MAV_MISSION_ACCEPTED
+    assert client.download(M.MAV_MISSION_TYPE_RALLY) == []
+    assert len(client.download(M.MAV_MISSION_TYPE_FENCE)) == len(FENCE)
+    assert client.upload(M.MAV_MISSION_TYPE_RALLY, RALLY) == M.MAV_MISSION_ACCEPTED
+
+
+def test_legacy_mission_item_is_accepted_and_served(vehicle):
+    sitl, client = vehicle
+    rows = [(M.MAV_FRAME_GLOBAL_RELATIVE_ALT, M.MAV_CMD_NAV_RALLY_POINT, 0, 0, 0, 0, 47.3977, 8.5456, 15.0)]
+    client.mav.mission_count_send(1, 1, 1, M.MAV_MISSION_TYPE_RALLY)
+    assert client.next("MISSION_REQUEST_INT").seq == 0
+    client.mav.mission_item_send(1, 1, 0, *rows[0][:2], 0, 1, *rows[0][2:], M.MAV_MISSION_TYPE_RALLY)
+    assert client.next("MISSION_ACK").type == M.MAV_MISSION_ACCEPTED
+    stored = client.download(M.MAV_MISSION_TYPE_RALLY)
+    # float32 degrees (why MISSION_ITEM is deprecated): about 0.5 m of resolution
+    assert abs(stored[0].x - 473977000) < 50 and abs(stored[0].y - 85456000) < 50 and stored[0].z == 15.0
+    assert client.upload(M.MAV_MISSION_TYPE_RALLY, RALLY) == M.MAV_MISSION_ACCEPTED
+
+
+def bad_upload(client, rows: list[tuple], bad_seq: int, bad) -> int:
+    """Upload `rows`, answering request `bad_seq` with bad(client); the ACK's result."""
+    kind = M.MAV_MISSION_TYPE_MISSION
+    client.mav.mission_count_send(1, 1, len(rows), kind)
+    for seq, row in enumerate(rows):
+        request = client.next("MISSION_REQUEST_INT", "MISSION_ACK")
+        if request.get_type() == "MISSION_ACK":
+            return request.type
+        if seq == bad_seq:
+            bad(client, seq, row)
+            return client.next("MISSION_ACK").type
+        client.send_item(seq, row, kind)
+    return client.next("MISSION_ACK").type
+
+
+BAD_TRANSFERS = {
+    "unknown command": (lambda c, s, r: c.send_item(s, (REL, 31337, *r[2:]), 0), M.MAV_MISSION_UNSUPPORTED),
+    "NaN latitude (legacy item)": (lambda c, s, r: c.mav.mission_item_send(
+        1, 1, s, M.MAV_FRAME_GLOBAL_RELATIVE_ALT, M.MAV_CMD_NAV_WAYPOINT, 0, 1, 0, 0, 0, 0, math.nan, 8.5, 20.0, 0),
+        M.MAV_MISSION_INVALID_PARAM5_X),
+    "longitude out of range": (lambda c, s, r: c.send_item(s, (*r[:7], 1_900_000_000, r[8]), 0),
+                               M.MAV_MISSION_INVALID_PARAM6_Y),
+    "wrong frame": (lambda c, s, r: c.send_item(s, (M.MAV_FRAME_LOCAL_NED, *r[1:]), 0),
+                    M.MAV_MISSION_UNSUPPORTED_FRAME),
+    "item beyond the requested one": (lambda c, s, r: c.send_item(s + 2, r, 0), M.MAV_MISSION_INVALID_SEQUENCE),
+    "item of another mission type": (lambda c, s, r: c.send_item(s, r, M.MAV_MISSION_TYPE_FENCE), M.MAV_MISSION_ERROR),
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", list(BAD_TRANSFERS))
+def test_bad_input_is_refused_with_px4s_ack_and_the_mission_stays(vehicle, case):
+    sitl, client = vehicle
+    bad, result = BAD_TRANSFERS[case]
+    before = rows_of(client.download(M.MAV_MISSION_TYPE_MISSION))
+    assert before
+    assert bad_upload(client, SURVEY[:4], 1, bad) == result
+    assert same(rows_of(client.download(M.MAV_MISSION_TYPE_MISSION)), before)
+
+
+def test_counts_other_clients_and_other_systems(vehicle):
+    sitl, client = vehicle
+    before = rows_of(client.download(M.MAV_MISSION_TYPE_MISSION))
+    client.mav.mission_count_send(1, 1, 501, M.MAV_MISSION_TYPE_MISSION)
+    assert client.next("MISSION_ACK").type == M.MAV_MISSION_NO_SPACE
+    client.mav.mission_count_send(1, 1, 9, M.MAV_MISSION_TYPE_RALLY)
+    assert client.next("MISSION_ACK").type == M.MAV_MISSION_NO_SPACE
+    # For another system: no answer at all.
+    client.mav.mission_count_send(7, 1, 1, M.MAV_MISSION_TYPE_MISSION)
+    client.mav.mission_clear_all_send(7, 1, M.MAV_MISSION_TYPE_MISSION)
+    with pytest.raises(AssertionError):
+        client.next("MISSION_ACK", "MISSION_REQUEST_INT", timeout_s=1.5)
+    # A second client (another system id) while an upload runs: DENIED; the first goes on.
+    client.mav.mission_count_send(1, 1, 1, M.MAV_MISSION_TYPE_MISSION)
+    assert client.next("MISSION_REQUEST_INT").seq == 0
+    client.mav.srcSystem = 254
+    try:
+        client.mav.mission_count_send(1, 1, 2, M.MAV_MISSION_TYPE_MISSION)
+        denied = client.next("MISSION_ACK")
+        assert denied.type == M.MAV_MISSION_DENIED and denied.target_system == 254
+    finally:
+        client.mav.srcSystem = 255
+    client.mav.mission_ack_send(1, 1, M.MAV_MISSION_OPERATION_CANCELLED, M.MAV_MISSION_TYPE_MISSION)
+    assert same(rows_of(client.download(M.MAV_MISSION_TYPE_MISSION)), before)
+
+
+def test_an_abandoned_upload_is_retried_then_cancelled_and_the_mission_stays(vehicle):
+    sitl, client = vehicle
+    before = rows_of(client.download(M.MAV_MISSION_TYPE_MISSION))
+    client.mav.mission_count_send(1, 1, 3, M.MAV_MISSION_TYPE_MISSION)
+    assert client.next("MISSION_REQUEST_INT").seq == 0
+    client.send_item(0, SURVEY[0], 0)
+    assert client.next("MISSION_REQUEST_INT").seq == 1
+    started = time.monotonic()
+    retries = 0
+    while True:  # we stop answering: the request is repeated, then the upload is cancelled
+        message = client.next("MISSION_REQUEST_INT", "MISSION_ACK", timeout_s=10)
+        if message.get_type() == "MISSION_ACK":
+            break
+        assert message.seq == 1
+        retries += 1
+    assert message.type == M.MAV_MISSION_OPERATION_CANCELLED
+    assert retries >= 5 and 4.0 < time.monotonic() - started < 8.0
+    assert same(rows_of(client.download(M.MAV_MISSION_TYPE_MISSION)), before)
+
+
+def test_missions_survive_an_autopilot_restart(vehicle):
+    sitl, client = vehicle
+    assert client.upload(M.MAV_MISSION_TYPE_MISSION, SURVEY) == M.MAV_MISSION_ACCEPTED
+    client.mav.mission_set_current_send(1, 1, 3)
+    while client.next("MISSION_CURRENT").seq != 3:
+        pass
+    stored = {kind: rows_of(client.download(kind)) for kind in TYPES}
+    sitl.autopilot.terminate()
+    sitl.autopilot.wait(timeout=30)
+    assert json.loads((sitl.params_path.parent / "missions-0.json").read_text())["current"] == 3
+    sitl.autopilot = subprocess.Popen(sitl.autopilot_command(), stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                                      text=True)  # fmt: skip
+    client.gs.latest.pop("HEARTBEAT", None)
+    client.gs.wait(lambda: "HEARTBEAT" in client.gs.latest, "the restarted autopilot", timeout_s=60)
+    client.gs.heartbeat()
+    for kind in TYPES:
+        assert same(rows_of(client.download(kind)), stored[kind]), kind
+    current = client.next("MISSION_CURRENT")
+    assert current.seq == 3 and current.total == len(SURVEY)
