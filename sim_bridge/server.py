@@ -260,7 +260,7 @@ class PlantServer:
                         # The autopilot is gone: pause (not integrate in slow motion) until one speaks again.
                         self.counters.peer_lost += 1
                         print(f"vtol-sim: no command for {silent_steps} steps; paused at t = "
-                              f"{plant.time_usec / 1e6:.4f} s until an autopilot speaks", file=sys.stderr, flush=True)
+                              f"{plant.time_usec / 1e6:.4f} s until an autopilot completes the handshake", file=sys.stderr, flush=True)
                         self.gate.release()
                         if not self.wait_for_peer():
                             break
