@@ -11,7 +11,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
-from transport.mavlink import Link, mavlink
+from transport.mavlink import Link
 from transport.plant_handshake import confirm_message, hello_messages, is_challenge_for, new_client_nonce
 from transport.ports import LOOPBACK
 from transport.udp import SPIN_WINDOW_S, receive
