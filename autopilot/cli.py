@@ -66,6 +66,8 @@ def build_parser() -> OneLineArgumentParser:
     port = bounded_int(1, 65535)
     parser.add_argument("--instance", type=bounded_int(0, 999), default=0, help="shift every port by I")
     parser.add_argument("--sim-port", type=port, help="the plant's UDP port (default 4560+I)")
+    parser.add_argument("--sim-bind-port", type=port, default=0, metavar="P",
+                        help="bind the plant link to UDP P (default: any free port; for vtol-sim --autopilot-port P)")
     parser.add_argument("--gcs-port", type=port, metavar="P", help="GCS link: bind UDP P (default 18570+I)")
     parser.add_argument("--gcs-remote-port", type=port, metavar="P",
                         help="GCS link: send to 127.0.0.1:P until a client speaks (default 14550+I)")
@@ -148,7 +150,10 @@ def main(argv: list[str] | None = None) -> int:
     events = EventOutbox()
     commander = Commander(params, airframe.hover_thrust_per_rotor / airframe.thrust_max, armed=in_air, in_air=in_air,
                           say=events.say, profile=profile, stamped_setpoints=args.offboard_lockstep)  # fmt: skip
-    client = PlantLinkClient(sim_port, system_id=system_id)
+    try:
+        client = PlantLinkClient(sim_port, system_id=system_id, local_port=args.sim_bind_port)
+    except OSError as exc:
+        fail(PROG, f"cannot bind the plant link to UDP {LOOPBACK}:{args.sim_bind_port}: {exc.strerror}")
     injection = FailureInjection(send=lambda failure: client.send_command_long(mavlink.MAV_CMD_INJECT_FAILURE,
                                                                               failure.as_params()),
                                  note=lambda text: print(f"{PROG}: {text}", file=sys.stderr, flush=True),

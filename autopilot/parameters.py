@@ -26,6 +26,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from autopilot.signing_key import SigningKey, SigningRefused, key_from_document, key_to_document
+
 FILE_FORMAT = "tiltrotor-sitl parameters"
 FILE_VERSION = 1
 
@@ -50,6 +52,8 @@ class ParameterDefinition:
 P = ParameterDefinition
 DEFINITIONS: tuple[ParameterDefinition, ...] = (
     P("MAV_SYS_ID", INT32, 1, 1, 250, "", "MAVLink system id of the vehicle (at the next start; --sysid overrides)"),
+    P("MAV_SIGN_REQ", INT32, 1, 0, 1, "", "with a signing key set (SETUP_SIGNING): 1 refuses unsigned commands, 0 "
+      "accepts them (outgoing messages are signed either way)", px4=False),
     P("VT_CTRL", INT32, 1, 0, 1, "", "velocity controller: 0 PID baseline, 1 unified MPC (at the next start or "
       "takeoff from the ground; --controller overrides at start)", px4=False),
     P("SYS_FAILURE_EN", INT32, 0, 0, 1, "", "1 enables MAV_CMD_INJECT_FAILURE"),
@@ -125,6 +129,7 @@ class ParameterStore:
         self.path = path
         self.version = 0  # counts changes: the flight stack hands changed values on when it sees a new one
         self.warnings: list[str] = []
+        self.signing_key: SigningKey | None = None  # MAVLink 2 signing (SETUP_SIGNING), kept in the same file
         self._writer = BackgroundWriter(path, "parameter file") if path is not None else None
 
     # ---- access ------------------------------------------------------------------------------------------
@@ -171,6 +176,11 @@ class ParameterStore:
         self.save()
         return True
 
+    def set_signing_key(self, key: SigningKey | None) -> None:
+        """Set (None: remove) the signing key; the file is rewritten in the background, atomically as ever."""
+        self.signing_key = key
+        self.save()
+
     # ---- persistence -------------------------------------------------------------------------------------
     def non_default(self) -> dict[str, int | float]:
         changed: dict[str, int | float] = {}
@@ -181,8 +191,10 @@ class ParameterStore:
         return changed
 
     def document(self) -> str:
-        return json.dumps({"format": FILE_FORMAT, "version": FILE_VERSION, "parameters": self.non_default()},
-                          indent=1, sort_keys=True) + "\n"  # fmt: skip
+        document: dict[str, Any] = {"format": FILE_FORMAT, "version": FILE_VERSION, "parameters": self.non_default()}
+        if self.signing_key is not None:
+            document["signing"] = key_to_document(self.signing_key)
+        return json.dumps(document, indent=1, sort_keys=True) + "\n"
 
     def save(self) -> None:
         if self._writer is not None:
@@ -235,6 +247,11 @@ class ParameterStore:
                 raise ParameterFileError(f"{where}: {exc}") from None
             loaded[name] = float(value)
         self.values.update(loaded)
+        if "signing" in document:
+            try:
+                self.signing_key = key_from_document(document["signing"])
+            except SigningRefused as exc:
+                raise ParameterFileError(f"{where}: {exc}") from None
         if self.values["VT_ARSP_BLEND"] >= self.values["VT_ARSP_TRANS"]:
             raise ParameterFileError(f"{where}: VT_ARSP_BLEND must be below VT_ARSP_TRANS")
 
@@ -256,7 +273,7 @@ def write_atomically(path: Path, text: str) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     temporary = path.parent / f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp"
     data = text.encode("utf-8")
-    fd = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+    fd = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)  # it may hold the signing key
     try:
         view = memoryview(data)
         while view:

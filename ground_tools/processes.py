@@ -129,6 +129,7 @@ class SimCommand:
 
     instance: int | None = None  # shifts every default port (vtol-sim's default: 0)
     port: int | None = None  # the plant link's UDP port (default 4560 + instance)
+    autopilot_port: int | None = None  # belong only to the autopilot bound to this port (default: the first one)
     spawn_alt: float = 0.0  # m; above 0: spawned hovering there
     realtime_speed: float | None = None  # None: lockstep; F: paced to F simulated seconds per wall second
     duration_s: float | None = None  # simulated seconds, then stop
@@ -142,6 +143,7 @@ class SimCommand:
         pacing = [] if self.realtime_speed is None else ["--realtime", "--speed", str(self.realtime_speed)]
         return python_module(SIM_MODULE, [
             *_option("--instance", self.instance), *_option("--port", self.port),
+            *_option("--autopilot-port", self.autopilot_port),
             *_option("--spawn-alt", self.spawn_alt or None), *pacing, *_option("--duration", self.duration_s),
             *_option("--lockstep-timeout", self.lockstep_timeout_s), *_flag("--summary", self.summary),
             *self.zenoh.argv(), *_option("--airframe", self.airframe), *self.extra,
@@ -154,6 +156,7 @@ class AutopilotCommand:
 
     instance: int | None = None  # shifts every default port (vtol-autopilot's default: 0)
     sim_port: int | None = None  # the plant's UDP port (default 4560 + instance)
+    sim_bind_port: int | None = None  # the plant link's own UDP port (default: any; see SimCommand.autopilot_port)
     links: LinkPorts | None = None  # the ground-station links (default: the instance's)
     spawn_alt: float = 0.0  # m; above 0: starts hovering there, armed (as the plant is spawned)
     controller: Controller | None = None  # default: the VT_CTRL parameter
@@ -171,6 +174,7 @@ class AutopilotCommand:
     def argv(self) -> list[str]:
         return python_module(AUTOPILOT_MODULE, [
             *_option("--instance", self.instance), *_option("--sim-port", self.sim_port),
+            *_option("--sim-bind-port", self.sim_bind_port),
             *(self.links.argv() if self.links is not None else []), *_option("--spawn-alt", self.spawn_alt or None),
             *_option("--controller", self.controller), *_option("--params", self.params),
             *_option("--airframe", self.airframe), *_option("--profile", self.profile),

@@ -35,6 +35,9 @@ def build_parser() -> OneLineArgumentParser:
     )
     parser.add_argument("--instance", type=bounded_int(0, 999), default=0, help="shift every port by I (default 0)")
     parser.add_argument("--port", type=bounded_int(1, 65535), help="plant link UDP port (default 4560+I)")
+    parser.add_argument("--autopilot-port", type=bounded_int(1, 65535), metavar="P",
+                        help="belong only to the autopilot on udp 127.0.0.1:P (default: the first autopilot to "
+                             "complete the handshake)")  # fmt: skip
     parser.add_argument("--spawn-alt", type=nonnegative_float, default=0.0, metavar="M",
                         help="start hovering at M metres (rotors at hover trim); 0 = on the ground, disarmed")
     parser.add_argument("--spawn-rotors", choices=("spinning", "stopped"), default="spinning",
@@ -120,6 +123,7 @@ def main(argv: list[str] | None = None) -> int:
         pacing=pacing, speed=args.speed, lockstep_timeout_s=args.lockstep_timeout,
         peer_lost_after=args.peer_lost_after,
         duration_s=args.duration, zenoh_session=session, should_stop=stop_requested,
+        autopilot=None if args.autopilot_port is None else (LOOPBACK, args.autopilot_port),
     )  # fmt: skip
     mode = f"{pacing.value} x{args.speed:g}" if args.realtime else "lockstep"
     print(f"{PROG}: {airframe.name}, {mode}, listening on udp {LOOPBACK}:{port}", file=sys.stderr, flush=True)

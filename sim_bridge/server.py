@@ -27,6 +27,7 @@ from typing import Any, Callable
 
 from aircraft.actuators import pwm_to_command
 from aircraft.failures import FailureRejected
+from sim_bridge.peer import Address, PeerGate
 from sim_bridge.plant import DT, Plant
 from sim_bridge.sensors import SensorSuite
 from transport.mavlink import (
@@ -85,7 +86,10 @@ class PlantServer:
         duration_s: float | None = None,
         zenoh_session: Any | None = None,
         should_stop: Callable[[], bool] = lambda: False,
+        autopilot: Address | None = None,
     ) -> None:
+        """`autopilot`: the only address that may become the peer (`--autopilot-port`); None: the first autopilot
+        to complete the handshake."""
         self.plant = plant
         self.sock = sock
         self.link = link
@@ -97,7 +101,7 @@ class PlantServer:
         self.peer_lost_after = peer_lost_after
         self.max_steps = None if duration_s is None else int(round(duration_s / DT))
         self.should_stop = should_stop
-        self.peer: tuple[str, int] | None = None
+        self.gate = PeerGate(link, self._send, autopilot)
         self.counters = PlantCounters()
         self.system_id = link.mav.srcSystem
         self.component_id = link.mav.srcComponent
@@ -115,18 +119,21 @@ class PlantServer:
         self._window = (0.0, 0)  # paced: (wall time, step) where the current speed window began
         self._slow_said = -SLOW_NOTICE_S
 
+    @property
+    def peer(self) -> Address | None:
+        """The autopilot the plant belongs to (None until one completes the handshake)."""
+        return self.gate.peer
+
     # ---- receiving -------------------------------------------------------------------------------------
-    def _handle_datagram(self, data: bytes, sender: tuple[str, int]) -> None:
-        for message in self.link.parse(data):
+    def _handle_datagram(self, data: bytes, sender: Address) -> None:
+        for message in self.gate.admit(self.link.parse(data), sender):
             kind = message.get_type()
             if kind == "SERVO_OUTPUT_RAW":
-                self.peer = sender
                 self._handle_servo_output(message)
             elif kind == "COMMAND_LONG":
-                self.peer = sender
                 self._handle_command(message, sender)
-            elif kind == "HEARTBEAT":
-                self.peer = sender
+            elif kind in ("HEARTBEAT", "PING"):  # the peer's liveness and handshake: nothing to do
+                pass
             else:
                 self.counters.ignored[kind] += 1
 
@@ -207,7 +214,7 @@ class PlantServer:
 
     # ---- the loop ----------------------------------------------------------------------------------------
     def wait_for_peer(self) -> bool:
-        """Block until an autopilot speaks (any SERVO_OUTPUT_RAW, HEARTBEAT or COMMAND_LONG)."""
+        """Block until an autopilot completes the handshake."""
         while self.peer is None:
             if self.should_stop():
                 return False
@@ -253,8 +260,8 @@ class PlantServer:
                         # The autopilot is gone: pause (not integrate in slow motion) until one speaks again.
                         self.counters.peer_lost += 1
                         print(f"vtol-sim: no command for {silent_steps} steps; paused at t = "
-                              f"{plant.time_usec / 1e6:.4f} s until an autopilot speaks", file=sys.stderr, flush=True)
-                        self.peer = None
+                              f"{plant.time_usec / 1e6:.4f} s until an autopilot completes the handshake", file=sys.stderr, flush=True)
+                        self.gate.release()
                         if not self.wait_for_peer():
                             break
                         silent_steps = 0
@@ -266,6 +273,11 @@ class PlantServer:
             if self.pacing == Pacing.PACED:
                 self._pace()
             elif self.pacing == Pacing.FREE_RUNNING:
+                if time.monotonic() - self.gate.last_heard > self.peer_lost_after * self.timeout_s:
+                    self.counters.peer_lost += 1  # free-running has no missed steps: silence in wall time
+                    self.gate.release()
+                    if not self.wait_for_peer():
+                        break
                 self._drain()
                 deadline = start + (plant.step_count + 1) * DT / self.speed
                 self._receive_until(deadline, stop_on_command=False)
@@ -320,4 +332,5 @@ class PlantServer:
             "pacing": self.pacing.value,
             "speed": self.speed if self.pacing != Pacing.LOCKSTEP else None,
             "slowdowns": c.slowdowns,
+            **self.gate.summary(),
         }

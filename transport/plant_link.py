@@ -11,7 +11,8 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
-from transport.mavlink import Link, mavlink
+from transport.mavlink import Link
+from transport.plant_handshake import confirm_message, hello_messages, is_challenge_for, new_client_nonce
 from transport.ports import LOOPBACK
 from transport.udp import SPIN_WINDOW_S, receive
 
@@ -32,13 +33,23 @@ class PlantSample:
 class PlantLinkClient:
     """UDP client of a plant listening on 127.0.0.1:port."""
 
-    def __init__(self, port: int, system_id: int = 1, component_id: int = 1, host: str = LOOPBACK) -> None:
+    def __init__(
+        self, port: int, system_id: int = 1, component_id: int = 1, host: str = LOOPBACK, local_port: int = 0
+    ) -> None:
+        """`local_port` 0: an ephemeral port; a plant started with `--autopilot-port P` accepts only local_port P."""
         self.address = (host, port)
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.bind((LOOPBACK, 0))
+        try:
+            self.sock.bind((LOOPBACK, local_port))
+        except OSError:
+            self.sock.close()
+            raise
         self.sock.setblocking(False)
+        self.local_port: int = self.sock.getsockname()[1]
         self.link = Link(system_id, component_id)
         self.received_other: list[Any] = []
+        self.confirmed = 0  # handshake challenges answered (docs/plant-link.md#the-handshake)
+        self._nonce = new_client_nonce()
         self._spin_s = SPIN_WINDOW_S
 
     def close(self) -> None:
@@ -51,12 +62,17 @@ class PlantLinkClient:
         self.sock.sendto(data, self.address)
 
     def hello(self) -> None:
-        """Announce ourselves so the plant learns where to send (it starts stepping on the first message)."""
-        self.send(
-            self.link.mav.heartbeat_encode(
-                mavlink.MAV_TYPE_VTOL_TILTROTOR, mavlink.MAV_AUTOPILOT_PX4, 0, 0, mavlink.MAV_STATE_ACTIVE
-            )
-        )
+        """The handshake's HELLO (HEARTBEAT + PING with our nonce, one datagram); `receive_step` answers the plant's
+        CHALLENGE, after which the plant belongs to us and starts (or resumes) stepping."""
+        self.send_raw(b"".join(self.link.pack(message) for message in hello_messages(self.link.mav, self._nonce)))
+
+    def _answer_challenge(self, message: Any) -> bool:
+        """CONFIRM a CHALLENGE to our HELLO; True if `message` was one."""
+        if not is_challenge_for(message, self._nonce, (self.link.mav.srcSystem, self.link.mav.srcComponent)):
+            return False
+        self.send(confirm_message(self.link.mav, message))
+        self.confirmed += 1
+        return True
 
     def receive_step(self, timeout_s: float = 2.0) -> PlantSample | None:
         """The next step's state (messages in between are collected in `received_other`); None on timeout."""
@@ -78,7 +94,7 @@ class PlantLinkClient:
                     sample.sensor = message
                 elif kind == "HIL_GPS" and sample is not None:
                     sample.gps = message
-                else:
+                elif not (kind == "PING" and self._answer_challenge(message)):
                     self.received_other.append(message)
             if sample is not None:
                 # Spin for the next state only while states come quickly (lockstep, ~100 us apart); a plant

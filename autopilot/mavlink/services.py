@@ -23,6 +23,7 @@ from autopilot.mavlink.missions import MissionService
 from autopilot.mavlink.offboard import OffboardService
 from autopilot.mavlink.parameters import ParameterService
 from autopilot.mavlink.router import GroundLink, Router
+from autopilot.mavlink.signing import SigningService
 from autopilot.mavlink.statustext import Announcer
 from autopilot.mavlink.view import StatusView
 from autopilot.parameters import ParameterStore
@@ -49,6 +50,7 @@ class MavlinkServices:
         self.offboard = OffboardService(flight_stack, self.announcer, system_id=system_id, home=home)
         self.parameters = ParameterService(params, router, self.announcer, system_id=system_id)
         self.missions = MissionService(flight_stack, self.view, router, self.announcer, system_id=system_id)
+        self.signing = SigningService(params, router, self.announcer, system_id=system_id)
         self.holds = 0  # --offboard-lockstep: steps held for set-points, and the wall time spent holding
         self.hold_wall_s = 0.0
         self._heartbeat_version = 0
@@ -73,6 +75,7 @@ class MavlinkServices:
             "MISSION_SET_CURRENT": self.missions.on_set_current,
             "MISSION_WRITE_PARTIAL_LIST": self.missions.on_write_partial_list,
             "TIMESYNC": self._on_timesync,
+            "SETUP_SIGNING": self.signing.on_setup_signing,
         }
 
     # ---- per step ---------------------------------------------------------------------------------------------
@@ -153,6 +156,8 @@ class MavlinkServices:
             if handler is None:
                 link.counters.ignored[kind] += 1
                 continue
+            if not self.signing.admits(link, message):
+                continue
             try:
                 handler(link, message)
             except Exception as exc:  # a service's bug must never stop the flight: count it and say it
@@ -175,7 +180,7 @@ class MavlinkServices:
             "notices_suppressed": self.announcer.suppressed,
             "lockstep_holds": self.holds,
             "lockstep_hold_wall_s": round(self.hold_wall_s, 3),
-        }
+        } | self.signing.summary()
 
     def close(self) -> None:
         self.router.close()
