@@ -25,8 +25,14 @@ class Ports:
 
     @property
     def gcs_remote(self) -> int:
-        """GCS link: where the autopilot sends until a ground station speaks."""
-        return 14550 + self.instance
+        """GCS link: where the autopilot sends until a ground station speaks: 14550 for every instance, as in PX4's
+        multi-vehicle SITL, so one ground station sees the whole fleet (the system ids tell the vehicles apart)."""
+        return 14550
+
+    @property
+    def system_id(self) -> int:
+        """The instance's default MAVLink system id (MAV_SYS_ID): instance + 1, as in PX4's multi-vehicle SITL."""
+        return self.instance + 1
 
     @property
     def api_bind(self) -> int:
