@@ -83,8 +83,8 @@ def up(args: argparse.Namespace) -> int:
         if ended:
             process = ended[0]
             code = process.returncode or 1
-            print(f"{PROG}: {names[process.pid]} (pid {process.pid}) ended (exit code {process.returncode}); "
-                  f"stopping the others", file=sys.stderr)  # fmt: skip
+            print(f"{PROG}: {names[process.pid]} ended (exit code {process.returncode}) (pid {process.pid}); "
+                  f"stopping the {'other' if len(processes) == 2 else 'others'}", file=sys.stderr)  # fmt: skip
             break
         time.sleep(0.1)
     stop(processes, signal.SIGINT if stop_requested() else signal.SIGTERM)

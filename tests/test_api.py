@@ -191,3 +191,9 @@ def test_no_readiness_in_time_is_a_clear_error() -> None:
     with pytest.raises(VehicleError, match="not ready to arm within 0.05 s .*system id 1: no HEARTBEAT"):
         Vehicle(controller="pid", truth=False, ready_timeout_s=0.05).start()
     assert children_of(os.getpid()) == []
+
+
+def test_instances_are_a_px4_fleet() -> None:
+    assert [Ports(i).system_id for i in (0, 1, 2, 249, 250)] == [1, 2, 3, 250, 1]
+    assert {Ports(i).gcs_remote for i in (0, 1, 7)} == {14550}
+    assert (Ports(3).api_remote, Ports(3).api_bind) == (14543, 14583)
