@@ -29,6 +29,7 @@ from transport.cli import (
     bounded_int,
     fail,
     finite_float,
+    float_triple,
     nonnegative_float,
     positive_float,
     stop_on_signals,
@@ -70,7 +71,7 @@ def build_parser() -> OneLineArgumentParser:
                         help="bind the plant link to UDP P (default: any free port; for vtol-sim --autopilot-port P)")
     parser.add_argument("--gcs-port", type=port, metavar="P", help="GCS link: bind UDP P (default 18570+I)")
     parser.add_argument("--gcs-remote-port", type=port, metavar="P",
-                        help="GCS link: send to 127.0.0.1:P until a client speaks (default 14550+I)")
+                        help="GCS link: send to 127.0.0.1:P until a client speaks (default 14550, every instance)")
     parser.add_argument("--api-port", type=port, metavar="P", help="API (offboard) link: bind UDP P (default 14580+I)")
     parser.add_argument("--api-remote-port", type=port, metavar="P",
                         help="API link: send to 127.0.0.1:P until a client speaks (default 14540+I)")
@@ -98,7 +99,10 @@ def build_parser() -> OneLineArgumentParser:
                         metavar="T,UNIT,TYPE,INSTANCE[,VALUE]",
                         help="inject MAV_CMD_INJECT_FAILURE at simulated time T (repeatable)")
     parser.add_argument("--log", metavar="FILE.csv", help="write the 100 Hz flight log (state, set-points, actuators)")
-    parser.add_argument("--sysid", type=bounded_int(1, 250), help="vehicle system id (default: MAV_SYS_ID, 1)")
+    parser.add_argument("--sysid", type=bounded_int(1, 250), help="vehicle system id (default: MAV_SYS_ID when set in the parameter file, else I+1)")
+    parser.add_argument("--home", type=float_triple, default=None, metavar="LAT,LON,ALT",
+                        help="home position in degrees and metres AMSL, as the plant's --home "
+                             "(default 40.4433,-79.9436,300)")
     parser.add_argument("--no-zenoh", action="store_true", help="do not publish telemetry on zenoh")
     parser.add_argument("--zenoh-listen", action="append", metavar="ENDPOINT",
                         help="zenoh endpoint to listen on (default tcp/127.0.0.1:7547+I); repeatable")
@@ -139,6 +143,8 @@ def main(argv: list[str] | None = None) -> int:
     except MissionFileError as exc:
         fail(PROG, str(exc))
     system_id = args.sysid if args.sysid is not None else params.get_int("MAV_SYS_ID")
+    if args.sysid is None and "MAV_SYS_ID" not in params.non_default():
+        system_id = ports.system_id  # PX4: instance + 1 unless MAV_SYS_ID was changed
     sim_port = args.sim_port if args.sim_port is not None else ports.plant
     router = Router([
         open_link("GCS", args.gcs_port or ports.gcs_bind, args.gcs_remote_port or ports.gcs_remote, system_id),
@@ -165,7 +171,9 @@ def main(argv: list[str] | None = None) -> int:
     session = None
     if not args.no_zenoh:
         session = open_session(args.zenoh_listen or [ports.zenoh_autopilot], args.zenoh_connect, PROG)
-    home = Home()
+    home = Home(*args.home) if args.home is not None else Home()
+    if not -90.0 <= home.lat <= 90.0 or not -180.0 <= home.lon <= 180.0:
+        fail(PROG, f"--home latitude/longitude out of range: {args.home}")
     services = MavlinkServices(
         router, params, FlightStack(commander, injection, params, missions), system_id=system_id, home=home,
         events_publisher=None if session is None else session.declare_publisher(autopilot_events_key(system_id)),

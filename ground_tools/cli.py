@@ -2,7 +2,7 @@
 
     vtol fly PROFILE [--controller pid|mpc] [--out DIR]
     vtol scenario NAME|all [--controller mpc|pid|both] [--out DIR] [--instance I] [--no-record] [--no-progress]
-    vtol up [--instance I] [--controller mpc|pid] [--spawn-alt M] [--speed F] [--params FILE] [--no-zenoh]
+    vtol up [--instance I] [--count N] [--controller mpc|pid] [--spawn-alt M] [--speed F] [--params FILE] [--no-zenoh]
     vtol record --out FILE.jsonl [--instance I | --connect ENDPOINT ...] [--sysid N|all] [--duration S]
     vtol watch [--instance I | --connect ENDPOINT ...] [--sysid N] [--duration S] [--snapshot FILE.png] [--text]
 
@@ -66,6 +66,8 @@ def main(argv: list[str] | None = None) -> int:
                                                "metrics, figures and recordings"))
     up_parser = commands.add_parser("up", help="start the plant (real time) and the autopilot for a ground station")
     up_parser.add_argument("--instance", type=bounded_int(0, 999), default=0, help="shift every port by I")
+    up_parser.add_argument("--count", type=bounded_int(1, 100), default=1, metavar="N",
+                           help="start N vehicles: instances I..I+N-1, system ids I+1..I+N, 5 m apart (default 1)")
     up_parser.add_argument("--controller", choices=("mpc", "pid"), help="default: the VT_CTRL parameter")
     up_parser.add_argument("--spawn-alt", type=nonnegative_float, default=0.0, metavar="M",
                            help="start hovering at M metres, armed, in Hold (default: on the ground, disarmed)")

@@ -14,8 +14,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
+from transport.geodesy import Home, LocalGeodetic
 from transport.ports import LOOPBACK, Ports
 
+FLEET_SPACING_M = 5.0  # vehicles of a fleet stand this far apart, in a row to the east
 SIM_MODULE = "sim_bridge"
 AUTOPILOT_MODULE = "autopilot"
 Controller = Literal["mpc", "pid"]
@@ -33,6 +35,19 @@ def _option(name: str, value: object | None) -> list[str]:
 
 def _flag(name: str, on: bool) -> list[str]:
     return [name] if on else []
+
+
+def _home(home: Home | None) -> list[str]:
+    return [] if home is None else ["--home", f"{home.lat!r},{home.lon!r},{home.alt!r}"]
+
+
+def fleet_home(index: int, home: Home | None = None, spacing_m: float = FLEET_SPACING_M) -> Home:
+    """The home of a fleet's `index`-th vehicle: `spacing_m` metres east of the previous one (the first at `home`,
+    default Home()). Plant and autopilot of a vehicle are given the same home, so each vehicle's local frame starts
+    at its own spot, and ground stations see the vehicles side by side."""
+    origin = home if home is not None else Home()
+    lat, lon, alt = LocalGeodetic(origin).to_geodetic(0.0, index * spacing_m, 0.0)
+    return Home(lat, lon, alt)
 
 
 # ---- free ports --------------------------------------------------------------------------------------------------
@@ -137,6 +152,8 @@ class SimCommand:
     summary: bool = False  # a JSON line of counters on stdout at the end
     zenoh: Zenoh = field(default_factory=Zenoh)
     airframe: Path | None = None
+    sysid: int | None = None  # the vehicle's system id (vtol-sim's default: instance + 1)
+    home: Home | None = None  # geodetic origin (vtol-sim's default: Home())
     extra: tuple[str, ...] = ()  # further vtol-sim options, as they are
 
     def argv(self) -> list[str]:
@@ -146,7 +163,8 @@ class SimCommand:
             *_option("--autopilot-port", self.autopilot_port),
             *_option("--spawn-alt", self.spawn_alt or None), *pacing, *_option("--duration", self.duration_s),
             *_option("--lockstep-timeout", self.lockstep_timeout_s), *_flag("--summary", self.summary),
-            *self.zenoh.argv(), *_option("--airframe", self.airframe), *self.extra,
+            *self.zenoh.argv(), *_option("--airframe", self.airframe), *_option("--sysid", self.sysid),
+            *_home(self.home), *self.extra,
         ])  # fmt: skip
 
 
@@ -169,6 +187,8 @@ class AutopilotCommand:
     summary: bool = False  # a JSON line of counters on stdout at the end
     quiet: bool = False  # no flight events (STATUSTEXT) on stderr
     zenoh: Zenoh = field(default_factory=Zenoh)
+    sysid: int | None = None  # default: MAV_SYS_ID when changed, else instance + 1
+    home: Home | None = None  # geodetic origin, the plant's (default: Home())
     extra: tuple[str, ...] = ()  # further vtol-autopilot options, as they are
 
     def argv(self) -> list[str]:
@@ -180,5 +200,5 @@ class AutopilotCommand:
             *_option("--airframe", self.airframe), *_option("--profile", self.profile),
             *_flag("--offboard-lockstep", self.offboard_lockstep), *_option("--duration", self.duration_s),
             *_option("--log", self.log), *_flag("--summary", self.summary), *_flag("--quiet", self.quiet),
-            *self.zenoh.argv(), *self.extra,
+            *self.zenoh.argv(), *_option("--sysid", self.sysid), *_home(self.home), *self.extra,
         ])  # fmt: skip

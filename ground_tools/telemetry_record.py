@@ -236,9 +236,12 @@ def zenoh_endpoint(text: str) -> str:
     return text
 
 
-def sysid_or_all(text: str) -> int | None:
-    """An argparse type: a system id 1..255, or `all` (None)."""
-    return None if text == "all" else bounded_int(1, 255)(text)
+ALL_SYSIDS = 0  # `--sysid all` as parsed; sysid_from_args turns it into None (every vehicle)
+
+
+def sysid_or_all(text: str) -> int:
+    """An argparse type: a system id 1..255, or `all` (ALL_SYSIDS)."""
+    return ALL_SYSIDS if text == "all" else bounded_int(1, 255)(text)
 
 
 def add_source_arguments(parser: argparse.ArgumentParser, *, allow_all: bool) -> None:
@@ -248,8 +251,8 @@ def add_source_arguments(parser: argparse.ArgumentParser, *, allow_all: bool) ->
                         help="connect to instance I's plant and autopilot (tcp/127.0.0.1:7447+I and :7547+I)")
     source.add_argument("--connect", type=zenoh_endpoint, action="append", metavar="ENDPOINT",
                         help="zenoh endpoint to connect to instead (repeatable), e.g. tcp/<host>:7447")
-    parser.add_argument("--sysid", type=sysid_or_all if allow_all else bounded_int(1, 255), default=1, metavar="N",
-                        help="vehicle system id (default 1)" + ("; 'all' for every vehicle" if allow_all else ""))
+    parser.add_argument("--sysid", type=sysid_or_all if allow_all else bounded_int(1, 255), default=None, metavar="N",
+                        help="vehicle system id (default I+1, the instance's; 1 with --connect)" + ("; 'all' for every vehicle" if allow_all else ""))
     parser.add_argument("--duration", type=positive_float, metavar="S",
                         help="stop after S wall-clock seconds (default: at Ctrl-C or SIGTERM)")
 
@@ -257,6 +260,15 @@ def add_source_arguments(parser: argparse.ArgumentParser, *, allow_all: bool) ->
 def add_record_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", required=True, metavar="FILE.jsonl", help="the recording (JSON lines; replaced)")
     add_source_arguments(parser, allow_all=True)
+
+
+def sysid_from_args(args: Any) -> int | None:
+    """--sysid, else the instance's system id (I + 1), or 1 with --connect."""
+    if args.sysid == ALL_SYSIDS:
+        return None
+    if args.sysid is not None:
+        return args.sysid
+    return 1 if args.connect else Ports(args.instance).system_id
 
 
 def endpoints_from_args(args: Any) -> list[str]:
@@ -281,7 +293,8 @@ def record(args: Any) -> int:
         fail(PROG, f"--out: {out} is a folder")
     if not out.parent.is_dir():
         fail(PROG, f"--out: no such folder: {out.parent}")
-    recorder = TelemetryRecorder(endpoints, out, args.sysid)
+    sysid = sysid_from_args(args)
+    recorder = TelemetryRecorder(endpoints, out, sysid)
     try:
         recorder.start()
     except OSError as exc:
@@ -289,7 +302,7 @@ def record(args: Any) -> int:
     except Exception as exc:
         fail(PROG, f"cannot open a zenoh session to {', '.join(endpoints)}: {short_error(exc)}")
     stop_requested = stop_on_signals()
-    print(f"{PROG}: recording {key_expression(args.sysid)} from {', '.join(endpoints)} to {out}; Ctrl-C stops",
+    print(f"{PROG}: recording {key_expression(sysid)} from {', '.join(endpoints)} to {out}; Ctrl-C stops",
           file=sys.stderr, flush=True)  # fmt: skip
     start = time.monotonic()
     while not stop_requested() and (args.duration is None or time.monotonic() - start < args.duration):

@@ -1,5 +1,9 @@
 """`vtol up`: the plant in real time and the autopilot, ready for a ground station (docs/architecture.md).
 
+`--count N` starts N vehicles, instances I .. I+N-1, as PX4's multi-vehicle SITL does: system ids I+1 .. I+N, every
+GCS link sending to 14550 (one ground station sees the fleet), API links on 14540+I each, and the vehicles
+FLEET_SPACING_M apart in a row to the east (each one's home; ground_tools/processes.py fleet_home).
+
 Both processes print to this terminal. Ctrl-C (SIGINT to the terminal's process group) or SIGTERM to `vtol` stops
 both: the signal is passed on to each, each stops at its next turn, and `vtol up` waits for them (killing a
 process that has not stopped after STOP_TIMEOUT_S). If either process ends by itself (a port in use, a bad
@@ -15,19 +19,22 @@ import sys
 import time
 from pathlib import Path
 
-from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh
-from transport.cli import stop_on_signals
+from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, fleet_home
+from transport.cli import fail, stop_on_signals
 from transport.ports import LOOPBACK, Ports
 
 PROG = "vtol"
 STOP_TIMEOUT_S = 10.0
 
 
-def commands(args: argparse.Namespace) -> tuple[list[str], list[str]]:
-    """The vtol-sim and vtol-autopilot command lines for `vtol up`'s arguments."""
+def commands(args: argparse.Namespace, index: int = 0) -> tuple[list[str], list[str]]:
+    """The vtol-sim and vtol-autopilot command lines of the `index`-th vehicle for `vtol up`'s arguments (the first
+    one at the default home, so a single vehicle is started as before)."""
     zenoh = Zenoh.off() if args.no_zenoh else Zenoh()
-    plant = SimCommand(instance=args.instance, realtime_speed=args.speed, spawn_alt=args.spawn_alt, zenoh=zenoh)
-    autopilot = AutopilotCommand(instance=args.instance, spawn_alt=args.spawn_alt, zenoh=zenoh,
+    instance = args.instance + index
+    home = fleet_home(index) if index > 0 else None
+    plant = SimCommand(instance=instance, realtime_speed=args.speed, spawn_alt=args.spawn_alt, zenoh=zenoh, home=home)
+    autopilot = AutopilotCommand(instance=instance, spawn_alt=args.spawn_alt, zenoh=zenoh, home=home,
                                  controller=args.controller, params=Path(args.params) if args.params else None)
     return plant.argv(), autopilot.argv()
 
@@ -51,23 +58,33 @@ def stop(processes: list[subprocess.Popen], signum: int = signal.SIGTERM) -> Non
 
 def up(args: argparse.Namespace) -> int:
     stop_requested = stop_on_signals()
-    plant_command, autopilot_command = commands(args)
+    if args.count > 1 and args.params:
+        fail(PROG, "--params names one vehicle's parameter file: it does not go with --count")
+    names: dict[int, str] = {}
+    processes: list[subprocess.Popen] = []
+    for index in range(args.count):
+        ports = Ports(args.instance + index)
+        plant_command, autopilot_command = commands(args, index)
+        plant = subprocess.Popen(plant_command)
+        autopilot = subprocess.Popen(autopilot_command)
+        names[plant.pid], names[autopilot.pid] = "vtol-sim", "vtol-autopilot"
+        processes += [autopilot, plant]
+        print(f"{PROG}: vehicle {ports.system_id} (instance {ports.instance}): plant pid {plant.pid} "
+              f"(real time x{args.speed:g}), autopilot pid {autopilot.pid}; "
+              f"MAVSDK udpin://{LOOPBACK}:{ports.api_remote} (the vehicle listens on {ports.api_bind})",
+              file=sys.stderr, flush=True)  # fmt: skip
     ports = Ports(args.instance)
-    plant = subprocess.Popen(plant_command)
-    autopilot = subprocess.Popen(autopilot_command)
-    processes = [autopilot, plant]
-    print(f"{PROG}: plant pid {plant.pid} (real time x{args.speed:g}), autopilot pid {autopilot.pid}\n"
-          f"{PROG}: ground stations: QGroundControl or MAVProxy on udp {LOOPBACK}:{ports.gcs_remote} "
-          f"(the vehicle listens on {ports.gcs_bind}), MAVSDK udpin://{LOOPBACK}:{ports.api_remote} "
-          f"(the vehicle listens on {ports.api_bind}); Ctrl-C stops both", file=sys.stderr, flush=True)  # fmt: skip
+    print(f"{PROG}: ground stations: QGroundControl or MAVProxy on udp {LOOPBACK}:{ports.gcs_remote} "
+          f"(system id {ports.system_id}{f' .. {ports.system_id + args.count - 1}' if args.count > 1 else ''}); "
+          f"Ctrl-C stops {'both' if args.count == 1 else 'all'}", file=sys.stderr, flush=True)  # fmt: skip
     code = 0
     while not stop_requested():
         ended = [p for p in processes if p.poll() is not None]
         if ended:
             process = ended[0]
-            name = "vtol-autopilot" if process is autopilot else "vtol-sim"
             code = process.returncode or 1
-            print(f"{PROG}: {name} ended (exit code {process.returncode}); stopping the other", file=sys.stderr)
+            print(f"{PROG}: {names[process.pid]} ended (exit code {process.returncode}) (pid {process.pid}); "
+                  f"stopping the {'other' if len(processes) == 2 else 'others'}", file=sys.stderr)  # fmt: skip
             break
         time.sleep(0.1)
     stop(processes, signal.SIGINT if stop_requested() else signal.SIGTERM)

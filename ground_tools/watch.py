@@ -29,6 +29,7 @@ from ground_tools.telemetry_record import (
     endpoints_from_args,
     key_expression,
     short_error,
+    sysid_from_args,
 )
 from transport.cli import fail, stop_on_signals
 
@@ -330,6 +331,7 @@ class Subscription:
 def watch(args: Any) -> int:
     """`vtol watch`: see module docstring. Ends on Ctrl-C, SIGTERM, --duration (wall s) or the window closing."""
     endpoints = endpoints_from_args(args)
+    sysid = sysid_from_args(args) or 1  # watch takes one vehicle (no `all`)
     snapshot = Path(args.snapshot) if args.snapshot else None
     if snapshot is not None:
         check_snapshot_path(snapshot)
@@ -339,17 +341,17 @@ def watch(args: Any) -> int:
         if plt is None:
             print(f"{PROG}: no interactive matplotlib backend here; text mode", file=sys.stderr)
     try:
-        subscription = Subscription(endpoints, args.sysid)
+        subscription = Subscription(endpoints, sysid)
     except Exception as exc:
         fail(PROG, f"cannot open a zenoh session to {', '.join(endpoints)}: {short_error(exc)}")
     stop_requested = stop_on_signals()
-    print(f"{PROG}: watching vtol/{args.sysid}/** from {', '.join(endpoints)}; Ctrl-C stops", file=sys.stderr,
+    print(f"{PROG}: watching vtol/{sysid}/** from {', '.join(endpoints)}; Ctrl-C stops", file=sys.stderr,
           flush=True)  # fmt: skip
     view = TelemetryView()
     start = time.monotonic()
     try:
         if plt is not None:
-            run_window(plt, subscription, view, stop_requested, start, args.duration, f"vtol watch: sysid {args.sysid}")
+            run_window(plt, subscription, view, stop_requested, start, args.duration, f"vtol watch: sysid {sysid}")
         else:
             run_text(subscription, view, stop_requested, start, args.duration)
         subscription.drain(view)

@@ -55,7 +55,8 @@ def build_parser() -> OneLineArgumentParser:
     parser.add_argument("--speed", type=positive_float, default=1.0, metavar="F",
                         help="with --realtime: simulated seconds per wall second (default 1)")
     parser.add_argument("--airframe", metavar="FILE", help="airframe TOML file (default: the paper's vehicle)")
-    parser.add_argument("--sysid", type=bounded_int(1, 255), default=1, help="vehicle system id (default 1)")
+    parser.add_argument("--sysid", type=bounded_int(1, 255), default=None,
+                        help="vehicle system id (default I+1, as the autopilot's)")
     parser.add_argument("--compid", type=bounded_int(1, 255), default=200, help="plant component id (default 200)")
     parser.add_argument("--home", type=float_triple, default=None, metavar="LAT,LON,ALT",
                         help="home position in degrees and metres AMSL (default 40.4433,-79.9436,300)")
@@ -111,7 +112,7 @@ def main(argv: list[str] | None = None) -> int:
         yaw_deg=args.spawn_yaw,
     )
     plant = Plant(airframe, spawn, wind_ned=args.wind)
-    link = Link(args.sysid, args.compid)
+    link = Link(args.sysid if args.sysid is not None else ports.system_id, args.compid)
     sensors = SensorSuite(plant, link, LocalGeodetic(home), noise_seed=args.sensor_noise_seed)
     session = None
     if not args.no_zenoh:

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 LOOPBACK = "127.0.0.1"
+MAX_SYSID = 250  # MAV_SYS_ID's range is 1 .. 250
 
 
 @dataclass(frozen=True)
@@ -25,8 +26,15 @@ class Ports:
 
     @property
     def gcs_remote(self) -> int:
-        """GCS link: where the autopilot sends until a ground station speaks."""
-        return 14550 + self.instance
+        """GCS link: where the autopilot sends until a ground station speaks: 14550 for every instance, as in PX4's
+        multi-vehicle SITL, so one ground station sees the whole fleet (the system ids tell the vehicles apart)."""
+        return 14550
+
+    @property
+    def system_id(self) -> int:
+        """The instance's default MAVLink system id (MAV_SYS_ID): instance + 1, as in PX4's multi-vehicle SITL, for
+        instances 0 .. MAX_SYSID - 1; 1 above (a system id is at most MAX_SYSID: give those vehicles --sysid)."""
+        return self.instance + 1 if self.instance < MAX_SYSID else 1
 
     @property
     def api_bind(self) -> int:

@@ -1,6 +1,6 @@
 """The ground-station links: UDP sockets on 127.0.0.1, their clients, and batched sending (a tiny MAVLink router).
 
-    GCS  binds 18570+I, sends to 127.0.0.1:14550+I until a client speaks, then to its clients
+    GCS  binds 18570+I, sends to 127.0.0.1:14550 (every instance) until a client speaks, then to its clients
     API  binds 14580+I, sends to 127.0.0.1:14540+I until a client speaks, then to its clients (MAVSDK)
 
 A client is any sender of a valid MAVLink message; a link serves its MAX_CLIENTS most recent ones (so a second

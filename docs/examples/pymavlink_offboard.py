@@ -10,7 +10,7 @@ import time
 
 from pymavlink import mavutil
 
-PORT = int(sys.argv[1]) if len(sys.argv) > 1 else 14550  # the GCS link sends here (14550 + instance)
+PORT = int(sys.argv[1]) if len(sys.argv) > 1 else 14550  # the GCS link sends here (14550 for every instance)
 HOLD, OFFBOARD = (4 << 16) | (3 << 24), 6 << 16  # PX4 custom modes: AUTO.LOITER and OFFBOARD
 VELOCITY_ONLY = 0b0000_1001_1100_0111  # type_mask: ignore position, acceleration and yaw rate (as MAVSDK)
 

@@ -1,0 +1,202 @@
+"""tiltrotor_sitl: the emulated tilt-rotor VTOL as a test fixture (docs/testing.md).
+
+    from tiltrotor_sitl import Vehicle
+
+    with Vehicle(controller="mpc", speed=2.0) as vehicle:      # plant + autopilot on free ports, ready to arm
+        master = mavutil.mavlink_connection(vehicle.pymavlink)  # "udpin:127.0.0.1:P", where the vehicle sends
+        ...                                                     # or MAVSDK: System().connect(vehicle.mavsdk)
+        vehicle.truth.wait_until(lambda s: s.altitude > 9.5, timeout_sim_s=20)  # the plant's truth (zenoh)
+
+    with Fleet(3) as fleet:                                     # system ids 1, 2, 3, 5 m apart, one GCS port
+        master = mavutil.mavlink_connection(fleet.pymavlink)
+
+Everything a `Vehicle` or `Fleet` starts is stopped by PID when the block ends, on an exception (a failed test, a
+Ctrl-C), and, on Linux, when the process that started it dies, even by SIGKILL (PR_SET_PDEATHSIG; start vehicles
+from the main thread or another thread that lives as long as they do). Bad arguments raise ValueError; anything
+else that prevents a start (a port in use, a process that dies, no readiness in time) raises VehicleError with
+the cause, and nothing is left running.
+
+The pytest plugin (fixtures `vehicle`, `fleet_factory`, `vehicle_factory`; options --vtol-controller,
+--vtol-speed) is in tiltrotor_sitl/pytest_plugin.py.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from types import TracebackType
+
+from tiltrotor_sitl._launch import Controller, Options, Started, VehicleError, launch, stop
+from tiltrotor_sitl.truth import PlantTruth, TruthFeed, TruthTimeout
+from transport.geodesy import Home
+from transport.ports import LOOPBACK
+
+__all__ = ["Controller", "Fleet", "Home", "PlantTruth", "TruthFeed", "TruthTimeout", "Vehicle", "VehicleError",
+           "VehicleHandle"]  # fmt: skip
+
+
+class VehicleHandle:
+    """One running vehicle of a Vehicle or Fleet: its identity, connection strings, processes and truth."""
+
+    def __init__(self, started: Started) -> None:
+        self._started = started
+
+    @property
+    def sysid(self) -> int:
+        """MAVLink system id (MAV_SYS_ID)."""
+        return self._started.sysid
+
+    @property
+    def home(self) -> Home:
+        """Where the vehicle stands: its local NED frame's origin."""
+        return self._started.home
+
+    @property
+    def gcs_port(self) -> int:
+        """The UDP port on 127.0.0.1 the vehicle's GCS link sends to (a ground station listens there)."""
+        return self._started.ports.links.gcs_remote
+
+    @property
+    def api_port(self) -> int:
+        """The UDP port on 127.0.0.1 the vehicle's API (offboard) link sends to (MAVSDK listens there)."""
+        return self._started.ports.links.api_remote
+
+    @property
+    def pymavlink(self) -> str:
+        """For mavutil.mavlink_connection: listen where the GCS link sends."""
+        return f"udpin:{LOOPBACK}:{self.gcs_port}"
+
+    @property
+    def mavsdk(self) -> str:
+        """For MAVSDK's System().connect(system_address=...): listen where the API link sends."""
+        return f"udpin://{LOOPBACK}:{self.api_port}"
+
+    @property
+    def mavproxy(self) -> str:
+        """For mavproxy.py --master=... (QGroundControl: a UDP comm link listening on gcs_port)."""
+        return f"udpin:{LOOPBACK}:{self.gcs_port}"
+
+    @property
+    def pids(self) -> list[int]:
+        """The PIDs of the vehicle's processes (plant, autopilot)."""
+        return [child.pid for child in self._started.children]
+
+    @property
+    def truth(self) -> TruthFeed:
+        """The plant's truth on zenoh (raises VehicleError when started with truth=False)."""
+        if self._started.truth is None:
+            raise VehicleError(f"vehicle {self.sysid}: started with truth=False (no zenoh), or already stopped")
+        return self._started.truth
+
+    def running(self) -> bool:
+        """Both processes are running."""
+        return all(child.running() for child in self._started.children)
+
+    def stderr(self, process: str = "vtol-autopilot") -> str:
+        """What `process` (vtol-autopilot or vtol-sim) has said on stderr so far."""
+        for child in self._started.children:
+            if child.name == process:
+                return child.stderr_path.read_text(errors="replace")
+        raise ValueError(f"no process {process!r}: vtol-autopilot or vtol-sim")
+
+
+class Fleet:
+    """`count` vehicles, as PX4's multi-vehicle SITL runs them: system ids sysid .. sysid+count-1 (default 1, or
+    instance + 1), every GCS link sending to one port (14550 with `instance`, else a free one, or `gcs_port`), each
+    vehicle FLEET_SPACING_M (5 m) east of the previous one. Arguments as for Vehicle. A context manager; or call
+    start() and stop()."""
+
+    def __init__(self, count: int, *, controller: Controller = "mpc", airframe: str | Path | None = None,
+                 spawn_alt: float = 0.0, home: Home | None = None, speed: float | None = 1.0,
+                 params: Mapping[str, float] | None = None, instance: int | None = None, sysid: int | None = None,
+                 gcs_port: int | None = None, truth: bool = True, ready_timeout_s: float = 60.0,
+                 folder: str | Path | None = None) -> None:  # fmt: skip
+        self.count = count
+        self.options = Options(controller=controller, airframe=None if airframe is None else Path(airframe),
+                               spawn_alt=float(spawn_alt), home=home, speed=speed, params=dict(params or {}),
+                               instance=instance, sysid=sysid, gcs_port=gcs_port, truth=truth,
+                               ready_timeout_s=ready_timeout_s)  # fmt: skip
+        self.options.check(count)
+        self._folder = None if folder is None else Path(folder)
+        self._started: list[Started] = []
+        self._root: Path | None = None
+        self.vehicles: list[VehicleHandle] = []
+        self.ready_s = float("nan")  # seconds from start() to every vehicle ready to arm
+
+    def start(self) -> Fleet:
+        if self._started:
+            raise VehicleError("already started")
+        self._started, self._root, self.ready_s = launch(self.options, self.count, self._folder)
+        self.vehicles = [VehicleHandle(started) for started in self._started]
+        return self
+
+    def stop(self) -> None:
+        """Stop every process started (SIGTERM, then SIGKILL after 5 s), by PID. Safe to call twice."""
+        stop(self._started, self._root if self._folder is None else None)
+        self._started = []
+
+    def __enter__(self) -> Fleet:
+        return self.start()
+
+    def __exit__(self, kind: type[BaseException] | None, error: BaseException | None,
+                 traceback: TracebackType | None) -> None:  # fmt: skip
+        self.stop()
+
+    @property
+    def gcs_port(self) -> int:
+        """The one UDP port every vehicle's GCS link sends to."""
+        return self.vehicles[0].gcs_port
+
+    @property
+    def pymavlink(self) -> str:
+        """One ground station for the whole fleet (tell the vehicles apart by system id)."""
+        return self.vehicles[0].pymavlink
+
+    @property
+    def pids(self) -> list[int]:
+        return [pid for vehicle in self.vehicles for pid in vehicle.pids]
+
+
+class Vehicle(VehicleHandle):
+    """One vehicle: the plant (`vtol-sim`) and the autopilot (`vtol-autopilot`), started on entering the block and
+    ready to arm (HEARTBEAT past BOOT, HOME_POSITION, SYS_STATUS pre-arm check) when the block begins.
+
+    controller: "mpc" (the unified MPC) or "pid" (the PX4-style baseline). airframe: an airframe TOML for both
+    processes (default: the paper's vehicle). spawn_alt: metres; above 0 the vehicle starts hovering there, armed,
+    in Hold. home: its geodetic origin (Home(lat, lon, alt)). speed: simulated seconds per wall second (the
+    lockstep paced to the wall clock), or None: lockstep as fast as the processes go. params: PX4-style parameters
+    (name -> value) written to the vehicle's parameter file before the start (checked: an unknown name or a value
+    out of range is a ValueError). instance: None (default) for free ports, or I for instance I's ports (SPEC 2:
+    plant 4560+I, API 14540+I, GCS to 14550, system id I+1). sysid: the system id (default: params' MAV_SYS_ID,
+    else I+1, else 1). gcs_port: where the GCS link sends (default: a free port, 14550 with an instance).
+    truth: subscribe to the plant's truth on zenoh. ready_timeout_s: wall seconds to wait for readiness. folder:
+    where the parameter file and the processes' stderr go (default: a temporary folder, removed at the end)."""
+
+    def __init__(self, *, controller: Controller = "mpc", airframe: str | Path | None = None, spawn_alt: float = 0.0,
+                 home: Home | None = None, speed: float | None = 1.0, params: Mapping[str, float] | None = None,
+                 instance: int | None = None, sysid: int | None = None, gcs_port: int | None = None,
+                 truth: bool = True, ready_timeout_s: float = 60.0, folder: str | Path | None = None) -> None:  # fmt: skip
+        self._fleet = Fleet(1, controller=controller, airframe=airframe, spawn_alt=spawn_alt, home=home, speed=speed,
+                            params=params, instance=instance, sysid=sysid, gcs_port=gcs_port, truth=truth,
+                            ready_timeout_s=ready_timeout_s, folder=folder)  # fmt: skip
+
+    def start(self) -> Vehicle:
+        self._fleet.start()
+        super().__init__(self._fleet._started[0])
+        return self
+
+    def stop(self) -> None:
+        """Stop both processes (by PID). Safe to call twice."""
+        self._fleet.stop()
+
+    @property
+    def ready_s(self) -> float:
+        """Seconds from start() to ready to arm."""
+        return self._fleet.ready_s
+
+    def __enter__(self) -> Vehicle:
+        return self.start()
+
+    def __exit__(self, kind: type[BaseException] | None, error: BaseException | None,
+                 traceback: TracebackType | None) -> None:  # fmt: skip
+        self.stop()

@@ -1,0 +1,111 @@
+"""Child processes that cannot outlive the test: started in their own process group (a Ctrl-C in the terminal
+reaches only the test, which then stops them in order), with PR_SET_PDEATHSIG = SIGKILL on Linux (the kernel kills
+them when the process that started them dies, even by SIGKILL), and stopped by PID: SIGTERM, then SIGKILL.
+
+Their stderr goes to a file in the vehicle's folder, so a process that dies during start-up can be quoted.
+"""
+
+from __future__ import annotations
+
+import atexit
+import ctypes
+import os
+import signal
+import subprocess
+import sys
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+PR_SET_PDEATHSIG = 1
+STOP_TIMEOUT_S = 5.0
+STDERR_TAIL_LINES = 12
+
+_live: dict[int, subprocess.Popen] = {}  # every child started and not yet reaped, for the atexit safety net
+_live_lock = threading.Lock()
+
+
+def _die_with_parent(parent_pid: int) -> Callable[[], None]:
+    """preexec_fn: ask the kernel for SIGKILL when our parent goes; if it is already gone, go now."""
+
+    def preexec() -> None:
+        if sys.platform.startswith("linux"):
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+        if os.getppid() != parent_pid:
+            os._exit(1)
+
+    return preexec
+
+
+@dataclass
+class Child:
+    """One started process: its name (vtol-sim, vtol-autopilot), Popen and stderr file."""
+
+    name: str
+    process: subprocess.Popen
+    stderr_path: Path
+
+    @property
+    def pid(self) -> int:
+        return self.process.pid
+
+    def running(self) -> bool:
+        return self.process.poll() is None
+
+    def stderr_tail(self, lines: int = STDERR_TAIL_LINES) -> str:
+        try:
+            text = self.stderr_path.read_text(errors="replace")
+        except OSError:
+            return ""
+        return "\n".join(text.strip().splitlines()[-lines:])
+
+    def describe_exit(self) -> str:
+        tail = self.stderr_tail()
+        said = f"; its last stderr lines:\n{tail}" if tail else " (nothing on stderr)"
+        return f"{self.name} (pid {self.pid}) exited with code {self.process.returncode} during start-up{said}"
+
+
+def start(name: str, argv: list[str], folder: Path) -> Child:
+    """Start `argv` as `name` with stdout discarded and stderr in folder/<name>.stderr."""
+    stderr_path = folder / f"{name}.stderr"
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    with open(stderr_path, "w") as errors:
+        process = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=errors,
+                                   env=env, start_new_session=True, preexec_fn=_die_with_parent(os.getpid()))  # fmt: skip
+    with _live_lock:
+        _live[process.pid] = process
+    return Child(name, process, stderr_path)
+
+
+def stop(children: list[Child], timeout_s: float = STOP_TIMEOUT_S) -> None:
+    """SIGTERM each child still running, wait for all, SIGKILL what has not stopped after `timeout_s`."""
+    for child in children:
+        if child.running():
+            try:
+                child.process.send_signal(signal.SIGTERM)
+            except ProcessLookupError:
+                pass
+    for child in children:
+        try:
+            child.process.wait(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            child.process.kill()
+            child.process.wait()
+        with _live_lock:
+            _live.pop(child.pid, None)
+
+
+def _kill_leftovers() -> None:
+    """At interpreter exit: whatever a caller forgot to stop (no `with`, no close()) is killed."""
+    with _live_lock:
+        leftovers = list(_live.values())
+        _live.clear()
+    for process in leftovers:
+        if process.poll() is None:
+            process.kill()
+            process.wait()
+
+
+atexit.register(_kill_leftovers)

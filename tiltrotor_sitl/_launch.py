@@ -1,0 +1,229 @@
+"""Starting vehicles: checked options, ports, parameter files, both processes of each vehicle, the wait until every
+one is ready to arm, and the stop. The public classes are in tiltrotor_sitl/__init__.py."""
+
+from __future__ import annotations
+
+import math
+import shutil
+import socket
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+from autopilot.parameters import ParameterRejected, ParameterStore
+from ground_tools.processes import AutopilotCommand, LinkPorts, SimCommand, VehiclePorts, Zenoh, fleet_home
+from tiltrotor_sitl import _children
+from tiltrotor_sitl._children import Child
+from tiltrotor_sitl._readiness import ReadinessWatch
+from tiltrotor_sitl.truth import TruthFeed
+from transport.geodesy import Home
+from transport.ports import LOOPBACK, Ports
+
+Controller = Literal["mpc", "pid"]
+
+
+class VehicleError(RuntimeError):
+    """A vehicle could not be started (the message names the cause); nothing it started is left running."""
+
+
+@dataclass(frozen=True)
+class Options:
+    """What every vehicle of one start shares (see Vehicle for the meaning of each)."""
+
+    controller: Controller = "mpc"
+    airframe: Path | None = None
+    spawn_alt: float = 0.0
+    home: Home | None = None
+    speed: float | None = 1.0
+    params: dict[str, float] = field(default_factory=dict)
+    instance: int | None = None
+    sysid: int | None = None
+    gcs_port: int | None = None
+    truth: bool = True
+    ready_timeout_s: float = 60.0
+
+    def check(self, count: int) -> None:
+        """Raise ValueError naming the first bad argument."""
+        if count < 1:
+            raise ValueError(f"count must be at least 1, not {count}")
+        if self.controller not in ("mpc", "pid"):
+            raise ValueError(f"controller must be 'mpc' or 'pid', not {self.controller!r}")
+        if not (math.isfinite(self.spawn_alt) and self.spawn_alt >= 0):
+            raise ValueError(f"spawn_alt must be a finite number of metres >= 0, not {self.spawn_alt!r}")
+        if self.speed is not None and not (math.isfinite(self.speed) and self.speed > 0):
+            raise ValueError(f"speed must be a positive factor (or None: lockstep, as fast as possible), not "
+                             f"{self.speed!r}")  # fmt: skip
+        if self.instance is not None and not 0 <= self.instance <= 999 - (count - 1):
+            raise ValueError(f"instance must be in 0..{999 - (count - 1)}, not {self.instance}")
+        if self.sysid is not None and not 1 <= self.sysid <= 250 - (count - 1):
+            raise ValueError(f"sysid must be in 1..{250 - (count - 1)}, not {self.sysid}")
+        if self.gcs_port is not None and not 1 <= self.gcs_port <= 65535:
+            raise ValueError(f"gcs_port must be a UDP port 1..65535, not {self.gcs_port}")
+        if self.airframe is not None and not Path(self.airframe).is_file():
+            raise ValueError(f"airframe: no such file: {self.airframe}")
+        if self.home is not None and not (-90 <= self.home.lat <= 90 and -180 <= self.home.lon <= 180):
+            raise ValueError(f"home latitude/longitude out of range: {self.home}")
+        if not self.ready_timeout_s > 0:
+            raise ValueError(f"ready_timeout_s must be positive, not {self.ready_timeout_s}")
+        store = ParameterStore(None)
+        for name, value in self.params.items():
+            try:
+                store.check(name, float(value))
+            except ParameterRejected as refusal:
+                raise ValueError(f"params: {refusal}") from None
+
+    def first_sysid(self) -> int:
+        """The first vehicle's system id: sysid, else MAV_SYS_ID in params, else the instance's (I + 1), else 1."""
+        if self.sysid is not None:
+            return self.sysid
+        if "MAV_SYS_ID" in self.params:
+            return int(self.params["MAV_SYS_ID"])
+        return Ports(self.instance).system_id if self.instance is not None else 1
+
+
+@dataclass
+class Started:
+    """One running vehicle: its system id, ports, processes and truth feed."""
+
+    sysid: int
+    ports: VehiclePorts
+    home: Home
+    children: list[Child]
+    folder: Path
+    truth: TruthFeed | None = None
+
+
+def _vehicle_ports(options: Options, index: int, gcs_remote: int) -> VehiclePorts:
+    if options.instance is None:
+        ports = VehiclePorts.free()
+    else:
+        ports = VehiclePorts.of_instance(options.instance + index)
+    links = ports.links
+    return VehiclePorts(ports.plant, LinkPorts(links.gcs_bind, gcs_remote, links.api_bind, links.api_remote),
+                        ports.zenoh_plant, ports.zenoh_autopilot)  # fmt: skip
+
+
+def _check_free(ports: VehiclePorts, sysid: int) -> None:
+    """VehicleError if a port a process of this vehicle binds is taken."""
+    udp = (("the plant link", ports.plant), ("the GCS link", ports.links.gcs_bind), ("the API link", ports.links.api_bind))
+    tcp = (("the plant's zenoh", ports.zenoh_plant), ("the autopilot's zenoh", ports.zenoh_autopilot))
+    checks = [(name, port, socket.SOCK_DGRAM) for name, port in udp]
+    checks += [(name, int(endpoint.rsplit(":", 1)[1]), socket.SOCK_STREAM) for name, endpoint in tcp]
+    for name, port, kind in checks:
+        with socket.socket(socket.AF_INET, kind) as probe:
+            try:
+                probe.bind((LOOPBACK, port))
+            except OSError as exc:
+                protocol = "UDP" if kind == socket.SOCK_DGRAM else "TCP"
+                raise VehicleError(f"vehicle {sysid}: {protocol} port {LOOPBACK}:{port} ({name}) is already in use "
+                                   f"({exc.strerror}); another vehicle on this instance? use free ports "
+                                   f"(instance=None) or another instance") from None  # fmt: skip
+
+
+def _write_params(folder: Path, params: dict[str, float]) -> Path:
+    path = folder / "params.json"
+    store = ParameterStore(path)
+    for name, value in params.items():
+        store.set(name, float(value))
+    error = store.flush()
+    if error:
+        raise VehicleError(f"cannot write the parameter file {path}: {error}")
+    return path
+
+
+def _start_one(options: Options, index: int, sysid: int, ports: VehiclePorts, root: Path) -> Started:
+    folder = root / f"vehicle-{sysid}"
+    folder.mkdir()
+    home = fleet_home(index, options.home) if index > 0 else (options.home or Home())
+    params_path = _write_params(folder, options.params)
+    plant_zenoh = Zenoh.listening(ports.zenoh_plant) if options.truth else Zenoh.off()
+    autopilot_zenoh = Zenoh.listening(ports.zenoh_autopilot) if options.truth else Zenoh.off()
+    plant = SimCommand(port=ports.plant, spawn_alt=options.spawn_alt, realtime_speed=options.speed,
+                       zenoh=plant_zenoh, airframe=options.airframe, sysid=sysid, home=home)  # fmt: skip
+    autopilot = AutopilotCommand(sim_port=ports.plant, links=ports.links, spawn_alt=options.spawn_alt,
+                                 controller=options.controller, params=params_path, airframe=options.airframe,
+                                 zenoh=autopilot_zenoh, sysid=sysid, home=home)  # fmt: skip
+    started = Started(sysid, ports, home, [], folder)
+    started.children.append(_children.start("vtol-sim", plant.argv(), folder))
+    started.children.append(_children.start("vtol-autopilot", autopilot.argv(), folder))
+    return started
+
+
+def _watch(options: Options, vehicles: list[Started]) -> ReadinessWatch:
+    """A watch on the GCS port the vehicles send to; if it is taken (a ground station already there), on their
+    API ports instead."""
+    sysids = [vehicle.sysid for vehicle in vehicles]
+    gcs = vehicles[0].ports.links.gcs_remote
+    try:
+        return ReadinessWatch([gcs], sysids)
+    except OSError:
+        pass
+    api = [vehicle.ports.links.api_remote for vehicle in vehicles]
+    try:
+        return ReadinessWatch(api, sysids)
+    except OSError as exc:
+        raise VehicleError(f"cannot watch for readiness: UDP {LOOPBACK}:{gcs} (where the vehicles' GCS links send) "
+                           f"and their API ports {api} are in use ({exc.strerror})") from None  # fmt: skip
+
+
+def launch(options: Options, count: int, folder: Path | None = None) -> tuple[list[Started], Path, float]:
+    """Start `count` vehicles and wait until each is ready to arm: (vehicles, their folder, seconds to ready).
+    On any failure everything started is stopped and VehicleError (or ValueError for a bad argument) raised."""
+    options.check(count)
+    began = time.monotonic()
+    first = options.first_sysid()
+    default_gcs = Ports(0).gcs_remote if options.instance is not None else None
+    gcs_remote = options.gcs_port or default_gcs or _free_udp_port()
+    plan = [(first + i, _vehicle_ports(options, i, gcs_remote)) for i in range(count)]
+    for sysid, ports in plan:
+        _check_free(ports, sysid)
+    root = Path(tempfile.mkdtemp(prefix="tiltrotor-sitl-")) if folder is None else Path(folder)
+    root.mkdir(parents=True, exist_ok=True)
+    vehicles: list[Started] = []
+    watch: ReadinessWatch | None = None
+    try:
+        watch_started = [Started(sysid, ports, Home(), [], root) for sysid, ports in plan]
+        watch = _watch(options, watch_started)
+        for index, (sysid, ports) in enumerate(plan):
+            vehicles.append(_start_one(options, index, sysid, ports, root))
+
+        def keep_going() -> None:
+            for vehicle in vehicles:
+                for child in vehicle.children:
+                    if not child.running():
+                        raise VehicleError(f"vehicle {vehicle.sysid}: {child.describe_exit()}")
+
+        if not watch.wait(options.ready_timeout_s, keep_going):
+            tails = "\n".join(f"--- vehicle {v.sysid} {c.name} (pid {c.pid}) stderr:\n{c.stderr_tail()}"
+                              for v in vehicles for c in v.children)  # fmt: skip
+            raise VehicleError(f"not ready to arm within {options.ready_timeout_s:g} s ({watch.missing()})\n{tails}")
+        ready_s = time.monotonic() - began
+        if options.truth:
+            for vehicle in vehicles:
+                vehicle.truth = TruthFeed(vehicle.ports.zenoh_plant, vehicle.sysid)
+    except BaseException:
+        stop(vehicles, root if folder is None else None)
+        raise
+    finally:
+        if watch is not None:
+            watch.close()
+    return vehicles, root, ready_s
+
+
+def _free_udp_port() -> int:
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind((LOOPBACK, 0))
+        return s.getsockname()[1]
+
+
+def stop(vehicles: list[Started], remove: Path | None) -> None:
+    """Close the truth feeds, stop every process (by PID), remove the folder `remove` (a temporary one)."""
+    for vehicle in vehicles:
+        if vehicle.truth is not None:
+            vehicle.truth.close()
+            vehicle.truth = None
+    _children.stop([child for vehicle in vehicles for child in vehicle.children])
+    if remove is not None:
+        shutil.rmtree(remove, ignore_errors=True)
