@@ -32,7 +32,7 @@ from pathlib import Path
 from typing import Any
 
 from autopilot.mission_items import FENCE, MAX_ITEMS, MISSION, RALLY, TYPE_NAMES, MissionItem, check_item, result_name
-from autopilot.parameters import BackgroundWriter, remove_stale_temporaries
+from autopilot.kept_file import BackgroundWriter, read_kept
 from transport.mavlink import mavlink as M
 
 FILE_FORMAT = "tiltrotor-sitl missions"
@@ -133,13 +133,12 @@ class MissionStore:
         """Read the file if there is one (none: nothing stored); MissionFileError if it is broken."""
         if self.path is None:
             return
-        remove_stale_temporaries(self.path)
         try:
-            text = self.path.read_text(encoding="utf-8")
-        except FileNotFoundError:
-            return
+            text = read_kept(self.path)
         except (OSError, UnicodeDecodeError) as exc:
             raise MissionFileError(f"cannot read the mission file {self.path}: {exc}") from None
+        if text is None:
+            return
         self.snapshot = parse_document(text, f"mission file {self.path}")
 
 

@@ -9,9 +9,7 @@ The file is JSON, only the values that differ from their default:
 
     {"format": "tiltrotor-sitl parameters", "version": 1, "parameters": {"SYS_FAILURE_EN": 1}}
 
-It is replaced atomically (temporary file in the same folder, fsync, os.replace, fsync of the folder), so a
-crash or kill -9 at any moment leaves either the old or the new file, never a broken one. Writes happen on a
-background thread so the control loop never waits for the disk.
+It is replaced atomically on a background thread (autopilot/kept_file.py).
 """
 
 from __future__ import annotations
@@ -20,12 +18,11 @@ import json
 import math
 import os
 import struct
-import sys
-import threading
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from autopilot.kept_file import BackgroundWriter, read_kept
 from autopilot.signing_key import SigningKey, SigningRefused, key_from_document, key_to_document
 
 FILE_FORMAT = "tiltrotor-sitl parameters"
@@ -215,13 +212,12 @@ class ParameterStore:
         """Read the file if it exists (a missing file means all defaults); raise ParameterFileError if broken."""
         if self.path is None:
             return
-        remove_stale_temporaries(self.path)
         try:
-            text = self.path.read_text(encoding="utf-8")
-        except FileNotFoundError:
-            return
+            text = read_kept(self.path)
         except (OSError, UnicodeDecodeError) as exc:
             raise ParameterFileError(f"cannot read the parameter file {self.path}: {exc}") from None
+        if text is None:
+            return
         where = f"parameter file {self.path}"
         try:
             document = json.loads(text)
@@ -254,97 +250,6 @@ class ParameterStore:
                 raise ParameterFileError(f"{where}: {exc}") from None
         if self.values["VT_ARSP_BLEND"] >= self.values["VT_ARSP_TRANS"]:
             raise ParameterFileError(f"{where}: VT_ARSP_BLEND must be below VT_ARSP_TRANS")
-
-
-def remove_stale_temporaries(path: Path) -> None:
-    """Temporary files left by a writer that was killed mid-write (the real file is intact)."""
-    try:
-        for stale in path.parent.glob(f".{path.name}.*.tmp"):
-            try:
-                stale.unlink()
-            except OSError:
-                pass
-    except OSError:
-        pass
-
-
-def write_atomically(path: Path, text: str) -> None:
-    """Replace `path` with `text`: temporary file, fsync, rename over, fsync the folder."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    temporary = path.parent / f".{path.name}.{os.getpid()}.{threading.get_ident()}.tmp"
-    data = text.encode("utf-8")
-    fd = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)  # it may hold the signing key
-    try:
-        view = memoryview(data)
-        while view:
-            written = os.write(fd, view)
-            view = view[written:]
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-    try:
-        os.replace(temporary, path)
-    except OSError:
-        temporary.unlink(missing_ok=True)
-        raise
-    try:
-        folder = os.open(path.parent, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(folder)
-    except OSError:
-        pass
-    finally:
-        os.close(folder)
-
-
-class BackgroundWriter:
-    """Writes the newest submitted document to `path` on a daemon thread (older unwritten ones are skipped);
-    `what` names the file in errors ("parameter file")."""
-
-    def __init__(self, path: Path, what: str) -> None:
-        self.path = path
-        self.what = what
-        self._condition = threading.Condition()
-        self._pending: str | None = None
-        self._busy = False
-        self.last_error: str | None = None
-        self.writes = 0
-        self._thread: threading.Thread | None = None
-
-    def submit(self, text: str) -> None:
-        with self._condition:
-            self._pending = text
-            if self._thread is None:
-                self._thread = threading.Thread(target=self._run, name=self.what.replace(" ", "-") + "-writer",
-                                                daemon=True)
-                self._thread.start()
-            self._condition.notify_all()
-
-    def _run(self) -> None:
-        while True:
-            with self._condition:
-                while self._pending is None:
-                    self._condition.wait()
-                text, self._pending = self._pending, None
-                self._busy = True
-            try:
-                write_atomically(self.path, text)
-                error = None
-            except OSError as exc:
-                error = f"cannot write the {self.what} {self.path}: {exc.strerror or exc}"
-                print(f"vtol-autopilot: {error}", file=sys.stderr, flush=True)
-            with self._condition:
-                self._busy = False
-                self.last_error = error
-                self.writes += 1
-                self._condition.notify_all()
-
-    def flush(self, timeout_s: float) -> str | None:
-        with self._condition:
-            self._condition.wait_for(lambda: self._pending is None and not self._busy, timeout=timeout_s)
-            return self.last_error
 
 
 def describe(definitions: tuple[ParameterDefinition, ...] = DEFINITIONS) -> list[dict[str, Any]]:
