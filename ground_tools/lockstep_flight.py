@@ -10,7 +10,8 @@ import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
-from ground_tools.processes import AutopilotCommand, Controller, SimCommand, Zenoh, free_link_ports, free_udp_port
+from ground_tools.processes import (AutopilotCommand, Controller, SimCommand, Zenoh, deterministic_argv,
+                                    deterministic_environment, free_link_ports, free_udp_port)  # fmt: skip
 
 
 class FlightFailed(RuntimeError):
@@ -38,15 +39,17 @@ def fly_lockstep(
     """Fly `profile` for `duration_s` simulated seconds from a hover at `spawn_alt`; raises FlightFailed."""
     port = free_udp_port()
     plant = subprocess.Popen(
-        SimCommand(port=port, spawn_alt=spawn_alt, zenoh=Zenoh.off(), duration_s=duration_s, summary=True).argv(),
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        deterministic_argv(SimCommand(port=port, spawn_alt=spawn_alt, zenoh=Zenoh.off(), duration_s=duration_s,
+                                      summary=True).argv()),
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=deterministic_environment(),
     )  # fmt: skip
     autopilot_command = AutopilotCommand(
         sim_port=port, links=free_link_ports(), spawn_alt=spawn_alt, profile=profile, duration_s=duration_s,
         controller=controller, summary=True, zenoh=Zenoh.off(), quiet=True, log=log_path, extra=autopilot_args,
     )  # fmt: skip
     try:
-        autopilot = subprocess.run(autopilot_command.argv(), capture_output=True, text=True, timeout=timeout_s)
+        autopilot = subprocess.run(deterministic_argv(autopilot_command.argv()), capture_output=True, text=True, timeout=timeout_s,
+                                   env=deterministic_environment())  # fmt: skip
         plant_out, plant_err = plant.communicate(timeout=120)
     finally:
         if plant.poll() is None:

@@ -8,6 +8,12 @@ A description's defaults are the program's own: a field left alone adds nothing 
 
 from __future__ import annotations
 
+import os
+import subprocess
+import shutil
+import platform
+import functools
+
 import socket
 import sys
 from dataclasses import dataclass, field
@@ -55,6 +61,32 @@ def _free_port(kind: socket.SocketKind) -> int:
     with socket.socket(socket.AF_INET, kind) as s:
         s.bind((LOOPBACK, 0))
         return s.getsockname()[1]
+
+
+def deterministic_environment() -> dict[str, str]:
+    """The environment for runs that must repeat bit for bit (lockstep scenarios and flights): this one with
+    PYTHONHASHSEED fixed, so Python allocates in the same order each run (see deterministic_argv)."""
+    return {**os.environ, "PYTHONHASHSEED": "0"}
+
+
+@functools.cache
+def _no_randomization_prefix() -> tuple[str, ...]:
+    prefix = ("setarch", platform.machine(), "--addr-no-randomize")
+    if shutil.which("setarch") is None:
+        return ()
+    try:
+        works = subprocess.run([*prefix, "true"], capture_output=True, timeout=10).returncode == 0
+    except (OSError, subprocess.TimeoutExpired):
+        works = False
+    return prefix if works else ()
+
+
+def deterministic_argv(argv: list[str]) -> list[str]:
+    """A command line that runs with address-space randomisation off where the system allows it (util-linux's
+    setarch). proxsuite's QP results differ in their last bits with the alignment of its stack and heap buffers,
+    which randomisation changes from run to run; a long flight amplifies that, so the same scenario could give two
+    different time series. Where setarch is missing or refused, the command runs as it is."""
+    return [*_no_randomization_prefix(), *argv]
 
 
 def free_udp_port() -> int:

@@ -29,7 +29,8 @@ from aircraft.airframe import load_airframe
 from ground_tools.lockstep_client import START_MS, LockstepClient
 from ground_tools.lockstep_flight import FlightFailed
 from ground_tools.metrics import flight_metrics
-from ground_tools.processes import AutopilotCommand, Controller, SimCommand, VehiclePorts, Zenoh
+from ground_tools.processes import (AutopilotCommand, Controller, SimCommand, VehiclePorts, Zenoh, deterministic_argv,
+                                    deterministic_environment)  # fmt: skip
 from scenarios.experiments import Scenario
 from transport.flight_log import read_flight_log, write_flight_log
 from transport.ports import LOOPBACK
@@ -94,7 +95,8 @@ def run_scenario(
             port=ports.plant, spawn_alt=SPAWN_ALT_M, duration_s=duration_s, lockstep_timeout_s=PLANT_LOCKSTEP_TIMEOUT_S,
             summary=True, zenoh=Zenoh.listening(ports.zenoh_plant) if record else Zenoh.off(),
         )  # fmt: skip
-        plant = subprocess.Popen(plant_command.argv(), stdout=subprocess.PIPE, stderr=plant_err, text=True)
+        plant = subprocess.Popen(deterministic_argv(plant_command.argv()), stdout=subprocess.PIPE, stderr=plant_err, text=True,
+                                 env=deterministic_environment())  # fmt: skip
         processes.append(plant)
         autopilot_command = AutopilotCommand(
             sim_port=ports.plant, links=ports.links, spawn_alt=SPAWN_ALT_M, controller=controller,
@@ -102,7 +104,8 @@ def run_scenario(
             params=run_dir / "params.json", summary=True, quiet=True,
             zenoh=Zenoh.listening(ports.zenoh_autopilot) if record else Zenoh.off(),
         )  # fmt: skip
-        autopilot = subprocess.Popen(autopilot_command.argv(), stdout=subprocess.PIPE, stderr=autopilot_err, text=True)
+        autopilot = subprocess.Popen(deterministic_argv(autopilot_command.argv()), stdout=subprocess.PIPE, stderr=autopilot_err, text=True,
+                                     env=deterministic_environment())  # fmt: skip
         processes.append(autopilot)
 
         def start_recording() -> None:
