@@ -98,3 +98,48 @@ def test_a_mission_with_forward_flight_legs_and_no_transition_item_lands_at_home
         assert gs.latest["HEARTBEAT"].custom_mode == MISSION_MODE
     finally:
         sitl.kill()
+
+
+def test_orbit_then_goto_then_return_lands_at_home_and_refusals_say_why(tmp_path):
+    sitl = start_sitl(tmp_path / "params.json", spawn_alt=20.0, speed=None)
+    try:
+        gs = sitl.gs
+        gs.connect()
+        denied = gs.set_mode(MISSION_MODE)
+        assert denied.result == M.MAV_RESULT_DENIED
+        gs.wait(lambda: any("no mission" in text for text in gs.statustexts), "the reason")
+        too_wide = gs.command(M.MAV_CMD_DO_ORBIT, 20000.0, 5.0, 0, math.nan, math.nan, math.nan, math.nan)
+        assert too_wide.result == M.MAV_RESULT_DENIED
+        # Orbit: 20 m clockwise at 5 m/s around here (NaN centre and altitude).
+        ack = gs.command(M.MAV_CMD_DO_ORBIT, 20.0, 5.0, 0, math.nan, math.nan, math.nan, math.nan)
+        assert ack.result == M.MAV_RESULT_ACCEPTED
+        gs.wait(lambda: gs.mode == ORBIT_MODE, "Orbit mode")
+        start = gs.latest["LOCAL_POSITION_NED"]
+        gs.wait_sim(40.0, timeout_s=120)
+        now = gs.latest["LOCAL_POSITION_NED"]
+        radius = math.hypot(now.x - start.x, now.y - start.y)
+        print(f"orbit radius after 40 s: {radius:.1f} m, speed {math.hypot(now.vx, now.vy):.1f} m/s")
+        assert 16.0 <= radius <= 24.0 and 3.5 <= math.hypot(now.vx, now.vy) <= 6.5
+        # Go-to (MAVSDK goto_location): 150 m north of home at 25 m above home, then Hold there.
+        lat, lon = latlon_e7(150.0, 0.0)
+        ack = gs.command(M.MAV_CMD_DO_REPOSITION, -1, 1, 0, math.nan, lat * 1e-7, lon * 1e-7, HOME.alt + 25.0)
+        assert ack.result == M.MAV_RESULT_ACCEPTED and gs.mode == HOLD or gs.wait(lambda: gs.mode == HOLD, "Hold")
+        gs.wait(lambda: math.hypot(gs.latest["LOCAL_POSITION_NED"].x - 150.0, gs.latest["LOCAL_POSITION_NED"].y) < 2.0
+                and abs(gs.altitude - 25.0) < 1.0, "arrival at the go-to point", 180)  # fmt: skip
+        gs.wait_sim(5.0)
+        there = gs.latest["LOCAL_POSITION_NED"]
+        assert math.hypot(there.x - 150.0, there.y) < 2.0 and gs.mode == HOLD
+        # Return at RTL_RETURN_ALT 30 m: climb, fly home, land, disarm.
+        gs.param_set("RTL_RETURN_ALT", 30.0, M.MAV_PARAM_TYPE_REAL32)
+        assert gs.command(M.MAV_CMD_NAV_RETURN_TO_LAUNCH).result == M.MAV_RESULT_ACCEPTED
+        highest = [0.0]
+        fly(sitl, lambda: not gs.armed, 300, lambda position: highest.__setitem__(0, max(highest[0], -position.z)))
+        final = gs.latest["LOCAL_POSITION_NED"]
+        print(f"Return: highest {highest[0]:.1f} m, landed {math.hypot(final.x, final.y):.2f} m from home")
+        assert highest[0] >= 29.0 and math.hypot(final.x, final.y) <= 2.0
+        on_ground = gs.command(M.MAV_CMD_DO_ORBIT, 20.0, 5.0, 0, math.nan, math.nan, math.nan, math.nan)
+        assert on_ground.result == M.MAV_RESULT_TEMPORARILY_REJECTED
+        assert gs.command(M.MAV_CMD_DO_REPOSITION, -1, 1, 0, math.nan, lat * 1e-7, lon * 1e-7,
+                          HOME.alt + 25.0).result == M.MAV_RESULT_TEMPORARILY_REJECTED  # fmt: skip
+    finally:
+        sitl.kill()
