@@ -68,6 +68,11 @@ STATUS_SOLVED = "solved"
 STATUS_INVALID_INPUT = "invalid_input"  # non-finite set-point, tilts, airspeed or rates
 STATUS_INVALID_MODEL = "invalid_model"  # non-finite A, W or solution although the inputs were finite (a bug)
 
+# proxsuite's result depends in its last bits on where its buffers happen to lie in memory (up to ~2e-11 here), so
+# the same flight flown twice could differ, and a long flight amplifies that. A step rounded to 1e-9 (the PWM on
+# the wire resolves 1e-3) makes the allocation a function of its inputs alone.
+DU_DECIMALS = 9
+
 _QP = proxsuite.proxqp
 _SOLVED = _QP.QPSolverOutput.PROXQP_SOLVED
 _STATUS_NAMES = {
@@ -246,7 +251,7 @@ class ControlAllocator:
             self._qp = self._new_solver()
             return self._fallback(STATUS_INVALID_MODEL, int(info.iter))
         u = self._u
-        u += du  # u = u_trim + du: the paper's incremental form
+        u += np.round(du, DU_DECIMALS)  # u = u_trim + du: the paper's incremental form
         np.maximum(u, self._lower, out=u)
         np.minimum(u, self._upper, out=u)
         self._evaluate_wrench()  # achieved = W(u), same model

@@ -4,9 +4,8 @@ the controller's phase)."""
 
 from __future__ import annotations
 
+import math
 from typing import IO
-
-import numpy as np
 
 from aircraft.actuators import TILTS, allocated_of
 from autopilot.flight_controller import FlightController
@@ -33,6 +32,6 @@ class FlightLogger:
         self._writer.write(
             (t, *s.position_ned, *s.velocity_ned, *s.euler, *s.body_rates, s.airspeed, *c.velocity_setpoint,
              *c.velocity_command.euler_sp, *c.command[TILTS], *c.servos.tilt, *allocated_of(c.command),
-             float(np.linalg.norm(residual[0:3])), float(np.linalg.norm(residual[3:6]))),
+             math.hypot(*residual[0:3].tolist()), math.hypot(*residual[3:6].tolist())),
             c.velocity_command.mode,
         )  # fmt: skip

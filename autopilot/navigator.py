@@ -122,7 +122,7 @@ class Navigator:
         wanted = np.array([*horizontal, min(max(vz, -p["MPC_Z_VEL_MAX_UP"]), p["MPC_Z_VEL_MAX_DN"])])
         step = wanted - self.tracked_velocity
         limit = accel * TICK_S
-        norm = float(np.linalg.norm(step))
+        norm = math.hypot(*step.tolist())
         self.tracked_velocity = self.tracked_velocity + (step * (limit / norm) if norm > limit else step)
         return self.tracked_velocity.copy()
 

@@ -44,7 +44,7 @@ class SetpointTrajectory:
         elif not np.array_equal(v_sp, self.last):
             interval = (time_usec - self.last_usec) / 1e6
             rate = (v_sp - self.last) / interval if 0.0 < interval <= self.MAX_INTERVAL_S else np.zeros(3)
-            self.rate = rate if np.linalg.norm(rate) <= self.MAX_RATE else np.zeros(3)
+            self.rate = rate if math.hypot(*rate.tolist()) <= self.MAX_RATE else np.zeros(3)
             self.interval_s = interval
             self.last, self.last_usec = v_sp.copy(), time_usec
         elif (time_usec - self.last_usec) / 1e6 > 1.5 * self.interval_s:

@@ -1,74 +1,67 @@
-"""Plant + autopilot processes for the MAVLink tests, on free ports, with a pymavlink ground station on the GCS
-link; every process is killed by its PID at the end."""
+"""The MAVLink tests' vehicle: a thin layer over the public API (tiltrotor_sitl.Vehicle), with its files in the
+test's folder, its --summary counters, and a pymavlink ground station on the GCS link."""
 
 from __future__ import annotations
 
-import json
-import os
-import signal
 import subprocess
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
-from ground_tools.processes import AutopilotCommand, LinkPorts, SimCommand, Zenoh, free_udp_port
+from tiltrotor_sitl import Controller, Vehicle
 from tests.ground_station import GroundStation
 
 
 @dataclass
 class Sitl:
-    plant: subprocess.Popen
-    autopilot: subprocess.Popen
-    ports: dict[str, int]
-    params_path: Path
+    vehicle: Vehicle
     gs: GroundStation | None = None
-    outputs: dict[str, tuple[str, str]] = field(default_factory=dict)
 
-    def autopilot_command(self, *extra: str) -> list[str]:
-        return autopilot_command(self.ports, self.params_path, *extra)
+    @property
+    def ports(self) -> dict[str, int]:
+        ports = self.vehicle.ports
+        return {"sim": ports.plant, "gcs": ports.links.gcs_bind, "gcs_remote": ports.links.gcs_remote,
+                "api": ports.links.api_bind, "api_remote": ports.links.api_remote}  # fmt: skip
+
+    @property
+    def params_path(self) -> Path:
+        return self.vehicle.params_path
+
+    @property
+    def autopilot(self) -> subprocess.Popen:
+        return self.vehicle.process("vtol-autopilot")
+
+    @property
+    def plant(self) -> subprocess.Popen:
+        return self.vehicle.process("vtol-sim")
+
+    def restart_autopilot(self) -> None:
+        """A new autopilot on the same command line, ports and files."""
+        self.vehicle.restart("vtol-autopilot")
 
     def stop(self) -> tuple[dict, dict]:
-        """SIGTERM both; their --summary lines (autopilot, plant)."""
-        summaries = []
-        for name, process in (("autopilot", self.autopilot), ("plant", self.plant)):
-            if process.poll() is None:
-                process.send_signal(signal.SIGTERM)
-            out, _ = process.communicate(timeout=30)
-            self.outputs[name] = (out, self.stderr(name))
-            lines = [line for line in out.splitlines() if line.startswith("{")]
-            summaries.append(json.loads(lines[-1]) if lines else {})
-        return summaries[0], summaries[1]
+        """Stop both (SIGTERM, the autopilot first); their --summary counters (autopilot, plant)."""
+        self.vehicle.stop()
+        return self.vehicle.summary("vtol-autopilot"), self.vehicle.summary("vtol-sim")
 
     def stderr(self, name: str = "autopilot") -> str:
-        return (self.params_path.parent / f"{name}.stderr").read_text()
+        return self.vehicle.stderr(f"vtol-{'sim' if name == 'plant' else name}")
 
     def kill(self) -> None:
-        for process in (self.autopilot, self.plant):
-            if process.poll() is None:
-                process.kill()
-            process.wait(timeout=30)
+        self.vehicle.stop()
         if self.gs is not None:
             self.gs.close()
 
 
-def autopilot_command(ports: dict[str, int], params_path: Path, *extra: str, spawn_alt: float = 0.0) -> list[str]:
-    links = LinkPorts(ports["gcs"], ports["gcs_remote"], ports["api"], ports["api_remote"])
-    return AutopilotCommand(sim_port=ports["sim"], links=links, spawn_alt=spawn_alt, params=params_path,
-                            zenoh=Zenoh.off(), summary=True, extra=extra).argv()  # fmt: skip
-
-
-def start_sitl(params_path: Path, *, spawn_alt: float = 0.0, speed: float | None = 4.0, autopilot_args=(),
-               ground_station: bool = True) -> Sitl:  # fmt: skip
-    """speed: real time times `speed` (None: lockstep). The ground station listens where the GCS link sends."""
-    ports = {name: free_udp_port() for name in ("sim", "gcs", "gcs_remote", "api", "api_remote")}
-    gs = GroundStation(ports["gcs_remote"]) if ground_station else None
-    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-    with open(params_path.parent / "plant.stderr", "w") as errors:
-        plant = subprocess.Popen(
-            SimCommand(port=ports["sim"], spawn_alt=spawn_alt, realtime_speed=speed, zenoh=Zenoh.off(),
-                       summary=True).argv(),
-            stdout=subprocess.PIPE, stderr=errors, text=True, env=env,
-        )  # fmt: skip
-    with open(params_path.parent / "autopilot.stderr", "w") as errors:
-        autopilot = subprocess.Popen(autopilot_command(ports, params_path, *autopilot_args, spawn_alt=spawn_alt),
-                                     stdout=subprocess.PIPE, stderr=errors, text=True, env=env)  # fmt: skip
-    return Sitl(plant, autopilot, ports, params_path, gs)
+def start_sitl(params_path: Path, *, spawn_alt: float = 0.0, speed: float | None = 4.0, controller: Controller = "mpc",
+               autopilot_args: tuple[str, ...] = (), ground_station: bool = True, wait_ready: bool = True) -> Sitl:  # fmt: skip
+    """A vehicle ready to arm, keeping `params_path` (its files beside it). speed: real time times `speed` (None:
+    lockstep). The ground station listens where the GCS link sends."""
+    vehicle = Vehicle(controller=controller, spawn_alt=spawn_alt, speed=speed, truth=False, summary=True,
+                      folder=params_path.parent, params_file=params_path, autopilot_args=autopilot_args,
+                      wait_ready=wait_ready).start()  # fmt: skip
+    try:
+        gs = GroundStation(vehicle.gcs_port) if ground_station else None
+    except BaseException:
+        vehicle.stop()
+        raise
+    return Sitl(vehicle, gs)

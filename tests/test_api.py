@@ -20,7 +20,11 @@ from transport.ports import Ports
 USER_TEST = '''
 import math
 import os
+import time
 
+from mavsdk import ComponentType, Configuration, Mavsdk
+from mavsdk.plugins.action import Action
+from mavsdk.plugins.telemetry import Telemetry
 from pymavlink import mavutil
 
 M = mavutil.mavlink
@@ -54,6 +58,28 @@ def test_takeoff_and_land(vehicle_factory):
     assert command(master, vehicle.sysid, M.MAV_CMD_NAV_LAND) == M.MAV_RESULT_ACCEPTED
     vehicle.truth.wait_until(lambda s: s.on_ground, timeout_sim_s=60, what="landing")
     master.close()
+
+
+def test_mavsdk_flies_it_up_and_down(vehicle):
+    note_pids(vehicle.pids)
+    drone = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
+    try:
+        drone.add_any_connection(vehicle.mavsdk)
+        system = drone.first_autopilot(30.0)
+        assert system is not None, "MAVSDK found no autopilot"
+        action, telemetry = Action(system), Telemetry(system)
+        deadline = time.monotonic() + 30
+        while not telemetry.health().is_armable:
+            assert time.monotonic() < deadline, "not armable"
+            time.sleep(0.05)
+        action.set_takeoff_altitude(6.0)
+        action.arm()
+        action.takeoff()
+        vehicle.truth.wait_until(lambda s: s.altitude > 5.0, timeout_sim_s=40, what="climb to 5 m")
+        action.land()
+        vehicle.truth.wait_until(lambda s: s.on_ground, timeout_sim_s=60, what="landing")
+    finally:
+        drone.destroy()
 
 
 def test_one_ground_station_sees_the_fleet(fleet_factory):
@@ -127,9 +153,9 @@ def test_a_users_own_tests_pass_under_xdist_and_leave_nothing_running(tmp_path: 
                              "--vtol-controller", "pid", "--vtol-speed", "2"],  # fmt: skip
                             cwd=folder, env=env, capture_output=True, text=True, timeout=400)
     assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-2000:]
-    assert "2 passed" in result.stdout
+    assert "3 passed" in result.stdout
     pids = [int(line) for line in pids_file.read_text().split()]
-    assert len(pids) == 2 + 6
+    assert len(pids) == 2 + 2 + 6
     assert [pid for pid in pids if alive(pid)] == []
 
 

@@ -17,7 +17,7 @@ HOME_ALT = 300.0
 
 @pytest.fixture
 def ground_start(tmp_path):
-    sitl = start_sitl(tmp_path / "params.json", speed=5.0, autopilot_args=("--controller", "pid"))
+    sitl = start_sitl(tmp_path / "params.json", speed=5.0, controller="pid")
     yield sitl
     sitl.kill()
 

@@ -25,7 +25,7 @@ ALTITUDE = 50.0
 def hovering(tmp_path_factory):
     """Spawned hovering at 50 m in Hold (armed), plant in real time x4, a pymavlink ground station connected."""
     sitl = start_sitl(tmp_path_factory.mktemp("hover") / "params.json", spawn_alt=ALTITUDE, speed=4.0,
-                      autopilot_args=("--controller", "pid"))  # fmt: skip
+                      controller="pid")  # fmt: skip
     sitl.gs.connect()
     yield sitl
     sitl.kill()

@@ -31,7 +31,7 @@ def wait_for(predicate, what: str, timeout_s: float = 30.0, period_s: float = 0.
 
 @pytest.fixture
 def sitl(tmp_path):
-    sitl = start_sitl(tmp_path / "params.json", speed=4.0, autopilot_args=("--controller", "pid"),
+    sitl = start_sitl(tmp_path / "params.json", speed=4.0, controller="pid",
                       ground_station=False)  # fmt: skip
     yield sitl
     sitl.kill()

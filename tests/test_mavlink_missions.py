@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
 import time
 
 import pytest
@@ -100,7 +99,7 @@ def test_the_mission_file_round_trips_and_broken_ones_are_refused(tmp_path):
 
 def test_the_autopilot_refuses_a_broken_mission_file_with_one_line_and_exit_2(tmp_path):
     (tmp_path / "missions-0.json").write_text('{"format": "tiltrotor-sitl missions", "version": 1, "mission": 5}')
-    sitl = start_sitl(tmp_path / "params.json", ground_station=False)
+    sitl = start_sitl(tmp_path / "params.json", ground_station=False, wait_ready=False)
     try:
         assert sitl.autopilot.wait(timeout=60) == 2
         lines = sitl.stderr().strip().splitlines()
@@ -310,8 +309,7 @@ def test_missions_survive_an_autopilot_restart(vehicle):
     sitl.autopilot.terminate()
     sitl.autopilot.wait(timeout=30)
     assert json.loads((sitl.params_path.parent / "missions-0.json").read_text())["current"] == 3
-    sitl.autopilot = subprocess.Popen(sitl.autopilot_command(), stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                                      text=True)  # fmt: skip
+    sitl.restart_autopilot()
     client.gs.latest.pop("HEARTBEAT", None)
     client.gs.wait(lambda: "HEARTBEAT" in client.gs.latest, "the restarted autopilot", timeout_s=60)
     client.gs.heartbeat()

@@ -145,7 +145,7 @@ def test_kill_9_in_the_middle_of_writes_never_leaves_a_broken_file(tmp_path):
 
 def test_parameters_over_mavlink_survive_a_restart_and_a_kill_9(tmp_path):
     params_path = tmp_path / "params.json"
-    sitl = start_sitl(params_path, spawn_alt=30.0, speed=4.0, autopilot_args=("--controller", "pid"))
+    sitl = start_sitl(params_path, spawn_alt=30.0, speed=4.0, controller="pid")
     gs = sitl.gs
     try:
         gs.connect()
@@ -197,8 +197,7 @@ def test_parameters_over_mavlink_survive_a_restart_and_a_kill_9(tmp_path):
         assert saved["MIS_TAKEOFF_ALT"] == 12.5 and saved["SYS_FAILURE_EN"] == 1
 
         # A new autopilot on the same file and ports has the values.
-        sitl.autopilot = subprocess.Popen(sitl.autopilot_command("--controller", "pid", "--spawn-alt", "30"),
-                                          stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)  # fmt: skip
+        sitl.restart_autopilot()  # the same command line: --controller pid --spawn-alt 30
         gs.param_values.clear()
         gs.latest.pop("HEARTBEAT", None)
         gs.wait(lambda: "HEARTBEAT" in gs.latest, "the restarted autopilot", timeout_s=60)

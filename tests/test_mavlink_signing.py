@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import signal
-import subprocess
 import time
 
 from autopilot.signing_key import timestamp_at
@@ -25,7 +24,7 @@ def said(gs: GroundStation, text: str) -> None:
 
 def test_a_keyed_client_flies_an_unkeyed_one_is_refused_and_the_key_survives_a_restart(tmp_path):
     params_path = tmp_path / "params.json"
-    sitl = start_sitl(params_path, speed=4.0, autopilot_args=("--controller", "pid", "--quiet"))
+    sitl = start_sitl(params_path, speed=4.0, controller="pid", autopilot_args=("--quiet",))
     keyed = sitl.gs
     unkeyed = GroundStation(sitl.ports["api_remote"])  # the API link: same vehicle, no key
     try:
@@ -60,13 +59,12 @@ def test_a_keyed_client_flies_an_unkeyed_one_is_refused_and_the_key_survives_a_r
 
         # The key survives a restart: the new autopilot still refuses the unkeyed client and obeys the keyed one.
         sitl.autopilot.send_signal(signal.SIGTERM)
-        out, _ = sitl.autopilot.communicate(timeout=30)
-        summary = json.loads(out.strip().splitlines()[-1])
+        sitl.autopilot.wait(timeout=30)
+        summary = sitl.vehicle.summary("vtol-autopilot")
         links = summary["links"]
         assert links["signing"] and links["signing_required"] and links["unsigned_refused"] >= 9
         assert links["api"]["ignored"]["unsigned:PARAM_SET"] == 1
-        sitl.autopilot = subprocess.Popen(sitl.autopilot_command("--controller", "pid", "--quiet"),
-                                          stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)  # fmt: skip
+        sitl.restart_autopilot()
         keyed.latest.pop("HEARTBEAT", None)
         keyed.wait(lambda: "HEARTBEAT" in keyed.latest, "the restarted autopilot", timeout_s=60)
         assert keyed.latest["HEARTBEAT"].get_signed()  # outgoing messages are signed with the stored key

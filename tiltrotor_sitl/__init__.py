@@ -22,17 +22,20 @@ The pytest plugin (fixtures `vehicle`, `fleet_factory`, `vehicle_factory`; optio
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import subprocess
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
 
+from ground_tools.processes import VehiclePorts
+from tiltrotor_sitl._children import Child
 from tiltrotor_sitl._launch import Controller, Options, Started, VehicleError, launch, stop
 from tiltrotor_sitl.truth import PlantTruth, TruthFeed, TruthTimeout
 from transport.geodesy import Home
 from transport.ports import LOOPBACK
 
 __all__ = ["Controller", "Fleet", "Home", "PlantTruth", "TruthFeed", "TruthTimeout", "Vehicle", "VehicleError",
-           "VehicleHandle"]  # fmt: skip
+           "VehicleHandle", "VehiclePorts"]  # fmt: skip
 
 
 class VehicleHandle:
@@ -60,6 +63,18 @@ class VehicleHandle:
     def api_port(self) -> int:
         """The UDP port on 127.0.0.1 the vehicle's API (offboard) link sends to (MAVSDK listens there)."""
         return self._started.ports.links.api_remote
+
+    @property
+    def ports(self) -> VehiclePorts:
+        """Every port of the vehicle: the plant link (`plant`), its own link ports (`links.gcs_bind`,
+        `links.api_bind`, where ground stations may also send first), where the links send (`links.gcs_remote`,
+        `links.api_remote`) and both processes' zenoh endpoints."""
+        return self._started.ports
+
+    @property
+    def params_path(self) -> Path:
+        """The autopilot's parameter file (its missions are kept beside it, in missions-<instance>.json)."""
+        return self._started.params_path
 
     @property
     def pymavlink(self) -> str:
@@ -93,10 +108,29 @@ class VehicleHandle:
         return all(child.running() for child in self._started.children)
 
     def stderr(self, process: str = "vtol-autopilot") -> str:
-        """What `process` (vtol-autopilot or vtol-sim) has said on stderr so far."""
+        """What `process` (vtol-autopilot or vtol-sim) has said on stderr so far (across restarts)."""
+        return self._child(process).stderr_path.read_text(errors="replace")
+
+    def process(self, process: str = "vtol-autopilot") -> subprocess.Popen:
+        """The running `process` (vtol-autopilot or vtol-sim), to signal it or wait for it (a test of a crash, a
+        kill -9, an exit code). Whatever state it is left in, the vehicle still stops it at the end."""
+        return self._child(process).process
+
+    def summary(self, process: str = "vtol-autopilot") -> dict:
+        """With summary=True: the counters `process` printed as JSON when it last stopped (after the test
+        signalled it, or after stop() when the vehicle was given a `folder`: a temporary one is removed), {} while
+        it runs."""
+        return self._child(process).summary()
+
+    def restart(self, process: str = "vtol-autopilot") -> None:
+        """Stop `process` if it still runs (SIGTERM, then SIGKILL after 5 s) and start it again with the same
+        command line, ports and parameter file, as after a power cycle. Returns at once: wait for its HEARTBEAT."""
+        self._child(process).restart()
+
+    def _child(self, process: str) -> Child:
         for child in self._started.children:
             if child.name == process:
-                return child.stderr_path.read_text(errors="replace")
+                return child
         raise ValueError(f"no process {process!r}: vtol-autopilot or vtol-sim")
 
 
@@ -104,18 +138,21 @@ class Fleet:
     """`count` vehicles, as PX4's multi-vehicle SITL runs them: system ids sysid .. sysid+count-1 (default 1, or
     instance + 1), every GCS link sending to one port (14550 with `instance`, else a free one, or `gcs_port`), each
     vehicle FLEET_SPACING_M (5 m) east of the previous one. Arguments as for Vehicle. A context manager; or call
-    start() and stop()."""
+    start() and stop(). params_file is for a single Vehicle only."""
 
     def __init__(self, count: int, *, controller: Controller = "mpc", airframe: str | Path | None = None,
                  spawn_alt: float = 0.0, home: Home | None = None, speed: float | None = 1.0,
                  params: Mapping[str, float] | None = None, instance: int | None = None, sysid: int | None = None,
                  gcs_port: int | None = None, truth: bool = True, ready_timeout_s: float = 60.0,
-                 folder: str | Path | None = None) -> None:  # fmt: skip
+                 folder: str | Path | None = None, summary: bool = False, autopilot_args: Sequence[str] = (),
+                 wait_ready: bool = True, params_file: str | Path | None = None) -> None:  # fmt: skip
         self.count = count
         self.options = Options(controller=controller, airframe=None if airframe is None else Path(airframe),
                                spawn_alt=float(spawn_alt), home=home, speed=speed, params=dict(params or {}),
                                instance=instance, sysid=sysid, gcs_port=gcs_port, truth=truth,
-                               ready_timeout_s=ready_timeout_s)  # fmt: skip
+                               ready_timeout_s=ready_timeout_s, summary=summary,
+                               autopilot_args=tuple(autopilot_args), wait_ready=wait_ready,
+                               params_file=None if params_file is None else Path(params_file))  # fmt: skip
         self.options.check(count)
         self._folder = None if folder is None else Path(folder)
         self._started: list[Started] = []
@@ -170,15 +207,24 @@ class Vehicle(VehicleHandle):
     plant 4560+I, API 14540+I, GCS to 14550, system id I+1). sysid: the system id (default: params' MAV_SYS_ID,
     else I+1, else 1). gcs_port: where the GCS link sends (default: a free port, 14550 with an instance).
     truth: subscribe to the plant's truth on zenoh. ready_timeout_s: wall seconds to wait for readiness. folder:
-    where the parameter file and the processes' stderr go (default: a temporary folder, removed at the end)."""
+    where the parameter file and the processes' stdout and stderr go (default: a temporary folder, removed at the
+    end). summary: both processes print their counters when they stop (see summary()). autopilot_args: further
+    vtol-autopilot options, as they are (`vtol-autopilot --help`, e.g. ["--quiet"]). wait_ready: False returns as
+    soon as both processes are started (to test start-up itself, e.g. a refused file). params_file: the parameter
+    file the autopilot keeps (default: params.json in the vehicle's folder); an existing one is used as it is, with
+    `params` set into it, and it stays after the stop, with the missions beside it: a later Vehicle given the same
+    file starts where this one stopped."""
 
     def __init__(self, *, controller: Controller = "mpc", airframe: str | Path | None = None, spawn_alt: float = 0.0,
                  home: Home | None = None, speed: float | None = 1.0, params: Mapping[str, float] | None = None,
                  instance: int | None = None, sysid: int | None = None, gcs_port: int | None = None,
-                 truth: bool = True, ready_timeout_s: float = 60.0, folder: str | Path | None = None) -> None:  # fmt: skip
+                 truth: bool = True, ready_timeout_s: float = 60.0, folder: str | Path | None = None,
+                 summary: bool = False, autopilot_args: Sequence[str] = (), wait_ready: bool = True,
+                 params_file: str | Path | None = None) -> None:  # fmt: skip
         self._fleet = Fleet(1, controller=controller, airframe=airframe, spawn_alt=spawn_alt, home=home, speed=speed,
                             params=params, instance=instance, sysid=sysid, gcs_port=gcs_port, truth=truth,
-                            ready_timeout_s=ready_timeout_s, folder=folder)  # fmt: skip
+                            ready_timeout_s=ready_timeout_s, folder=folder, summary=summary,
+                            autopilot_args=autopilot_args, wait_ready=wait_ready, params_file=params_file)  # fmt: skip
 
     def start(self) -> Vehicle:
         self._fleet.start()

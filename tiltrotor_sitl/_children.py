@@ -2,13 +2,15 @@
 reaches only the test, which then stops them in order), with PR_SET_PDEATHSIG = SIGKILL on Linux (the kernel kills
 them when the process that started them dies, even by SIGKILL), and stopped by PID: SIGTERM, then SIGKILL.
 
-Their stderr goes to a file in the vehicle's folder, so a process that dies during start-up can be quoted.
+Their stdout and stderr go to files in the vehicle's folder (<name>.stdout, <name>.stderr), so a process that dies
+during start-up can be quoted and a --summary line read back; a restart appends to the same files.
 """
 
 from __future__ import annotations
 
 import atexit
 import ctypes
+import json
 import os
 import signal
 import subprocess
@@ -41,10 +43,12 @@ def _die_with_parent(parent_pid: int) -> Callable[[], None]:
 
 @dataclass
 class Child:
-    """One started process: its name (vtol-sim, vtol-autopilot), Popen and stderr file."""
+    """One started process: its name (vtol-sim, vtol-autopilot), command line, Popen, stdout and stderr files."""
 
     name: str
+    argv: list[str]
     process: subprocess.Popen
+    stdout_path: Path
     stderr_path: Path
 
     @property
@@ -66,17 +70,35 @@ class Child:
         said = f"; its last stderr lines:\n{tail}" if tail else " (nothing on stderr)"
         return f"{self.name} (pid {self.pid}) exited with code {self.process.returncode} during start-up{said}"
 
+    def summary(self) -> dict:
+        """The last JSON line on its stdout (the --summary counters printed at its stop), or {} if none yet."""
+        try:
+            text = self.stdout_path.read_text(errors="replace")
+        except OSError:
+            return {}
+        lines = [line for line in text.splitlines() if line.startswith("{")]
+        return json.loads(lines[-1]) if lines else {}
 
-def start(name: str, argv: list[str], folder: Path) -> Child:
-    """Start `argv` as `name` with stdout discarded and stderr in folder/<name>.stderr."""
-    stderr_path = folder / f"{name}.stderr"
+    def restart(self) -> None:
+        """Stop it (if running) and start the same command line again, appending to the same files."""
+        stop([self])
+        self.process = _spawn(self.argv, self.stdout_path, self.stderr_path, "a")
+
+
+def _spawn(argv: list[str], stdout_path: Path, stderr_path: Path, mode: str) -> subprocess.Popen:
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
-    with open(stderr_path, "w") as errors:
-        process = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=errors,
-                                   env=env, start_new_session=True, preexec_fn=_die_with_parent(os.getpid()))  # fmt: skip
+    with open(stdout_path, mode) as output, open(stderr_path, mode) as errors:
+        process = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=output, stderr=errors, env=env,
+                                   start_new_session=True, preexec_fn=_die_with_parent(os.getpid()))  # fmt: skip
     with _live_lock:
         _live[process.pid] = process
-    return Child(name, process, stderr_path)
+    return process
+
+
+def start(name: str, argv: list[str], folder: Path) -> Child:
+    """Start `argv` as `name` with stdout in folder/<name>.stdout and stderr in folder/<name>.stderr."""
+    stdout_path, stderr_path = folder / f"{name}.stdout", folder / f"{name}.stderr"
+    return Child(name, argv, _spawn(argv, stdout_path, stderr_path, "w"), stdout_path, stderr_path)
 
 
 def stop(children: list[Child], timeout_s: float = STOP_TIMEOUT_S) -> None:

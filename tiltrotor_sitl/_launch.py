@@ -43,6 +43,10 @@ class Options:
     gcs_port: int | None = None
     truth: bool = True
     ready_timeout_s: float = 60.0
+    params_file: Path | None = None
+    summary: bool = False
+    autopilot_args: tuple[str, ...] = ()
+    wait_ready: bool = True
 
     def check(self, count: int) -> None:
         """Raise ValueError naming the first bad argument."""
@@ -65,6 +69,12 @@ class Options:
             raise ValueError(f"airframe: no such file: {self.airframe}")
         if self.home is not None and not (-90 <= self.home.lat <= 90 and -180 <= self.home.lon <= 180):
             raise ValueError(f"home latitude/longitude out of range: {self.home}")
+        if self.params_file is not None and count > 1:
+            raise ValueError(f"params_file is for one vehicle, not a fleet of {count} (each keeps its own file)")
+        if self.params_file is not None and Path(self.params_file).is_dir():
+            raise ValueError(f"params_file is a folder, not a file: {self.params_file}")
+        if not all(isinstance(arg, str) for arg in self.autopilot_args):
+            raise ValueError(f"autopilot_args must be strings (command-line words), not {self.autopilot_args!r}")
         if not self.ready_timeout_s > 0:
             raise ValueError(f"ready_timeout_s must be positive, not {self.ready_timeout_s}")
         store = ParameterStore(None)
@@ -92,6 +102,7 @@ class Started:
     home: Home
     children: list[Child]
     folder: Path
+    params_path: Path
     truth: TruthFeed | None = None
 
 
@@ -122,9 +133,14 @@ def _check_free(ports: VehiclePorts, sysid: int) -> None:
                                    f"(instance=None) or another instance") from None  # fmt: skip
 
 
-def _write_params(folder: Path, params: dict[str, float]) -> Path:
-    path = folder / "params.json"
+def _write_params(path: Path, params: dict[str, float]) -> Path:
+    """Write `params` into the parameter file `path` (what an existing file holds is kept, as the autopilot would)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
     store = ParameterStore(path)
+    if path.exists():
+        store.load()
+        if not params:
+            return path
     for name, value in params.items():
         store.set(name, float(value))
     error = store.flush()
@@ -137,15 +153,17 @@ def _start_one(options: Options, index: int, sysid: int, ports: VehiclePorts, ro
     folder = root / f"vehicle-{sysid}"
     folder.mkdir()
     home = fleet_home(index, options.home) if index > 0 else (options.home or Home())
-    params_path = _write_params(folder, options.params)
+    params_path = _write_params(options.params_file or folder / "params.json", options.params)
     plant_zenoh = Zenoh.listening(ports.zenoh_plant) if options.truth else Zenoh.off()
     autopilot_zenoh = Zenoh.listening(ports.zenoh_autopilot) if options.truth else Zenoh.off()
     plant = SimCommand(port=ports.plant, spawn_alt=options.spawn_alt, realtime_speed=options.speed,
-                       zenoh=plant_zenoh, airframe=options.airframe, sysid=sysid, home=home)  # fmt: skip
+                       zenoh=plant_zenoh, airframe=options.airframe, sysid=sysid, home=home,
+                       summary=options.summary)  # fmt: skip
     autopilot = AutopilotCommand(sim_port=ports.plant, links=ports.links, spawn_alt=options.spawn_alt,
                                  controller=options.controller, params=params_path, airframe=options.airframe,
-                                 zenoh=autopilot_zenoh, sysid=sysid, home=home)  # fmt: skip
-    started = Started(sysid, ports, home, [], folder)
+                                 zenoh=autopilot_zenoh, sysid=sysid, home=home, summary=options.summary,
+                                 extra=options.autopilot_args)  # fmt: skip
+    started = Started(sysid, ports, home, [], folder, params_path)
     started.children.append(_children.start("vtol-sim", plant.argv(), folder))
     started.children.append(_children.start("vtol-autopilot", autopilot.argv(), folder))
     return started
@@ -184,7 +202,7 @@ def launch(options: Options, count: int, folder: Path | None = None) -> tuple[li
     vehicles: list[Started] = []
     watch: ReadinessWatch | None = None
     try:
-        watch_started = [Started(sysid, ports, Home(), [], root) for sysid, ports in plan]
+        watch_started = [Started(sysid, ports, Home(), [], root, root) for sysid, ports in plan]
         watch = _watch(options, watch_started)
         for index, (sysid, ports) in enumerate(plan):
             vehicles.append(_start_one(options, index, sysid, ports, root))
@@ -195,7 +213,7 @@ def launch(options: Options, count: int, folder: Path | None = None) -> tuple[li
                     if not child.running():
                         raise VehicleError(f"vehicle {vehicle.sysid}: {child.describe_exit()}")
 
-        if not watch.wait(options.ready_timeout_s, keep_going):
+        if options.wait_ready and not watch.wait(options.ready_timeout_s, keep_going):
             tails = "\n".join(f"--- vehicle {v.sysid} {c.name} (pid {c.pid}) stderr:\n{c.stderr_tail()}"
                               for v in vehicles for c in v.children)  # fmt: skip
             raise VehicleError(f"not ready to arm within {options.ready_timeout_s:g} s ({watch.missing()})\n{tails}")
@@ -224,6 +242,8 @@ def stop(vehicles: list[Started], remove: Path | None) -> None:
         if vehicle.truth is not None:
             vehicle.truth.close()
             vehicle.truth = None
-    _children.stop([child for vehicle in vehicles for child in vehicle.children])
+    children = [child for vehicle in vehicles for child in vehicle.children]
+    _children.stop([child for child in children if child.name == "vtol-autopilot"])  # the controllers first,
+    _children.stop([child for child in children if child.name != "vtol-autopilot"])  # then the plants
     if remove is not None:
         shutil.rmtree(remove, ignore_errors=True)
