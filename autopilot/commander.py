@@ -29,8 +29,7 @@ from autopilot.mission_store import MissionStore
 from autopilot.navigator import LandDetector, Navigator
 from autopilot.offboard_setpoint import OffboardSetpoint
 from autopilot.parameters import ParameterStore
-from autopilot.requests import (Arm, Disarm, Land, OffboardPosition, OffboardVelocity, Orbit, Reply, Reposition,
-                                Request, ReturnToLaunch, SetMode, StartMission, Takeoff, Transition)  # fmt: skip
+from autopilot.requests import OffboardPosition, OffboardVelocity, Orbit, Reply, Reposition
 from autopilot.vehicle_state import VehicleState
 from transport.geodesy import Home
 from transport.mavlink import mavlink
@@ -324,37 +323,14 @@ class Commander:
         return ACCEPTED, None
 
     # ---- typed requests from the ground stations ------------------------------------------------------------
-    def handle(self, request: Request) -> Reply:
-        """A request judged against the current step's state (observe())."""
-        state = self.state
-        match request:
-            case Arm(force=force):
-                return self.arm(state, force)
-            case Disarm(force=force):
-                return self.disarm(state, force)
-            case Takeoff(altitude_above_home=altitude):
-                return self.takeoff(state, altitude)
-            case Land():
-                return self.land(state)
-            case SetMode(mode=mode):
-                return self.set_mode(mode, state)
-            case Transition(target=target):
-                return self.transition(target, state)
-            case StartMission():
-                return self.set_mode(MISSION, state)
-            case ReturnToLaunch():
-                return self.set_mode(RETURN, state)
-            case Reposition() | Orbit():
-                return self._route_request(request, state)
-            case OffboardVelocity() | OffboardPosition():
-                if self.offboard.accept(request, state, self.now_usec):
-                    self.setpoints_clamped += 1
-                    self.say(mavlink.MAV_SEVERITY_WARNING, "Set-point clamped to |v| <= (30, 30, 10) m/s",
-                             key="clamped")  # fmt: skip
-                return ACCEPTED, None
-        return UNSUPPORTED, f"{type(request).__name__} is not the commander's"
+    def offboard_request(self, request: OffboardVelocity | OffboardPosition) -> Reply:
+        """A client's Offboard set-point, judged against the current step's state (observe())."""
+        if self.offboard.accept(request, self.state, self.now_usec):
+            self.setpoints_clamped += 1
+            self.say(mavlink.MAV_SEVERITY_WARNING, "Set-point clamped to |v| <= (30, 30, 10) m/s", key="clamped")
+        return ACCEPTED, None
 
-    def _route_request(self, request: Reposition | Orbit, state: VehicleState) -> Reply:
+    def route(self, request: Reposition | Orbit, state: VehicleState) -> Reply:
         """DO_REPOSITION: Hold at a new position (flown there); DO_ORBIT: Orbit mode around a centre."""
         if (refusal := self._profile_refusal()) is not None:
             return refusal
