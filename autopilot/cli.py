@@ -154,8 +154,12 @@ def main(argv: list[str] | None = None) -> int:
     in_air = args.spawn_alt > 0
     profile = PROFILES[args.profile][0] if args.profile else None
     events = EventOutbox()
+    home = Home(*args.home) if args.home is not None else Home()
+    if not -90.0 <= home.lat <= 90.0 or not -180.0 <= home.lon <= 180.0:
+        fail(PROG, f"--home latitude/longitude out of range: {args.home}")
     commander = Commander(params, airframe.hover_thrust_per_rotor / airframe.thrust_max, armed=in_air, in_air=in_air,
-                          say=events.say, profile=profile, stamped_setpoints=args.offboard_lockstep)  # fmt: skip
+                          say=events.say, profile=profile, stamped_setpoints=args.offboard_lockstep,
+                          missions=missions, home=home)  # fmt: skip
     try:
         client = PlantLinkClient(sim_port, system_id=system_id, local_port=args.sim_bind_port)
     except OSError as exc:
@@ -171,9 +175,6 @@ def main(argv: list[str] | None = None) -> int:
     session = None
     if not args.no_zenoh:
         session = open_session(args.zenoh_listen or [ports.zenoh_autopilot], args.zenoh_connect, PROG)
-    home = Home(*args.home) if args.home is not None else Home()
-    if not -90.0 <= home.lat <= 90.0 or not -180.0 <= home.lon <= 180.0:
-        fail(PROG, f"--home latitude/longitude out of range: {args.home}")
     services = MavlinkServices(
         router, params, FlightStack(commander, injection, params, missions), system_id=system_id, home=home,
         events_publisher=None if session is None else session.declare_publisher(autopilot_events_key(system_id)),

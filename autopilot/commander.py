@@ -1,8 +1,10 @@
 """Arming, flight modes and their transitions, as PX4's commander does them, in simulation time
 (docs/mavlink.md).
 
-Modes (PX4 custom modes): Hold (AUTO.LOITER), Takeoff (AUTO.TAKEOFF), Land (AUTO.LAND), Offboard. Each one's
-position logic is in navigator.py; the result is a velocity set-point for the flight controller.
+Modes (PX4 custom modes): Hold (AUTO.LOITER), Takeoff (AUTO.TAKEOFF), Land (AUTO.LAND), Offboard, Mission
+(AUTO.MISSION), Return (AUTO.RTL), Orbit (POSCTL.ORBIT). Hold, Takeoff and Land's position logic is in navigator.py;
+Mission, Return, Orbit and Hold after a DO_REPOSITION fly routes of targets (auto_flight.py, mission_flight.py).
+The result is a velocity set-point for the flight controller.
 
 On the ground the flight controller does not run: disarmed, the rotors are off; armed, they idle until a
 takeoff (Takeoff mode, or an Offboard set-point that climbs). A takeoff starts a fresh flight controller, so
@@ -21,12 +23,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from autopilot.auto_flight import AutoFlight, Circle, FlyTo, HoldAt
+from autopilot.mission_flight import MissionFlight, return_route
+from autopilot.mission_store import MissionStore
 from autopilot.navigator import LandDetector, Navigator
 from autopilot.offboard_setpoint import OffboardSetpoint
 from autopilot.parameters import ParameterStore
-from autopilot.requests import (Arm, Disarm, Land, OffboardPosition, OffboardVelocity, Reply, Request, SetMode,
-                                Takeoff, Transition)  # fmt: skip
+from autopilot.requests import OffboardPosition, OffboardVelocity, Orbit, Reply, Reposition
 from autopilot.vehicle_state import VehicleState
+from transport.geodesy import Home
 from transport.mavlink import mavlink
 
 ACCEPTED = mavlink.MAV_RESULT_ACCEPTED
@@ -35,7 +40,9 @@ DENIED = mavlink.MAV_RESULT_DENIED
 UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
 
 HOLD, TAKEOFF, LAND, OFFBOARD = "Hold", "Takeoff", "Land", "Offboard"
-MODES = (HOLD, TAKEOFF, LAND, OFFBOARD)
+MISSION, RETURN, ORBIT = "Mission", "Return", "Orbit"
+MODES = (HOLD, TAKEOFF, LAND, OFFBOARD, MISSION, RETURN, ORBIT)
+REPOSITION_ACCEPTANCE = 1.0  # m: a DO_REPOSITION flies the leg to within this, then holds there
 FORCE_MAGIC = 21196  # MAV_CMD_COMPONENT_ARM_DISARM param2: skip the checks (PX4)
 
 LANDED_UNDEFINED = mavlink.MAV_LANDED_STATE_UNDEFINED
@@ -74,9 +81,14 @@ class Commander:
         say: Callable[..., None] = lambda severity, text, key=None: None,
         profile: Callable[[float], np.ndarray] | None = None,
         stamped_setpoints: bool = False,
+        missions: MissionStore | None = None,
+        home: Home = Home(),
     ) -> None:
         self.params = params
         self.navigator = Navigator(params)
+        self.auto = AutoFlight(params)
+        self.mission = MissionFlight(params, missions if missions is not None else MissionStore(), home, self.auto)
+        self.repositioning = False  # Hold flies self.auto's route (DO_REPOSITION)
         self.land_detector = LandDetector(hover_fraction)
         self.say = say
         self.profile = profile
@@ -136,11 +148,21 @@ class Commander:
             return ON_GROUND
         if self.mode == TAKEOFF:
             return TAKING_OFF
-        if self.mode == LAND:
+        if self.mode == LAND or self.auto_landing:
             return LANDING
         return IN_AIR
 
+    @property
+    def auto_landing(self) -> bool:
+        """Mission or Return descends onto its landing point."""
+        return self.mode in (MISSION, RETURN) and self.auto.descending
+
     def _set_mode(self, mode: str, state: VehicleState, reason: str | None = None) -> None:
+        self.repositioning = False
+        if mode == MISSION:
+            self.mission.start(state)
+        elif mode == RETURN:
+            self.auto.start(state, return_route(self.params, state))
         if mode == HOLD:
             self.navigator.start_hold(state)
             self.transition_target = VTOL_MC
@@ -203,6 +225,8 @@ class Commander:
             return DENIED, (f"Arming denied: not level (roll {math.degrees(roll):.0f}, "
                             f"pitch {math.degrees(pitch):.0f} deg)")  # fmt: skip
         self._set_armed(True, "Armed")
+        if self.mode == MISSION:
+            self.mission.start(state)  # a takeoff item first: the mission takes off
         if self.mode == OFFBOARD and not self._offboard_fresh():
             self._set_mode(HOLD, state)
         return ACCEPTED, None
@@ -232,6 +256,12 @@ class Commander:
                                           f"{self.params['COM_OF_LOSS_T']:g} s")  # fmt: skip
         if mode == TAKEOFF:
             return self.takeoff(state, None)
+        if mode == MISSION and not self.mission.items:
+            return DENIED, "Mission denied: no mission stored"
+        if mode == ORBIT:
+            return DENIED, "Orbit: use MAV_CMD_DO_ORBIT (radius, speed, centre)"
+        if mode == RETURN and not self.flying:
+            return TEMPORARILY_REJECTED, "Return denied: not flying"
         if mode == LAND and self.on_ground:
             self._set_mode(LAND, state)
             return ACCEPTED, None
@@ -293,29 +323,31 @@ class Commander:
         return ACCEPTED, None
 
     # ---- typed requests from the ground stations ------------------------------------------------------------
-    def handle(self, request: Request) -> Reply:
-        """A request judged against the current step's state (observe())."""
-        state = self.state
-        match request:
-            case Arm(force=force):
-                return self.arm(state, force)
-            case Disarm(force=force):
-                return self.disarm(state, force)
-            case Takeoff(altitude_above_home=altitude):
-                return self.takeoff(state, altitude)
-            case Land():
-                return self.land(state)
-            case SetMode(mode=mode):
-                return self.set_mode(mode, state)
-            case Transition(target=target):
-                return self.transition(target, state)
-            case OffboardVelocity() | OffboardPosition():
-                if self.offboard.accept(request, state, self.now_usec):
-                    self.setpoints_clamped += 1
-                    self.say(mavlink.MAV_SEVERITY_WARNING, "Set-point clamped to |v| <= (30, 30, 10) m/s",
-                             key="clamped")  # fmt: skip
-                return ACCEPTED, None
-        return UNSUPPORTED, f"{type(request).__name__} is not the commander's"
+    def offboard_request(self, request: OffboardVelocity | OffboardPosition) -> Reply:
+        """A client's Offboard set-point, judged against the current step's state (observe())."""
+        if self.offboard.accept(request, self.state, self.now_usec):
+            self.setpoints_clamped += 1
+            self.say(mavlink.MAV_SEVERITY_WARNING, "Set-point clamped to |v| <= (30, 30, 10) m/s", key="clamped")
+        return ACCEPTED, None
+
+    def route(self, request: Reposition | Orbit, state: VehicleState) -> Reply:
+        """DO_REPOSITION: Hold at a new position (flown there); DO_ORBIT: Orbit mode around a centre."""
+        if (refusal := self._profile_refusal()) is not None:
+            return refusal
+        name = "Reposition" if isinstance(request, Reposition) else "Orbit"
+        if not self.flying:
+            return TEMPORARILY_REJECTED, f"{name} denied: not flying"
+        if isinstance(request, Reposition):
+            self._set_mode(HOLD, state, "Reposition: Hold")
+            self.repositioning = True
+            self.auto.start(state, [FlyTo(request.position, REPOSITION_ACCEPTANCE, request.speed),
+                                    HoldAt(request.position, None)])  # fmt: skip
+            return ACCEPTED, None
+        center = state.position_ned[0:2].copy() if request.center is None else request.center
+        down = float(state.position_ned[2]) if request.down is None else request.down
+        self._set_mode(ORBIT, state, f"Orbit: radius {request.radius:g} m at {request.speed:g} m/s")
+        self.auto.start(state, [Circle(center, down, request.radius, request.speed, request.clockwise)])
+        return ACCEPTED, None
 
     def offboard_setpoint(self, velocity_ned: np.ndarray, stamp_ms: int | None = None) -> None:
         """A (finite, clamped) velocity set-point from a client, received now. With stamped set-points
@@ -361,16 +393,22 @@ class Commander:
             setpoint = self._offboard_velocity(state)
         elif self.mode == LAND:
             setpoint = self.navigator.land(state)
+        elif self.mode == MISSION:
+            setpoint = self.mission.step(state)
+        elif self.mode in (RETURN, ORBIT) or self.repositioning:
+            setpoint = self.auto.step(state)
         else:
             setpoint = self.navigator.hold(state)
-        if self.mode in (LAND, OFFBOARD) and self.land_detector.update(state, mean_thrust_fraction, time_usec,
-                                                                       float(setpoint[2])):  # fmt: skip
+        landing = self.mode in (LAND, OFFBOARD) or self.auto_landing
+        if landing and self.land_detector.update(state, mean_thrust_fraction, time_usec, float(setpoint[2])):
             self.on_ground = True
             self._landed_usec = time_usec
             self.state_version += 1
             self.say(mavlink.MAV_SEVERITY_INFO, "Landing detected")
+            if self.mode == MISSION:
+                self.mission.landed(state)
             return None
-        if self.mode not in (LAND, OFFBOARD):
+        if not landing:
             self.land_detector.reset()
         return setpoint
 
@@ -389,6 +427,9 @@ class Commander:
                 and time_usec - self._armed_on_ground_usec >= p["COM_DISARM_PRFLT"] * 1e6:  # fmt: skip
             self._set_armed(False, f"Disarmed: no takeoff within {p['COM_DISARM_PRFLT']:g} s")
             return None
+        if self.mode == MISSION and self.auto.climbing:
+            self._lift_off()
+            return self.mission.step(state)
         if self.mode == TAKEOFF or (self.mode == OFFBOARD and
                                     self._offboard_velocity(state)[2] < -OFFBOARD_TAKEOFF_CLIMB):  # fmt: skip
             self._lift_off()

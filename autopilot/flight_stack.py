@@ -5,11 +5,13 @@ uploads, clears and the current item go to the mission store (autopilot/mission_
 
 from __future__ import annotations
 
-from autopilot.commander import Commander
+from autopilot.commander import MISSION, RETURN, Commander
 from autopilot.failure_injection import FailureInjection
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
-from autopilot.requests import ClearMission, InjectFailure, Reply, Request, SetMissionCurrent, StoreMission
+from autopilot.requests import (Arm, ClearMission, Disarm, InjectFailure, Land, OffboardPosition, OffboardVelocity,
+                                Orbit, Reply, Reposition, Request, ReturnToLaunch, SetMissionCurrent, SetMode,
+                                StartMission, StoreMission, Takeoff, Transition)  # fmt: skip
 from transport.mavlink import mavlink
 
 
@@ -37,4 +39,30 @@ class FlightStack:
             if not self.missions.set_current(request.seq):
                 return mavlink.MAV_RESULT_DENIED, f"Mission item {request.seq} not in the mission"
             return mavlink.MAV_RESULT_ACCEPTED, None
-        return self.commander.handle(request)
+        return self._commander_request(request)
+
+    def _commander_request(self, request: Request) -> Reply:
+        """Arming, modes and set-points: judged by the commander against the current step's state."""
+        commander, state = self.commander, self.commander.state
+        match request:
+            case Arm(force=force):
+                return commander.arm(state, force)
+            case Disarm(force=force):
+                return commander.disarm(state, force)
+            case Takeoff(altitude_above_home=altitude):
+                return commander.takeoff(state, altitude)
+            case Land():
+                return commander.land(state)
+            case SetMode(mode=mode):
+                return commander.set_mode(mode, state)
+            case Transition(target=target):
+                return commander.transition(target, state)
+            case StartMission():
+                return commander.set_mode(MISSION, state)
+            case ReturnToLaunch():
+                return commander.set_mode(RETURN, state)
+            case Reposition() | Orbit():
+                return commander.route(request, state)
+            case OffboardVelocity() | OffboardPosition():
+                return commander.offboard_request(request)
+        return mavlink.MAV_RESULT_UNSUPPORTED, f"{type(request).__name__} is not the flight stack's"

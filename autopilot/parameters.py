@@ -77,6 +77,10 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
     P("VT_ARSP_TRANS", REAL32, 23.0, 5.0, 40.0, "m/s", "PID baseline: airspeed where the transition completes"),
     P("FW_AIRSPD_TRIM", REAL32, 26.0, 21.0, 30.0, "m/s", "cruise speed of the fixed-wing Hold (loiter) after a "
       "transition to fixed wing"),
+    P("NAV_ACC_RAD", REAL32, 10.0, 0.05, 200.0, "m", "mission waypoint acceptance radius (when the item's param2 is "
+      "0)"),
+    P("RTL_RETURN_ALT", REAL32, 60.0, 0.0, 1000.0, "m", "Return: climb to this height above home (if lower) before "
+      "flying home"),
     P("NAV_LOITER_RAD", REAL32, 250.0, 100.0, 2000.0, "m", "radius of the fixed-wing Hold circle"),
 )
 del P

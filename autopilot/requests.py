@@ -97,8 +97,38 @@ class SetMissionCurrent:
     seq: int
 
 
+@dataclass(frozen=True)
+class StartMission:
+    """MAV_CMD_MISSION_START (or Mission mode): fly the stored mission from its current item."""
+
+
+@dataclass(frozen=True)
+class ReturnToLaunch:
+    pass
+
+
+@dataclass(frozen=True)
+class Reposition:
+    """MAV_CMD_DO_REPOSITION: fly to `position` (NED from home) and Hold there; `speed` None: the default."""
+
+    position: np.ndarray
+    speed: float | None
+
+
+@dataclass(frozen=True)
+class Orbit:
+    """MAV_CMD_DO_ORBIT: circle `center` (NE; None: here) at `down` (None: the current altitude)."""
+
+    center: np.ndarray | None
+    down: float | None
+    radius: float  # m, > 0
+    clockwise: bool
+    speed: float  # m/s
+
+
 Request = (Arm | Disarm | Takeoff | Land | SetMode | Transition | OffboardVelocity | OffboardPosition | InjectFailure
-           | StoreMission | ClearMission | SetMissionCurrent)  # fmt: skip
+           | StoreMission | ClearMission | SetMissionCurrent | StartMission | ReturnToLaunch | Reposition
+           | Orbit)  # fmt: skip
 
 
 class RequestHandler(Protocol):

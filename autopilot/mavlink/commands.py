@@ -12,6 +12,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from aircraft.failures import FailureRejected, parse_failure
 from autopilot.commander import FORCE_MAGIC
 from autopilot.mavlink import messages
@@ -25,18 +27,24 @@ from autopilot.requests import (
     Disarm,
     InjectFailure,
     Land,
+    Orbit,
     Reply,
+    Reposition,
     RequestHandler,
+    ReturnToLaunch,
     SetMode,
+    StartMission,
     Takeoff,
     Transition,
 )
 from autopilot.vehicle_status import InjectionOutcome
-from transport.geodesy import Home
+from transport.geodesy import Home, ned_from_geodetic
 from transport.mavlink import mavlink as M
 
 Params = tuple[float, float, float, float, float, float, float]
 RELATIVE_FRAMES = (M.MAV_FRAME_GLOBAL_RELATIVE_ALT, M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT)
+ORBIT_DEFAULT_RADIUS, ORBIT_MIN_RADIUS, ORBIT_MAX_RADIUS = 20.0, 1.0, 10000.0  # m (PX4: MC_ORBIT_RAD_MAX 1000)
+ORBIT_DEFAULT_SPEED = 5.0  # m/s
 NO_STATE_YET = (M.MAV_RESULT_TEMPORARILY_REJECTED, "No vehicle state from the plant yet")
 
 
@@ -79,6 +87,10 @@ class CommandService:
             M.MAV_CMD_NAV_LAND: lambda origin, p, frame: self.flight_stack.handle(Land()),
             M.MAV_CMD_DO_SET_MODE: self._set_mode_command,
             M.MAV_CMD_DO_VTOL_TRANSITION: self._transition,
+            M.MAV_CMD_MISSION_START: lambda origin, p, frame: self.flight_stack.handle(StartMission()),
+            M.MAV_CMD_NAV_RETURN_TO_LAUNCH: lambda origin, p, frame: self.flight_stack.handle(ReturnToLaunch()),
+            M.MAV_CMD_DO_REPOSITION: self._reposition,
+            M.MAV_CMD_DO_ORBIT: self._orbit,
             M.MAV_CMD_INJECT_FAILURE: self._inject_failure,
             M.MAV_CMD_REQUEST_MESSAGE: self._request_message,
             M.MAV_CMD_SET_MESSAGE_INTERVAL: self._set_interval,
@@ -171,7 +183,8 @@ class CommandService:
             return M.MAV_RESULT_DENIED, "Set mode: only PX4 custom modes (base mode flag 1)"
         mode = mode_from_px4(main, sub)
         if mode is None:
-            return M.MAV_RESULT_DENIED, f"Mode {px4_mode_name(main, sub)} not supported: Hold Takeoff Land Offboard"
+            return M.MAV_RESULT_DENIED, (f"Mode {px4_mode_name(main, sub)} not supported: Hold Takeoff Land Offboard "
+                                         "Mission Return Orbit")  # fmt: skip
         return self.flight_stack.handle(SetMode(mode))
 
     def _transition(self, origin: Origin, p: Params, frame: int | None) -> Reply:
@@ -179,6 +192,61 @@ class CommandService:
         if target is None:
             return M.MAV_RESULT_DENIED, "Transition: param1 must be 3 (MC) or 4 (FW)"
         return self.flight_stack.handle(Transition(target))
+
+    def _position(self, p: Params, frame: int | None) -> tuple[float, float, float | None] | str:
+        """params 5-7 (lat, lon, alt; COMMAND_INT: degE7 and the frame's altitude) as north, east and down (None:
+        NaN altitude), or why not; NaN lat/lon are refused here (the callers treat them first)."""
+        lat, lon = (p[4] * 1e-7, p[5] * 1e-7) if frame is not None else (p[4], p[5])
+        if not (math.isfinite(lat) and math.isfinite(lon)) or abs(lat) > 90.0 or abs(lon) > 180.0:
+            return f"latitude/longitude {p[4]:g}, {p[5]:g} not valid"
+        if math.isinf(p[6]):
+            return "altitude infinite"
+        north, east, _ = ned_from_geodetic(self.home, lat, lon, self.home.alt)
+        return north, east, self._down(p[6], frame)
+
+    def _down(self, altitude: float, frame: int | None) -> float | None:
+        """A command's altitude (AMSL; above home in the RELATIVE_ALT frames) as NED down; None for NaN."""
+        if math.isnan(altitude):
+            return None
+        return -altitude if frame in RELATIVE_FRAMES else self.home.alt - altitude
+
+    def _current_position(self) -> tuple[float, float, float]:
+        status = self.view.status
+        position = status.estimate.position_ned if status is not None else (0.0, 0.0, 0.0)
+        return float(position[0]), float(position[1]), float(position[2])
+
+    def _reposition(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
+        """MAV_CMD_DO_REPOSITION (MAVSDK goto_location): param1 speed (-1/NaN default), params 5-7 lat, lon, alt
+        (NaN lat/lon: here; NaN alt: the current altitude)."""
+        here = self._current_position()
+        target: tuple[float, float, float | None] | str
+        if math.isnan(p[4]) or math.isnan(p[5]):
+            target = (here[0], here[1], self._down(p[6], frame))
+        else:
+            target = self._position(p, frame)
+        if isinstance(target, str):
+            return M.MAV_RESULT_DENIED, f"Reposition denied: {target}"
+        north, east, down = target
+        speed = p[0] if math.isfinite(p[0]) and p[0] > 0 else None
+        position = np.array([north, east, here[2] if down is None else down])
+        return self.flight_stack.handle(Reposition(position, speed))
+
+    def _orbit(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
+        """MAV_CMD_DO_ORBIT: param1 radius (sign: direction, positive clockwise), param2 velocity (NaN: default),
+        param3 yaw behaviour (yaw is not commanded here), params 5-7 centre (NaN: here)."""
+        radius = p[0] if math.isfinite(p[0]) and p[0] != 0 else ORBIT_DEFAULT_RADIUS
+        if not ORBIT_MIN_RADIUS <= abs(radius) <= ORBIT_MAX_RADIUS:
+            return M.MAV_RESULT_DENIED, (f"Orbit denied: radius {abs(radius):g} m not in "
+                                         f"{ORBIT_MIN_RADIUS:g}..{ORBIT_MAX_RADIUS:g} m")  # fmt: skip
+        speed = abs(p[1]) if math.isfinite(p[1]) and p[1] != 0 else ORBIT_DEFAULT_SPEED
+        if math.isnan(p[4]) or math.isnan(p[5]):
+            center, down = None, self._down(p[6], frame)
+        else:
+            target = self._position(p, frame)
+            if isinstance(target, str):
+                return M.MAV_RESULT_DENIED, f"Orbit denied: {target}"
+            center, down = np.array(target[0:2]), target[2]
+        return self.flight_stack.handle(Orbit(center, down, abs(radius), radius > 0, speed))
 
     def _inject_failure(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
         try:

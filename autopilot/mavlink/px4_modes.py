@@ -2,15 +2,19 @@
 
 from __future__ import annotations
 
-from autopilot.commander import HOLD, LAND, OFFBOARD, TAKEOFF
+from autopilot.commander import HOLD, LAND, MISSION, OFFBOARD, ORBIT, RETURN, TAKEOFF
 
-PX4_MAIN_AUTO, PX4_MAIN_OFFBOARD = 4, 6
-PX4_AUTO_TAKEOFF, PX4_AUTO_LOITER, PX4_AUTO_LAND = 2, 3, 6
+PX4_MAIN_POSCTL, PX4_MAIN_AUTO, PX4_MAIN_OFFBOARD = 3, 4, 6
+PX4_AUTO_TAKEOFF, PX4_AUTO_LOITER, PX4_AUTO_MISSION, PX4_AUTO_RTL, PX4_AUTO_LAND = 2, 3, 4, 5, 6
+PX4_POSCTL_ORBIT = 1  # PX4 reports its Orbit navigation state as POSCTL / ORBIT (px4_custom_mode.h)
 PX4_MODES = {  # mode -> (main mode, sub mode)
     HOLD: (PX4_MAIN_AUTO, PX4_AUTO_LOITER),
     TAKEOFF: (PX4_MAIN_AUTO, PX4_AUTO_TAKEOFF),
     LAND: (PX4_MAIN_AUTO, PX4_AUTO_LAND),
     OFFBOARD: (PX4_MAIN_OFFBOARD, 0),
+    MISSION: (PX4_MAIN_AUTO, PX4_AUTO_MISSION),
+    RETURN: (PX4_MAIN_AUTO, PX4_AUTO_RTL),
+    ORBIT: (PX4_MAIN_POSCTL, PX4_POSCTL_ORBIT),
 }
 PX4_MAIN_NAMES = {1: "MANUAL", 2: "ALTCTL", 3: "POSCTL", 4: "AUTO", 5: "ACRO", 6: "OFFBOARD", 7: "STABILIZED",
                   8: "RATTITUDE"}  # fmt: skip
@@ -34,4 +38,6 @@ def px4_mode_name(main: int, sub: int) -> str:
     name = PX4_MAIN_NAMES.get(main, f"main mode {main}")
     if main == PX4_MAIN_AUTO:
         name += "." + PX4_AUTO_NAMES.get(sub, f"sub mode {sub}")
+    elif main == PX4_MAIN_POSCTL and sub == PX4_POSCTL_ORBIT:
+        name += ".ORBIT"
     return name

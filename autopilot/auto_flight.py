@@ -1,0 +1,180 @@
+"""Flying a route of position targets with velocity set-points (Mission, Return, Go-to, Orbit; docs/mavlink.md).
+
+A route is a list of targets flown one after the other:
+
+    Climb    climb over a point to an altitude (a takeoff, or Return's climb to RTL_RETURN_ALT)
+    FlyTo    the leg from where the previous target ended to a position, at the leg's cruise speed, braking
+             into it; done within its acceptance radius (and 3 m of its altitude)
+    HoldAt   hold a position for some seconds (None: for ever)
+    LandAt   fly to a point, stop over it, descend (MPC_Z_VEL_MAX_DN, MPC_LAND_SPEED below MPC_LAND_ALT2) until
+             the commander's land detector sees the touchdown
+    Circle   circle a centre (Orbit) for ever
+
+The set-point is ramped at MPC_ACC_HOR (guidance.ramp) like the Offboard position set-points. The speeds are
+velocity set-points only: the unified MPC flies a leg at FW_AIRSPD_TRIM in forward flight with no mode logic.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from autopilot.guidance import circle_velocity, leg_cruise_speed, leg_velocity, limit_norm, ramp, vertical_velocity
+from autopilot.parameters import ParameterStore
+from autopilot.vehicle_state import VehicleState
+
+TICK_S = 0.01
+ALTITUDE_ACCEPTANCE = 3.0  # m: a FlyTo is done within this of its altitude (and its radius horizontally)
+CLIMB_DONE = 0.5  # m below the climb altitude
+OVER_LANDING_POINT = 1.0  # m and m/s: over the landing point and slow: descend
+CIRCLE_CONVERGENCE = 50.0  # m (at most; a quarter of the radius for small circles)
+
+
+@dataclass(frozen=True)
+class Climb:
+    xy: np.ndarray
+    down: float
+    rate: float  # m/s
+
+
+@dataclass(frozen=True)
+class FlyTo:
+    position: np.ndarray  # NED
+    acceptance: float  # m
+    speed: float | None = None  # None: guidance.leg_cruise_speed
+
+
+@dataclass(frozen=True)
+class HoldAt:
+    position: np.ndarray
+    seconds: float | None  # None: for ever
+
+
+@dataclass(frozen=True)
+class LandAt:
+    xy: np.ndarray
+
+
+@dataclass(frozen=True)
+class Circle:
+    center: np.ndarray  # NE
+    down: float
+    radius: float
+    speed: float
+    clockwise: bool
+
+
+Target = Climb | FlyTo | HoldAt | LandAt | Circle
+
+
+class AutoFlight:
+    """The route being flown and the ramped velocity set-point."""
+
+    def __init__(self, params: ParameterStore) -> None:
+        self.params = params
+        self.route: list[Target] = []
+        self.index = 0
+        self.velocity = np.zeros(3)
+        self.leg_start = np.zeros(3)
+        self.descending = False
+        self.mission_speed: float | None = None  # DO_CHANGE_SPEED (None: the default cruise speeds)
+        self._target_since_usec = 0
+
+    # ---- routes ------------------------------------------------------------------------------------------------
+    def start(self, state: VehicleState, route: list[Target]) -> None:
+        """A new route from here (the set-point starts from the vehicle's velocity)."""
+        self.velocity = state.velocity_ned.copy()
+        self.follow(state, route)
+
+    def follow(self, state: VehicleState, route: list[Target]) -> None:
+        """Another route, continuing the set-point; its first leg starts where the last target was."""
+        self.route = list(route)
+        self.index = 0
+        self.leg_start = state.position_ned.copy()
+        self.descending = False
+        self._target_since_usec = state.time_usec
+
+    @property
+    def finished(self) -> bool:
+        return self.index >= len(self.route)
+
+    @property
+    def target(self) -> Target | None:
+        return None if self.finished else self.route[self.index]
+
+    @property
+    def climbing(self) -> bool:
+        return isinstance(self.target, Climb)
+
+    def _next(self, state: VehicleState) -> None:
+        target = self.route[self.index]
+        if isinstance(target, FlyTo | HoldAt):
+            self.leg_start = target.position.copy()
+        else:
+            self.leg_start = state.position_ned.copy()
+        self.index += 1
+        self._target_since_usec = state.time_usec
+
+    # ---- 100 Hz --------------------------------------------------------------------------------------------------
+    def step(self, state: VehicleState) -> np.ndarray:
+        """The velocity set-point; moves on to the next target when the current one is done."""
+        while not self.finished:
+            wanted = self._wanted(state, self.route[self.index])
+            if wanted is not None:
+                self.velocity = ramp(self.velocity, wanted, self.params["MPC_ACC_HOR"], TICK_S)
+                return self.velocity.copy()
+            self._next(state)
+        p = self.params
+        self.velocity = ramp(self.velocity, np.zeros(3), p["MPC_ACC_HOR"], TICK_S)
+        return self.velocity.copy()
+
+    def _vertical(self, state: VehicleState, down: float, up_limit: float | None = None) -> float:
+        p = self.params
+        return vertical_velocity(float(state.position_ned[2]), down, p["MPC_Z_P"],
+                                 p["MPC_Z_VEL_MAX_UP"] if up_limit is None else up_limit, p["MPC_Z_VEL_MAX_DN"])
+
+    def _to_point(self, state: VehicleState, xy: np.ndarray) -> np.ndarray:
+        p = self.params
+        return limit_norm(leg_velocity(state.position_ned[0:2], xy, xy, p["MPC_XY_CRUISE"], p["MPC_ACC_HOR"],
+                                       p["MPC_XY_P"]), p["MPC_XY_CRUISE"])  # fmt: skip
+
+    def _wanted(self, state: VehicleState, target: Target) -> np.ndarray | None:
+        """The set-point the target asks for, or None when it is done."""
+        p = self.params
+        position = state.position_ned
+        match target:
+            case Climb(xy=xy, down=down, rate=rate):
+                if float(position[2]) <= down + CLIMB_DONE:
+                    return None
+                return np.array([*self._to_point(state, xy), self._vertical(state, down, rate)])
+            case FlyTo(position=end, acceptance=acceptance, speed=speed):
+                start = self.leg_start
+                offset = end - position
+                if float(np.hypot(offset[0], offset[1])) <= acceptance and abs(float(offset[2])) <= ALTITUDE_ACCEPTANCE:
+                    return None
+                length = float(np.hypot(*(end[0:2] - start[0:2])))
+                cruise = speed if speed is not None else leg_cruise_speed(
+                    length, self.mission_speed, p["MPC_XY_CRUISE"], p["FW_AIRSPD_TRIM"], p["MPC_ACC_HOR"])
+                horizontal = leg_velocity(position[0:2], start[0:2], end[0:2], cruise, p["MPC_ACC_HOR"], p["MPC_XY_P"])
+                return np.array([*horizontal, self._vertical(state, float(end[2]))])
+            case HoldAt(position=point, seconds=seconds):
+                if seconds is not None and state.time_usec - self._target_since_usec >= seconds * 1e6:
+                    return None
+                return np.array([*self._to_point(state, point[0:2]), self._vertical(state, float(point[2]))])
+            case LandAt(xy=xy):
+                horizontal = self._to_point(state, xy)
+                if not self.descending:
+                    over = float(np.hypot(*(xy - position[0:2]))) < OVER_LANDING_POINT
+                    slow = float(np.hypot(*state.velocity_ned[0:2])) < OVER_LANDING_POINT
+                    self.descending = over and slow
+                    if not self.descending:
+                        return np.array([*horizontal, self._vertical(state, float(self.leg_start[2]))])
+                height = -float(position[2])
+                rate = p["MPC_LAND_SPEED"] if height < p["MPC_LAND_ALT2"] else p["MPC_Z_VEL_MAX_DN"]
+                return np.array([*horizontal, rate])
+            case Circle(center=center, down=down, radius=radius, speed=speed, clockwise=clockwise):
+                convergence = min(CIRCLE_CONVERGENCE, max(radius / 4.0, 2.0))
+                horizontal = circle_velocity(position[0:2], center, radius, speed, clockwise, convergence)
+                return np.array([*horizontal, self._vertical(state, down)])
+        return None

@@ -1,0 +1,83 @@
+"""Guidance maths for the automatic modes: positions to velocity set-points (NED, m/s). Pure functions, no state.
+
+    leg_velocity      along a straight leg at the cruise speed, converging to the line (cross-track term) and
+                      braking into its end with the stopping-distance law sqrt(2 a d) (P near it)
+    circle_velocity   a vector field onto a circle (the fixed-wing Hold and Orbit)
+    vertical_velocity P on the altitude error, bounded by the climb and descent limits
+    ramp              a set-point changed by at most `accel` per second (the velocity controller gets a ramp)
+    leg_cruise_speed  the speed a leg is flown at: the forward-flight cruise speed when the leg is long enough to
+                      reach it and stop again, the multicopter cruise speed otherwise (or the mission's own)
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+CROSS_TRACK_LIMIT = 0.5  # fraction of the leg speed the cross-track correction may add (at most)
+
+
+def limit_norm(vector: np.ndarray, limit: float) -> np.ndarray:
+    norm = float(np.hypot(vector[0], vector[1]))
+    return vector * (limit / norm) if norm > limit else vector
+
+
+def stopping_speed(distance: float, accel: float, gain: float) -> float:
+    """The fastest speed that still stops in `distance` at `accel` (P with `gain` close in)."""
+    return min(math.sqrt(2.0 * accel * max(distance, 0.0)), gain * max(distance, 0.0))
+
+
+def leg_velocity(position: np.ndarray, start: np.ndarray, end: np.ndarray, speed: float, accel: float,
+                 gain: float) -> np.ndarray:  # fmt: skip
+    """Horizontal velocity (2) flying the leg start -> end (2-vectors): along it at `speed`, braking into `end`,
+    and back to the line at `gain` times the cross-track error (at most CROSS_TRACK_LIMIT of `speed`)."""
+    leg = end - start
+    length = float(np.hypot(*leg))
+    to_end = end - position
+    if length < 1e-6:
+        distance = float(np.hypot(*to_end))
+        if distance < 1e-6:
+            return np.zeros(2)
+        return to_end / distance * min(speed, stopping_speed(distance, accel, gain))
+    along_unit = leg / length
+    normal = np.array([-along_unit[1], along_unit[0]])
+    to_go = float(to_end @ along_unit)
+    cross = float((position - start) @ normal)
+    along = min(speed, stopping_speed(to_go, accel, gain)) if to_go > 0 else -stopping_speed(-to_go, accel, gain)
+    correction = -gain * cross
+    limit = CROSS_TRACK_LIMIT * max(speed, 1.0)
+    correction = min(max(correction, -limit), limit)
+    return along * along_unit + correction * normal
+
+
+def circle_velocity(position: np.ndarray, center: np.ndarray, radius: float, speed: float, clockwise: bool,
+                    convergence: float) -> np.ndarray:  # fmt: skip
+    """Horizontal velocity (2) onto the circle: tangential at `speed`, turned towards the circle by 45 deg at
+    `convergence` metres off it."""
+    offset = position - center
+    distance = float(np.hypot(*offset))
+    outward = offset / distance if distance >= 1.0 else np.array([1.0, 0.0])
+    tangent = np.array([-outward[1], outward[0]]) if clockwise else np.array([outward[1], -outward[0]])
+    angle = math.atan((distance - radius) / convergence)
+    return speed * (math.cos(angle) * tangent - math.sin(angle) * outward)
+
+
+def vertical_velocity(down: float, target_down: float, gain: float, up_limit: float, down_limit: float) -> float:
+    return min(max(gain * (target_down - down), -up_limit), down_limit)
+
+
+def ramp(previous: np.ndarray, wanted: np.ndarray, accel: float, dt: float) -> np.ndarray:
+    step = wanted - previous
+    limit = accel * dt
+    norm = float(np.linalg.norm(step))
+    return previous + (step * (limit / norm) if norm > limit else step)
+
+
+def leg_cruise_speed(length: float, mission_speed: float | None, mc_cruise: float, fw_cruise: float,
+                     accel: float) -> float:  # fmt: skip
+    """`mission_speed` (DO_CHANGE_SPEED) when set; else `fw_cruise` when the leg is long enough to accelerate to it
+    and brake from it at `accel` (the unified MPC transitions by itself), `mc_cruise` otherwise."""
+    if mission_speed is not None:
+        return mission_speed
+    return fw_cruise if length >= fw_cruise**2 / accel else mc_cruise

@@ -1,0 +1,162 @@
+"""AUTO.MISSION and AUTO.RTL as routes (docs/mavlink.md, "Mission" and "Return"): the stored mission stepped
+through item by item, each navigation item turned into targets for AutoFlight (autopilot/auto_flight.py), the
+progress reported to the mission store (MISSION_CURRENT, MISSION_ITEM_REACHED).
+
+    NAV_WAYPOINT                  FlyTo, acceptance radius param2 (0: NAV_ACC_RAD)
+    NAV_TAKEOFF, NAV_VTOL_TAKEOFF Climb over the current position to the item's altitude
+    NAV_LAND, NAV_VTOL_LAND       FlyTo over the point (at the current altitude), LandAt (lat/lon 0: here)
+    NAV_LOITER_TIME / _UNLIM      FlyTo, then HoldAt for param1 s (for ever)
+    NAV_DELAY                     HoldAt here for param1 s
+    NAV_RETURN_TO_LAUNCH          the Return route
+    DO_CHANGE_SPEED               param2 > 0: the cruise speed of the following legs (-1: back to the defaults)
+    DO_JUMP                       to item param1, param2 times
+    DO_VTOL_TRANSITION, DO_SET_HOME accepted and passed (the legs' speeds choose the phase)
+
+When the mission ends it holds at the last position (PX4: loiter at the last waypoint), MISSION_STATE_COMPLETE.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from autopilot.auto_flight import AutoFlight, Climb, FlyTo, HoldAt, LandAt, Target
+from autopilot.mission_items import MissionItem
+from autopilot.mission_store import MissionStore
+from autopilot.parameters import ParameterStore
+from autopilot.vehicle_state import VehicleState
+from transport.geodesy import Home, ned_from_geodetic
+from transport.mavlink import mavlink as M
+
+LANDING_APPROACH_RADIUS = 1.0  # m: the FlyTo before a landing stops within this of the landing point
+LANDS = (M.MAV_CMD_NAV_LAND, M.MAV_CMD_NAV_VTOL_LAND)
+TAKEOFFS = (M.MAV_CMD_NAV_TAKEOFF, M.MAV_CMD_NAV_VTOL_TAKEOFF)
+
+
+def return_route(params: ParameterStore, state: VehicleState) -> list[Target]:
+    """Climb to RTL_RETURN_ALT (if lower) over here, fly home at that altitude, land there."""
+    down = min(float(state.position_ned[2]), -params["RTL_RETURN_ALT"])
+    home = np.array([0.0, 0.0, down])
+    return [Climb(state.position_ned[0:2].copy(), down, params["MPC_Z_VEL_MAX_UP"]),
+            FlyTo(home, LANDING_APPROACH_RADIUS), LandAt(np.zeros(2))]  # fmt: skip
+
+
+class MissionFlight:
+    """Steps through the stored mission from its current item, handing AutoFlight its targets."""
+
+    def __init__(self, params: ParameterStore, store: MissionStore, home: Home, auto: AutoFlight) -> None:
+        self.params = params
+        self.store = store
+        self.home = home
+        self.auto = auto
+        self.seq = 0
+        self.complete = False
+        self._jumps: dict[int, int] = {}  # DO_JUMP item -> jumps done
+        self._version = -1
+
+    @property
+    def items(self) -> tuple[MissionItem, ...]:
+        return self.store.snapshot.mission
+
+    def start(self, state: VehicleState) -> str | None:
+        """Fly from the store's current item (a finished mission starts again from item 0); the reason if not."""
+        if not self.items:
+            return "Mission denied: no mission stored"
+        seq = self.store.snapshot.current
+        if self.store.snapshot.state == M.MISSION_STATE_COMPLETE or seq >= len(self.items):
+            seq = 0
+        self._jumps = {}
+        self.auto.mission_speed = None
+        self.auto.start(state, [])
+        self._begin(state, seq)
+        return None
+
+    @property
+    def landing(self) -> bool:
+        return self.auto.descending
+
+    def landed(self, state: VehicleState) -> None:
+        """Touchdown on a land item: it is reached, the mission goes on (usually to its end)."""
+        self._item_done(state)
+
+    def step(self, state: VehicleState) -> np.ndarray:
+        if self.store.version != self._version and not self.complete:  # a new mission or current item
+            self._begin(state, self.store.snapshot.current if self.items else 0)
+        elif self.auto.finished and not self.complete:
+            self._item_done(state)
+        return self.auto.step(state)
+
+    # ---- items -----------------------------------------------------------------------------------------------------
+    def _item_done(self, state: VehicleState) -> None:
+        self.store.reached(self.seq)
+        self._begin(state, self.seq + 1)
+
+    def _progress(self, seq: int, mission_state: int) -> None:
+        self.store.set_progress(seq, mission_state)
+        self._version = self.store.version
+
+    def _begin(self, state: VehicleState, seq: int) -> None:
+        """Do the DO_ items from `seq` on, then fly the first navigation item (or hold: the mission ended)."""
+        for _ in range(len(self.items) * 4 + 4):  # DO_JUMP loops are bounded by their counts
+            if seq >= len(self.items):
+                self._end(state)
+                return
+            item = self.items[seq]
+            if item.command == M.MAV_CMD_DO_JUMP:
+                done = self._jumps.get(seq, 0)
+                if done < item.param2 and 0 <= int(item.param1) < len(self.items):
+                    self._jumps[seq] = done + 1
+                    seq = int(item.param1)
+                else:
+                    seq += 1
+                continue
+            if item.command == M.MAV_CMD_DO_CHANGE_SPEED:
+                self.auto.mission_speed = item.param2 if item.param2 > 0 else None
+            targets = self._targets(state, item)
+            if targets:
+                self.seq = seq
+                self.complete = False
+                self._progress(seq, M.MISSION_STATE_ACTIVE)
+                self.auto.follow(state, targets)
+                return
+            seq += 1
+        self._end(state)
+
+    def _end(self, state: VehicleState) -> None:
+        last = len(self.items) - 1
+        self.seq = max(last, 0)
+        self.complete = True
+        self._progress(self.seq, M.MISSION_STATE_COMPLETE)
+        self.auto.follow(state, [HoldAt(state.position_ned.copy(), None)])
+
+    def _position(self, state: VehicleState, item: MissionItem) -> np.ndarray:
+        """The item's NED position (lat/lon 0: the vehicle's; altitude relative to home or AMSL)."""
+        if item.x == 0 and item.y == 0:
+            north, east = float(state.position_ned[0]), float(state.position_ned[1])
+        else:
+            north, east, _ = ned_from_geodetic(self.home, item.latitude_deg, item.longitude_deg, self.home.alt)
+        down = -item.z if item.relative_altitude else self.home.alt - item.z
+        return np.array([north, east, down])
+
+    def _targets(self, state: VehicleState, item: MissionItem) -> list[Target]:
+        p = self.params
+        command = item.command
+        if command == M.MAV_CMD_NAV_WAYPOINT:
+            radius = item.param2 if math.isfinite(item.param2) and item.param2 > 0 else p["NAV_ACC_RAD"]
+            return [FlyTo(self._position(state, item), radius)]
+        if command in TAKEOFFS:
+            return [Climb(state.position_ned[0:2].copy(), float(self._position(state, item)[2]), p["MPC_TKO_SPEED"])]
+        if command in LANDS:
+            point = self._position(state, item)
+            point[2] = float(state.position_ned[2])
+            return [FlyTo(point, LANDING_APPROACH_RADIUS), LandAt(point[0:2].copy())]
+        if command in (M.MAV_CMD_NAV_LOITER_TIME, M.MAV_CMD_NAV_LOITER_UNLIM):
+            point = self._position(state, item)
+            seconds = max(item.param1, 0.0) if command == M.MAV_CMD_NAV_LOITER_TIME else None
+            return [FlyTo(point, p["NAV_ACC_RAD"]), HoldAt(point, seconds)]
+        if command == M.MAV_CMD_NAV_DELAY:
+            return [HoldAt(state.position_ned.copy(), max(item.param1, 0.0))]
+        if command == M.MAV_CMD_NAV_RETURN_TO_LAUNCH:
+            return return_route(p, state)
+        return []  # DO_CHANGE_SPEED (done above), DO_VTOL_TRANSITION, DO_SET_HOME: nothing to fly
