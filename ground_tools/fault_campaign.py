@@ -185,8 +185,12 @@ def fly_plant_link(folder: Path, name: str, faults: Faults | None, *, duration_s
     plant = subprocess.Popen(sim.argv(), stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
     pilot = subprocess.Popen(autopilot.argv(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
-        pilot.wait(timeout=600)
-        out, _ = plant.communicate(timeout=60)
+        out, _ = plant.communicate(timeout=600)
+        try:  # the plant stops after its last state; if the proxy lost that one, the autopilot waits for more
+            pilot.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            pilot.send_signal(signal.SIGTERM)
+            pilot.wait(timeout=30)
     finally:
         _kill(pilot, plant)
         if proxy is not None:
