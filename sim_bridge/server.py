@@ -46,6 +46,8 @@ SPEED_WINDOW_S = 2.0  # wall seconds over which the achieved speed factor is mea
 SLOW_FRACTION = 0.9  # below this fraction of the speed asked for, the slowdown is said
 SLOW_NOTICE_S = 10.0  # at most once per this many wall seconds
 
+MAX_DATAGRAM_BYTES = 4096  # a plant-link datagram is one state (<= 300 bytes) or a few frames: bigger is junk
+
 
 class Pacing(Enum):
     LOCKSTEP = "lockstep"  # every step waits for its command; as fast as both processes go
@@ -126,6 +128,10 @@ class PlantServer:
 
     # ---- receiving -------------------------------------------------------------------------------------
     def _handle_datagram(self, data: bytes, sender: Address) -> None:
+        if len(data) > MAX_DATAGRAM_BYTES:  # junk: parsing 60 kB of it would cost ~0.1 s of the plant's time
+            self.link.dropped["oversized_datagram"] += 1
+            self.gate.admit([], sender)  # counted in `foreign` when it is not the peer's
+            return
         for message in self.gate.admit(self.link.parse(data), sender):
             kind = message.get_type()
             if kind == "SERVO_OUTPUT_RAW":
