@@ -203,7 +203,7 @@ class Vehicle(VehicleHandle):
     in Hold. home: its geodetic origin (Home(lat, lon, alt)). speed: simulated seconds per wall second (the
     lockstep paced to the wall clock), or None: lockstep as fast as the processes go. params: PX4-style parameters
     (name -> value) written to the vehicle's parameter file before the start (checked: an unknown name or a value
-    out of range is a ValueError). instance: None (default) for free ports, or I for instance I's ports (SPEC 2:
+    out of range is a ValueError). instance: None (default) for free ports, or I for instance I's ports (docs/plant-link.md:
     plant 4560+I, API 14540+I, GCS to 14550, system id I+1). sysid: the system id (default: params' MAV_SYS_ID,
     else I+1, else 1). gcs_port: where the GCS link sends (default: a free port, 14550 with an instance).
     truth: subscribe to the plant's truth on zenoh. ready_timeout_s: wall seconds to wait for readiness. folder:

@@ -42,6 +42,7 @@ from transport.geodesy import Home, ned_from_geodetic
 from transport.mavlink import mavlink as M
 
 Params = tuple[float, float, float, float, float, float, float]
+MIN_TARGET_HEIGHT_M = 1.0  # a go-to or orbit target lower than this above home would fly into the ground
 RELATIVE_FRAMES = (M.MAV_FRAME_GLOBAL_RELATIVE_ALT, M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT)
 ORBIT_DEFAULT_RADIUS, ORBIT_MIN_RADIUS, ORBIT_MAX_RADIUS = 20.0, 1.0, 10000.0  # m (PX4: MC_ORBIT_RAD_MAX 1000)
 ORBIT_DEFAULT_SPEED = 5.0  # m/s
@@ -202,7 +203,10 @@ class CommandService:
         if math.isinf(p[6]):
             return "altitude infinite"
         north, east, _ = ned_from_geodetic(self.home, lat, lon, self.home.alt)
-        return north, east, self._down(p[6], frame)
+        down = self._down(p[6], frame)
+        if down is not None and -down < MIN_TARGET_HEIGHT_M:
+            return f"altitude {-down:.1f} m above home: targets stay at least {MIN_TARGET_HEIGHT_M:g} m above it"
+        return north, east, down
 
     def _down(self, altitude: float, frame: int | None) -> float | None:
         """A command's altitude (AMSL; above home in the RELATIVE_ALT frames) as NED down; None for NaN."""
