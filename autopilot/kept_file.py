@@ -10,14 +10,16 @@ import threading
 from pathlib import Path
 
 
-def read_kept(path: Path) -> str | None:
+def read_kept(path: Path, what: str, refusal: type[ValueError]) -> str | None:
     """The file's text, or None when there is none; temporaries of a writer killed mid-write are removed first.
-    Raises OSError or UnicodeDecodeError when it cannot be read."""
+    A file that cannot be read raises `refusal` ("cannot read the <what> <path>: why")."""
     remove_stale_temporaries(path)
     try:
         return path.read_text(encoding="utf-8")
     except FileNotFoundError:
         return None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise refusal(f"cannot read the {what} {path}: {exc}") from None
 
 
 def remove_stale_temporaries(path: Path) -> None:

@@ -133,10 +133,7 @@ class MissionStore:
         """Read the file if there is one (none: nothing stored); MissionFileError if it is broken."""
         if self.path is None:
             return
-        try:
-            text = read_kept(self.path)
-        except (OSError, UnicodeDecodeError) as exc:
-            raise MissionFileError(f"cannot read the mission file {self.path}: {exc}") from None
+        text = read_kept(self.path, "mission file", MissionFileError)
         if text is None:
             return
         self.snapshot = parse_document(text, f"mission file {self.path}")

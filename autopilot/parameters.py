@@ -216,10 +216,7 @@ class ParameterStore:
         """Read the file if it exists (a missing file means all defaults); raise ParameterFileError if broken."""
         if self.path is None:
             return
-        try:
-            text = read_kept(self.path)
-        except (OSError, UnicodeDecodeError) as exc:
-            raise ParameterFileError(f"cannot read the parameter file {self.path}: {exc}") from None
+        text = read_kept(self.path, "parameter file", ParameterFileError)
         if text is None:
             return
         where = f"parameter file {self.path}"
