@@ -275,6 +275,7 @@ class PlantLoop:
             "invalid_states": c.invalid_states,
             "plant_silences": c.plant_silences,
             "dropped_from_plant": dict(self.client.link.dropped),
+            "foreign_on_plant_link": self.client.foreign,
             "failures_acknowledged": self.injection.counters.acknowledged,
             "failures_refused": self.injection.counters.refused,
             "allocation_fallbacks": self.controller.allocation_fallbacks,

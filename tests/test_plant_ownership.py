@@ -47,11 +47,24 @@ def stray_datagrams(k: int) -> list[tuple[str, bytes]]:
     return [("hello", hello), ("heartbeat", gcs_heartbeat), ("servo", rotors_off), ("command", failure)]
 
 
-def send_strays(port: int, stop: threading.Event, strays: Strays) -> None:
+def forged_plant_states(k: int) -> list[tuple[str, bytes]]:
+    """What a program pretending to be the plant would send the autopilot: the vehicle on the ground, upside down,
+    stamped at the steps around k (the autopilot must believe only its plant's address)."""
+    fake_plant = mavlink.MAVLink(None, srcSystem=1, srcComponent=mavlink.MAV_COMP_ID_AUTOPILOT1)
+    state = b"".join(
+        fake_plant.hil_state_quaternion_encode(2500 * (k * 8 + i), [0.0, 1.0, 0.0, 0.0], 0, 0, 0,
+                                               473977420, 85455940, 488000, 0, 0, 0, 0, 0, 0, 0, 0)
+        .pack(fake_plant)
+        for i in range(8)
+    )  # fmt: skip
+    return [("state", state)]
+
+
+def send_strays(port: int, stop: threading.Event, strays: Strays, forge=stray_datagrams) -> None:
     with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
         k = 0
         while not stop.wait(STRAY_PERIOD_S):
-            for kind, data in stray_datagrams(k):
+            for kind, data in forge(k):
                 sock.sendto(data, (LOOPBACK, port))
                 strays.datagrams += 1
                 strays.heartbeats += kind in ("hello", "heartbeat")
@@ -67,17 +80,31 @@ def wait_for_log(log: Path, timeout_s: float = 120.0) -> None:
         time.sleep(0.02)
 
 
-def hover(tmp_path: Path, name: str, with_strays: bool) -> tuple[np.ndarray, dict, Strays]:
-    """A paced hover at 50 m for DURATION_S; strays from another socket during its middle second(s)."""
-    port, log = free_udp_port(), tmp_path / f"{name}.csv"
+@dataclass(frozen=True)
+class Hover:
+    """One paced hover's outcome."""
+
+    down: np.ndarray
+    plant: dict  # the plant's summary
+    autopilot: dict  # the autopilot's summary
+    strays: Strays
+
+
+def hover(tmp_path: Path, name: str, strays_at: str | None = None) -> Hover:
+    """A paced hover at 50 m for DURATION_S; strays from another socket during its middle second(s), sent to the
+    plant's port (`strays_at` "plant") or to the autopilot's end of the plant link ("autopilot")."""
+    port, bind, log = free_udp_port(), free_udp_port(), tmp_path / f"{name}.csv"
     sim = SimCommand(port=port, spawn_alt=50.0, realtime_speed=2.0, duration_s=DURATION_S, summary=True,
                      zenoh=Zenoh.off())  # fmt: skip
-    autopilot = AutopilotCommand(sim_port=port, links=free_link_ports(), spawn_alt=50.0, profile="hover",
-                                 duration_s=DURATION_S, controller="pid", zenoh=Zenoh.off(), quiet=True, log=log)
+    autopilot = AutopilotCommand(sim_port=port, sim_bind_port=bind, links=free_link_ports(), spawn_alt=50.0,
+                                 profile="hover", duration_s=DURATION_S, controller="pid", zenoh=Zenoh.off(),
+                                 quiet=True, log=log, summary=True)  # fmt: skip
     plant = subprocess.Popen(sim.argv(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    pilot = subprocess.Popen(autopilot.argv(), stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    pilot = subprocess.Popen(autopilot.argv(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     strays, stop = Strays(), threading.Event()
-    sender = threading.Thread(target=send_strays, args=(port, stop, strays))
+    target, forge = (bind, forged_plant_states) if strays_at == "autopilot" else (port, stray_datagrams)
+    sender = threading.Thread(target=send_strays, args=(target, stop, strays, forge))
+    with_strays = strays_at is not None
     try:
         if with_strays:
             wait_for_log(log)  # the autopilot has the plant (a HELLO before that would be a candidate, answered)
@@ -86,7 +113,7 @@ def hover(tmp_path: Path, name: str, with_strays: bool) -> tuple[np.ndarray, dic
             time.sleep(1.0)
             stop.set()
             sender.join()
-        pilot.wait(timeout=300)
+        pilot_out, pilot_err = pilot.communicate(timeout=300)
         out, _ = plant.communicate(timeout=60)
     finally:
         stop.set()
@@ -94,13 +121,21 @@ def hover(tmp_path: Path, name: str, with_strays: bool) -> tuple[np.ndarray, dic
             if process.poll() is None:
                 process.kill()
                 process.wait()
-    assert pilot.returncode == 0, pilot.stderr.read() if pilot.stderr else ""
-    return read_flight_log(log).columns[DOWN], json.loads(out.strip().splitlines()[-1]), strays
+    assert pilot.returncode == 0, pilot_err
+    last_line = json.loads(out.strip().splitlines()[-1])
+    return Hover(read_flight_log(log).columns[DOWN], last_line, json.loads(pilot_out.strip().splitlines()[-1]), strays)
+
+
+def max_deviation(down: np.ndarray, clean_down: np.ndarray) -> float:
+    n = min(len(down), len(clean_down))
+    assert n > 0.9 * DURATION_S * 100
+    return float(np.max(np.abs(down[:n] - clean_down[:n])))
 
 
 def test_strays_on_the_plant_port_change_nothing_and_are_counted(tmp_path):
-    clean_down, clean, _ = hover(tmp_path, "clean", with_strays=False)
-    down, summary, strays = hover(tmp_path, "strays", with_strays=True)
+    clean_run = hover(tmp_path, "clean")
+    run = hover(tmp_path, "strays", strays_at="plant")
+    clean_down, clean, down, summary, strays = clean_run.down, clean_run.plant, run.down, run.plant, run.strays
     assert strays.datagrams > 100
     foreign = summary["foreign"]
     assert foreign["datagrams"] == strays.datagrams
@@ -108,11 +143,23 @@ def test_strays_on_the_plant_port_change_nothing_and_are_counted(tmp_path):
     assert foreign["SERVO_OUTPUT_RAW"] == strays.servo_outputs and foreign["COMMAND_LONG"] == strays.commands
     assert summary["failures_applied"] == 0 and summary["handshakes"] == 1 and clean["handshakes"] == 1
     assert summary["missed_commands"] == clean["missed_commands"] == 0
-    n = min(len(down), len(clean_down))
-    deviation = float(np.max(np.abs(down[:n] - clean_down[:n])))
+    deviation = max_deviation(down, clean_down)
     print(f"strays: {strays}, max altitude deviation {deviation:.4f} m")
     assert deviation < 0.5
-    assert n > 0.9 * DURATION_S * 100
+
+
+def test_forged_plant_states_sent_to_the_autopilot_change_nothing_and_are_counted(tmp_path):
+    """The autopilot believes only its plant's address: upside-down states on the ground from another socket are
+    ignored and counted (`foreign_on_plant_link` in its summary)."""
+    clean_run = hover(tmp_path, "clean")
+    run = hover(tmp_path, "forged", strays_at="autopilot")
+    assert run.strays.datagrams > 50
+    assert run.autopilot["foreign_on_plant_link"] == run.strays.datagrams
+    assert clean_run.autopilot["foreign_on_plant_link"] == 0
+    assert run.autopilot["invalid_states"] == 0 and run.autopilot["controllers_started"] == 1
+    deviation = max_deviation(run.down, clean_run.down)
+    print(f"forged states: {run.strays.datagrams} datagrams, max altitude deviation {deviation:.4f} m")
+    assert deviation < 0.5
 
 
 def test_a_named_autopilot_alone_gets_the_plant(tmp_path):

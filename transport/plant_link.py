@@ -49,6 +49,7 @@ class PlantLinkClient:
         self.link = Link(system_id, component_id)
         self.received_other: list[Any] = []
         self.confirmed = 0  # handshake challenges answered (docs/plant-link.md#the-handshake)
+        self.foreign = 0  # datagrams from anyone but the plant's address, ignored
         self._nonce = new_client_nonce()
         self._spin_s = SPIN_WINDOW_S
 
@@ -84,7 +85,10 @@ class PlantLinkClient:
                 if time.monotonic() >= deadline:
                     return None
                 continue
-            data = received[0]
+            data, sender = received
+            if sender != self.address:
+                self.foreign += 1  # only the plant speaks for the plant (a forged state would fly the vehicle)
+                continue
             sample = None
             for message in self.link.parse(data):
                 kind = message.get_type()
