@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -34,7 +35,7 @@ from transport.cli import (
     positive_float,
     stop_on_signals,
 )
-from transport.geodesy import Home
+from transport.geodesy import HomeRefused, home_from
 from transport.mavlink import mavlink
 from transport.plant_link import PlantLinkClient
 from transport.ports import LOOPBACK, Ports
@@ -102,7 +103,7 @@ def build_parser() -> OneLineArgumentParser:
     parser.add_argument("--sysid", type=bounded_int(1, 250), help="vehicle system id (default: MAV_SYS_ID when set in the parameter file, else I+1)")
     parser.add_argument("--home", type=float_triple, default=None, metavar="LAT,LON,ALT",
                         help="home position in degrees and metres AMSL, as the plant's --home "
-                             "(default 40.4433,-79.9436,300)")
+                             "(default PX4 SITL's 47.397742,8.545594,488, or PX4_HOME_LAT/LON/ALT)")
     parser.add_argument("--no-zenoh", action="store_true", help="do not publish telemetry on zenoh")
     parser.add_argument("--zenoh-listen", action="append", metavar="ENDPOINT",
                         help="zenoh endpoint to listen on (default tcp/127.0.0.1:7547+I); repeatable")
@@ -154,9 +155,10 @@ def main(argv: list[str] | None = None) -> int:
     in_air = args.spawn_alt > 0
     profile = PROFILES[args.profile][0] if args.profile else None
     events = EventOutbox()
-    home = Home(*args.home) if args.home is not None else Home()
-    if not -90.0 <= home.lat <= 90.0 or not -180.0 <= home.lon <= 180.0:
-        fail(PROG, f"--home latitude/longitude out of range: {args.home}")
+    try:
+        home = home_from(args.home, os.environ)
+    except HomeRefused as exc:
+        fail(PROG, f"home refused: {exc}")
     commander = Commander(params, airframe.hover_thrust_per_rotor / airframe.thrust_max, armed=in_air, in_air=in_air,
                           say=events.say, profile=profile, stamped_setpoints=args.offboard_lockstep,
                           missions=missions, home=home)  # fmt: skip

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
-from transport.geodesy import Home, LocalGeodetic
+from transport.geodesy import Home, LocalGeodetic, home_from
 from transport.ports import LOOPBACK, Ports
 
 FLEET_SPACING_M = 5.0  # vehicles of a fleet stand this far apart, in a row to the east
@@ -44,14 +44,15 @@ def _flag(name: str, on: bool) -> list[str]:
 
 
 def _home(home: Home | None) -> list[str]:
-    return [] if home is None else ["--home", f"{home.lat!r},{home.lon!r},{home.alt!r}"]
+    # "--home=" keeps a southern or western home (a leading minus) from being read as an option
+    return [] if home is None else [f"--home={home.lat!r},{home.lon!r},{home.alt!r}"]
 
 
 def fleet_home(index: int, home: Home | None = None, spacing_m: float = FLEET_SPACING_M) -> Home:
     """The home of a fleet's `index`-th vehicle: `spacing_m` metres east of the previous one (the first at `home`,
-    default Home()). Plant and autopilot of a vehicle are given the same home, so each vehicle's local frame starts
+    default PX4's home or PX4_HOME_LAT/LON/ALT, as the processes read it). Plant and autopilot of a vehicle are given the same home, so each vehicle's local frame starts
     at its own spot, and ground stations see the vehicles side by side."""
-    origin = home if home is not None else Home()
+    origin = home if home is not None else home_from(None, os.environ)
     lat, lon, alt = LocalGeodetic(origin).to_geodetic(0.0, index * spacing_m, 0.0)
     return Home(lat, lon, alt)
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import socket
 import sys
 
@@ -20,7 +21,7 @@ from transport.cli import (
     positive_float,
     stop_on_signals,
 )
-from transport.geodesy import Home, LocalGeodetic
+from transport.geodesy import HomeRefused, LocalGeodetic, home_from
 from transport.mavlink import Link
 from transport.ports import LOOPBACK, Ports
 from transport.zenoh_bus import open_session
@@ -59,7 +60,8 @@ def build_parser() -> OneLineArgumentParser:
                         help="vehicle system id (default I+1, as the autopilot's)")
     parser.add_argument("--compid", type=bounded_int(1, 255), default=200, help="plant component id (default 200)")
     parser.add_argument("--home", type=float_triple, default=None, metavar="LAT,LON,ALT",
-                        help="home position in degrees and metres AMSL (default 40.4433,-79.9436,300)")
+                        help="home position in degrees and metres AMSL "
+                             "(default PX4 SITL's 47.397742,8.545594,488, or PX4_HOME_LAT/LON/ALT)")
     parser.add_argument("--wind", type=float_triple, default=(0.0, 0.0, 0.0), metavar="N,E,D",
                         help="constant wind in NED, m/s (default 0,0,0)")
     parser.add_argument("--lockstep-timeout", type=positive_float, default=0.5, metavar="S",
@@ -95,9 +97,10 @@ def main(argv: list[str] | None = None) -> int:
         fail(PROG, str(exc))
     ports = Ports(args.instance)
     port = args.port if args.port is not None else ports.plant
-    home = Home(*args.home) if args.home is not None else Home()
-    if not -90.0 <= home.lat <= 90.0 or not -180.0 <= home.lon <= 180.0:
-        fail(PROG, f"--home latitude/longitude out of range: {args.home}")
+    try:
+        home = home_from(args.home, os.environ)
+    except HomeRefused as exc:
+        fail(PROG, f"home refused: {exc}")
 
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     try:

@@ -98,7 +98,7 @@ def test_identity_streams_and_requests(hovering):
     assert gs.command(M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 1).result == M.MAV_RESULT_ACCEPTED
     assert gs.command(M.MAV_CMD_REQUEST_MESSAGE, M.MAVLINK_MSG_ID_HOME_POSITION).result == M.MAV_RESULT_ACCEPTED
     home = gs.latest["HOME_POSITION"]
-    assert (home.latitude, home.longitude, home.altitude) == (404433000, -799436000, 300000)
+    assert (home.latitude, home.longitude, home.altitude) == (473977420, 85455940, 488000)  # PX4 SITL's
     gs.conn.mav.mission_request_list_send(1, 1, M.MAV_MISSION_TYPE_MISSION)
     gs.wait(lambda: "MISSION_COUNT" in gs.latest, "MISSION_COUNT")
     assert gs.latest["MISSION_COUNT"].count == 0

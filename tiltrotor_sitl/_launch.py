@@ -4,6 +4,7 @@ one is ready to arm, and the stop. The public classes are in tiltrotor_sitl/__in
 from __future__ import annotations
 
 import math
+import os
 import shutil
 import socket
 import tempfile
@@ -18,7 +19,7 @@ from tiltrotor_sitl import _children
 from tiltrotor_sitl._children import Child
 from tiltrotor_sitl._readiness import ReadinessWatch
 from tiltrotor_sitl.truth import TruthFeed
-from transport.geodesy import Home
+from transport.geodesy import Home, home_from
 from transport.ports import LOOPBACK, Ports
 
 Controller = Literal["mpc", "pid"]
@@ -152,7 +153,7 @@ def _write_params(path: Path, params: dict[str, float]) -> Path:
 def _start_one(options: Options, index: int, sysid: int, ports: VehiclePorts, root: Path) -> Started:
     folder = root / f"vehicle-{sysid}"
     folder.mkdir()
-    home = fleet_home(index, options.home) if index > 0 else (options.home or Home())
+    home = fleet_home(index, options.home) if index > 0 else (options.home or home_from(None, os.environ))
     params_path = _write_params(options.params_file or folder / "params.json", options.params)
     plant_zenoh = Zenoh.listening(ports.zenoh_plant) if options.truth else Zenoh.off()
     autopilot_zenoh = Zenoh.listening(ports.zenoh_autopilot) if options.truth else Zenoh.off()

@@ -8,6 +8,8 @@ the linearisation error is about d^2 / R_earth ~ 6 mm, below MAVLink's 1e-7 deg 
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import pymap3d
@@ -17,11 +19,45 @@ ANCHOR_RADIUS = 200.0  # m
 
 @dataclass(frozen=True)
 class Home:
-    """Geodetic origin of the local NED frame: latitude, longitude (deg) and altitude AMSL (m)."""
+    """Geodetic origin of the local NED frame: latitude, longitude (deg) and altitude AMSL (m). The default is
+    PX4 SITL's home (Zurich, 488 m AMSL)."""
 
-    lat: float = 40.4433
-    lon: float = -79.9436
-    alt: float = 300.0
+    lat: float = 47.397742
+    lon: float = 8.545594
+    alt: float = 488.0
+
+
+HOME_ENVIRONMENT = ("PX4_HOME_LAT", "PX4_HOME_LON", "PX4_HOME_ALT")  # read as PX4 SITL reads them
+
+
+class HomeRefused(ValueError):
+    """A home that cannot be one (out of range, not a number), with the reason."""
+
+
+def home_from(given: tuple[float, float, float] | None, environ: Mapping[str, str]) -> Home:
+    """The home of a process: `given` (a `--home` option) if there is one, else PX4's default with each of
+    PX4_HOME_LAT / PX4_HOME_LON / PX4_HOME_ALT from `environ` in its place, as PX4 SITL does."""
+    if given is not None:
+        lat, lon, alt = given
+        source = f"--home {lat},{lon},{alt}"
+    else:
+        default = Home()
+        parts = []
+        for name, fallback in zip(HOME_ENVIRONMENT, (default.lat, default.lon, default.alt), strict=True):
+            text = environ.get(name, "").strip()
+            try:
+                parts.append(float(text) if text else fallback)
+            except ValueError:
+                raise HomeRefused(f"{name}={text!r} is not a number") from None
+        lat, lon, alt = parts
+        source = "PX4_HOME_LAT/LON/ALT"
+    if not all(math.isfinite(x) for x in (lat, lon, alt)):
+        raise HomeRefused(f"{source}: not finite")
+    if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
+        raise HomeRefused(f"{source}: latitude/longitude out of range")
+    if not -500.0 <= alt <= 10_000.0:
+        raise HomeRefused(f"{source}: altitude {alt} m AMSL out of range (-500 to 10000)")
+    return Home(lat, lon, alt)
 
 
 class LocalGeodetic:

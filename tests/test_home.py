@@ -1,0 +1,64 @@
+"""Home (docs/mavlink.md#home): PX4 SITL's default, PX4_HOME_LAT/LON/ALT from the environment as PX4 reads them, or
+--home; one choice for plant and autopilot; a bad one refused."""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+
+import pytest
+from pymavlink import mavutil
+
+from tiltrotor_sitl import Vehicle
+from transport.geodesy import Home, HomeRefused, home_from
+
+M = mavutil.mavlink
+
+
+def test_px4s_home_is_the_default_and_each_environment_variable_replaces_its_part():
+    assert home_from(None, {}) == Home(47.397742, 8.545594, 488.0)
+    assert home_from(None, {"PX4_HOME_ALT": "100"}) == Home(47.397742, 8.545594, 100.0)
+    assert home_from(None, {"PX4_HOME_LAT": "-33.8688", "PX4_HOME_LON": " 151.2093 "}) == Home(-33.8688, 151.2093,
+                                                                                                488.0)
+    assert home_from((1.0, 2.0, 3.0), {"PX4_HOME_LAT": "10"}) == Home(1.0, 2.0, 3.0)  # --home wins
+
+
+@pytest.mark.parametrize("given, environ, message", [
+    (None, {"PX4_HOME_LAT": "north"}, "PX4_HOME_LAT='north' is not a number"),
+    (None, {"PX4_HOME_LON": "nan"}, "not finite"),
+    (None, {"PX4_HOME_LAT": "91"}, "out of range"),
+    ((0.0, 0.0, 20_000.0), {}, "altitude"),
+])  # fmt: skip
+def test_a_home_that_cannot_be_one_is_refused(given, environ, message):
+    with pytest.raises(HomeRefused, match=message):
+        home_from(given, environ)
+
+
+@pytest.mark.parametrize("program", ["autopilot", "sim_bridge"])
+def test_a_bad_home_in_the_environment_stops_the_process_with_one_line(program):
+    environ = {**os.environ, "PX4_HOME_LAT": "north"}
+    result = subprocess.run([sys.executable, "-m", program, "--no-zenoh", "--port" if program == "sim_bridge"
+                             else "--sim-port", "9"], env=environ, capture_output=True, text=True, timeout=60)  # fmt: skip
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "home refused: PX4_HOME_LAT='north' is not a number" in lines[0]
+
+
+def test_the_vehicle_reports_the_home_px4_home_variables_give(monkeypatch):
+    monkeypatch.setenv("PX4_HOME_LAT", "-33.8688")
+    monkeypatch.setenv("PX4_HOME_LON", "151.2093")
+    monkeypatch.setenv("PX4_HOME_ALT", "58")
+    with Vehicle(controller="pid", truth=False, speed=None) as vehicle:
+        assert vehicle.home == Home(-33.8688, 151.2093, 58.0)
+        link = mavutil.mavlink_connection(vehicle.pymavlink, source_system=250)
+        try:
+            home = link.recv_match(type="HOME_POSITION", blocking=True, timeout=30)
+            position = link.recv_match(type="GLOBAL_POSITION_INT", blocking=True, timeout=30)
+        finally:
+            link.close()
+    assert home is not None and position is not None
+    assert (home.latitude, home.longitude, home.altitude) == (-338688000, 1512093000, 58000)
+    assert math.hypot(position.lat - home.latitude, position.lon - home.longitude) < 100  # within ~1 m
+    assert abs(position.alt - 58000) < 1000
