@@ -31,6 +31,7 @@ from transport.cli import (
     fail,
     finite_float,
     float_triple,
+    key_file_option,
     nonnegative_float,
     positive_float,
     stop_on_signals,
@@ -110,6 +111,8 @@ def build_parser() -> OneLineArgumentParser:
     parser.add_argument("--zenoh-connect", action="append", default=[], metavar="ENDPOINT",
                         help="zenoh endpoint to connect to; repeatable")
     parser.add_argument("--quiet", action="store_true", help="do not echo flight events (STATUSTEXT) on stderr")
+    parser.add_argument("--plant-signing-key", metavar="FILE",
+                        help="sign the plant link with this key (64 hex digits), as the plant's --plant-signing-key")
     parser.add_argument("--summary", action="store_true", help="print a JSON line of counters on exit")
     return parser
 
@@ -163,7 +166,8 @@ def main(argv: list[str] | None = None) -> int:
                           say=events.say, profile=profile, stamped_setpoints=args.offboard_lockstep,
                           missions=missions, home=home)  # fmt: skip
     try:
-        client = PlantLinkClient(sim_port, system_id=system_id, local_port=args.sim_bind_port)
+        client = PlantLinkClient(sim_port, system_id=system_id, local_port=args.sim_bind_port,
+                                 signing_key=key_file_option(PROG, "--plant-signing-key", args.plant_signing_key))
     except OSError as exc:
         fail(PROG, f"cannot bind the plant link to UDP {LOOPBACK}:{args.sim_bind_port}: {exc.strerror}")
     injection = FailureInjection(send=lambda failure: client.send_command_long(mavlink.MAV_CMD_INJECT_FAILURE,

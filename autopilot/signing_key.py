@@ -4,13 +4,11 @@ the parameter file. Pure functions; the policy on the links is autopilot/mavlink
 
 from __future__ import annotations
 
-import calendar
 from dataclasses import dataclass
 from typing import Any
 
-KEY_BYTES = 32
-EPOCH_2015 = calendar.timegm((2015, 1, 1, 0, 0, 0, 0, 0, 0))  # MAVLink signing timestamps count from here
-TICKS_PER_S = 100_000  # in units of 10 us
+from transport.link_signing import KEY_BYTES
+
 MAX_TIMESTAMP = (1 << 48) - 1  # the signature carries 48 bits
 
 
@@ -22,11 +20,6 @@ class SigningRefused(ValueError):
 class SigningKey:
     secret: bytes  # 32 bytes
     timestamp: int  # 10 us units since 2015-01-01 UTC: the first outgoing signature is at least this
-
-
-def timestamp_at(unix_s: float) -> int:
-    """The MAVLink signing timestamp of a wall-clock time."""
-    return max(0, int((unix_s - EPOCH_2015) * TICKS_PER_S))
 
 
 def key_from_setup(secret_key: list[int] | bytes, initial_timestamp: int) -> SigningKey | None:

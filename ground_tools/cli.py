@@ -74,6 +74,8 @@ def main(argv: list[str] | None = None) -> int:
     up_parser.add_argument("--speed", type=positive_float, default=1.0, metavar="F",
                            help="simulated seconds per wall second (default 1)")
     up_parser.add_argument("--params", metavar="FILE", help="the autopilot's parameter file")
+    up_parser.add_argument("--plant-signing-key", metavar="FILE",
+                           help="sign each vehicle's plant link with this key (64 hex digits; docs/plant-link.md)")
     up_parser.add_argument("--no-zenoh", action="store_true", help="no zenoh telemetry")
     add_record_arguments(commands.add_parser("record", help="record a vehicle's zenoh telemetry (JSON lines)"))
     add_watch_arguments(commands.add_parser("watch", help="live view of a vehicle's zenoh telemetry"))

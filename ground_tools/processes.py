@@ -186,7 +186,8 @@ class SimCommand:
     zenoh: Zenoh = field(default_factory=Zenoh)
     airframe: Path | None = None
     sysid: int | None = None  # the vehicle's system id (vtol-sim's default: instance + 1)
-    home: Home | None = None  # geodetic origin (vtol-sim's default: Home())
+    home: Home | None = None  # geodetic origin (default: PX4's, or PX4_HOME_LAT/LON/ALT)
+    plant_signing_key: Path | None = None  # a key file: the plant link signed (docs/plant-link.md#signing)
     extra: tuple[str, ...] = ()  # further vtol-sim options, as they are
 
     def argv(self) -> list[str]:
@@ -197,7 +198,7 @@ class SimCommand:
             *_option("--spawn-alt", self.spawn_alt or None), *pacing, *_option("--duration", self.duration_s),
             *_option("--lockstep-timeout", self.lockstep_timeout_s), *_flag("--summary", self.summary),
             *self.zenoh.argv(), *_option("--airframe", self.airframe), *_option("--sysid", self.sysid),
-            *_home(self.home), *self.extra,
+            *_home(self.home), *_option("--plant-signing-key", self.plant_signing_key), *self.extra,
         ])  # fmt: skip
 
 
@@ -221,7 +222,8 @@ class AutopilotCommand:
     quiet: bool = False  # no flight events (STATUSTEXT) on stderr
     zenoh: Zenoh = field(default_factory=Zenoh)
     sysid: int | None = None  # default: MAV_SYS_ID when changed, else instance + 1
-    home: Home | None = None  # geodetic origin, the plant's (default: Home())
+    home: Home | None = None  # geodetic origin, the plant's (default: PX4's, or PX4_HOME_LAT/LON/ALT)
+    plant_signing_key: Path | None = None  # the plant's key file (SimCommand.plant_signing_key)
     extra: tuple[str, ...] = ()  # further vtol-autopilot options, as they are
 
     def argv(self) -> list[str]:
@@ -233,5 +235,6 @@ class AutopilotCommand:
             *_option("--airframe", self.airframe), *_option("--profile", self.profile),
             *_flag("--offboard-lockstep", self.offboard_lockstep), *_option("--duration", self.duration_s),
             *_option("--log", self.log), *_flag("--summary", self.summary), *_flag("--quiet", self.quiet),
-            *self.zenoh.argv(), *_option("--sysid", self.sysid), *_home(self.home), *self.extra,
+            *self.zenoh.argv(), *_option("--sysid", self.sysid), *_home(self.home),
+            *_option("--plant-signing-key", self.plant_signing_key), *self.extra,
         ])  # fmt: skip

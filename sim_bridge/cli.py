@@ -17,6 +17,7 @@ from transport.cli import (
     fail,
     finite_float,
     float_triple,
+    key_file_option,
     nonnegative_float,
     positive_float,
     stop_on_signals,
@@ -77,6 +78,9 @@ def build_parser() -> OneLineArgumentParser:
                         help="zenoh endpoint to listen on (default tcp/127.0.0.1:7447+I); repeatable")
     parser.add_argument("--zenoh-connect", action="append", default=[], metavar="ENDPOINT",
                         help="zenoh endpoint to connect to; repeatable")
+    parser.add_argument("--plant-signing-key", metavar="FILE",
+                        help="sign the plant link with this key (64 hex digits) and obey only frames signed with it; "
+                             "give the autopilot the same file")
     parser.add_argument("--summary", action="store_true",
                         help="print a JSON line of counters (steps, missed, dropped...) on exit")
     return parser
@@ -115,7 +119,8 @@ def main(argv: list[str] | None = None) -> int:
         yaw_deg=args.spawn_yaw,
     )
     plant = Plant(airframe, spawn, wind_ned=args.wind)
-    link = Link(args.sysid if args.sysid is not None else ports.system_id, args.compid)
+    link = Link(args.sysid if args.sysid is not None else ports.system_id, args.compid,
+                signing_key=key_file_option(PROG, "--plant-signing-key", args.plant_signing_key))
     sensors = SensorSuite(plant, link, LocalGeodetic(home), noise_seed=args.sensor_noise_seed)
     session = None
     if not args.no_zenoh:

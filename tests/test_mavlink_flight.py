@@ -10,9 +10,10 @@ import pytest
 
 from tests.ground_station import HOLD, LAND, OFFBOARD, TAKEOFF
 from tests.mavlink_sitl import start_sitl
+from transport.geodesy import Home
 from transport.mavlink import mavlink as M
 
-HOME_ALT = 300.0
+HOME_ALT = Home().alt  # PX4 SITL's default home
 
 
 @pytest.fixture
@@ -35,7 +36,7 @@ def test_arm_takeoff_hold_offboard_failsafe_land(ground_start):
     assert gs.landed_state == M.MAV_LANDED_STATE_ON_GROUND
     assert gs.latest["EXTENDED_SYS_STATE"].vtol_state == M.MAV_VTOL_STATE_MC
 
-    # Arm and take off to 20 m (param7: altitude AMSL; home is at 300 m).
+    # Arm and take off to 20 m (param7: altitude AMSL).
     assert gs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == M.MAV_RESULT_ACCEPTED
     gs.wait(lambda: gs.armed, "armed HEARTBEAT")
     nan = math.nan

@@ -6,7 +6,7 @@ import json
 import signal
 import time
 
-from autopilot.signing_key import timestamp_at
+from transport.link_signing import timestamp_at
 from tests.ground_station import GroundStation
 from tests.mavlink_sitl import start_sitl
 from transport.mavlink import MAV_RESULT_ACCEPTED, MAV_RESULT_DENIED, mavlink

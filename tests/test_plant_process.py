@@ -13,9 +13,11 @@ import pytest
 from aircraft.actuators import command_to_pwm
 from sim_bridge.plant import hover_command
 from tests.conftest import vtol_sim_command
+from transport.geodesy import Home
 from transport.mavlink import MAV_RESULT_ACCEPTED, MAV_RESULT_DENIED, MAV_RESULT_UNSUPPORTED, mavlink
 
 G = 9.80665
+HOME = Home()  # PX4 SITL's default
 
 
 def fly(plant, pwm_for, steps: int, first=None):
@@ -46,7 +48,7 @@ def test_spawned_at_100m_with_rotors_stopped_it_falls_at_g(start_plant, airframe
     last = samples[-1]
     assert last.time_usec == 500_000
     assert last.state.vz / 100 == pytest.approx(G * 0.5, abs=0.01)  # cm/s on the wire
-    assert (300 + 100) - last.state.alt / 1000 == pytest.approx(0.5 * G * 0.25, abs=0.002)
+    assert (HOME.alt + 100) - last.state.alt / 1000 == pytest.approx(0.5 * G * 0.25, abs=0.002)
     assert abs(last.sensor.zacc) < 1e-6  # free fall: the accelerometer reads zero
     assert plant.stop()["missed_commands"] == 0
 
@@ -57,7 +59,7 @@ def test_at_hover_trim_it_holds_within_a_tenth_of_a_metre_per_second(start_plant
     speeds = [max(abs(s.state.vx), abs(s.state.vy), abs(s.state.vz)) / 100 for s in samples]
     assert max(speeds) < 0.1
     assert samples[-1].sensor.zacc == pytest.approx(-G, abs=0.01)
-    assert samples[-1].sensor.abs_pressure == pytest.approx(1013.25 * (1 - 2.25577e-5 * 400) ** 5.25588, abs=0.01)
+    assert samples[-1].sensor.abs_pressure == pytest.approx(1013.25 * (1 - 2.25577e-5 * (HOME.alt + 100)) ** 5.25588, abs=0.01)
 
 
 def test_on_the_ground_disarmed_it_stays_put(start_plant, airframe):
@@ -78,7 +80,7 @@ def test_it_lifts_off_with_enough_thrust_and_lands_back_softly(start_plant, airf
         t = sample.time_usec / 1e6
         vz = sample.state.vz / 100
         target = -1.0 if t < 3.0 else 0.5  # climb at 1 m/s for 3 s, then descend at 0.5 m/s
-        height = sample.state.alt / 1000 - 300
+        height = sample.state.alt / 1000 - HOME.alt
         if height > 0.5:
             phase["airborne"] = True
         elif phase["airborne"] and phase["touchdown_speed"] is None and height < 0.26:
@@ -89,7 +91,7 @@ def test_it_lifts_off_with_enough_thrust_and_lands_back_softly(start_plant, airf
         return command_to_pwm(airframe, command)
 
     samples = fly(plant, climb_then_descend, 400 * 12)
-    heights = [s.state.alt / 1000 - 300 for s in samples]
+    heights = [s.state.alt / 1000 - HOME.alt for s in samples]
     assert max(heights) > 2.5
     assert phase["touchdown_speed"] is not None and 0 < phase["touchdown_speed"] < 1.0
     settled = samples[-400:]  # the last second: resting on its gear, no bounce

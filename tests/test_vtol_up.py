@@ -59,10 +59,14 @@ def test_vtol_up_serves_a_ground_station_and_stops_both_processes(tmp_path, how)
     ports = Ports(instance)
     gs = GroundStation(ports.gcs_remote)
     errors = tmp_path / "vtol.stderr"
+    signing = []
+    if how == "sigterm":  # and the plant link signed: the pair flies only if vtol up gave both the key
+        (tmp_path / "plant.key").write_text("5a" * 32)
+        signing = ["--plant-signing-key", str(tmp_path / "plant.key")]
     with open(errors, "w") as stderr:
         vtol = subprocess.Popen([VTOL, "up", "--instance", str(instance), "--spawn-alt", "20", "--speed", "2",
-                                 "--controller", "pid", "--no-zenoh", "--params", str(tmp_path / "params.json")],
-                                stdout=subprocess.DEVNULL, stderr=stderr, start_new_session=True)  # fmt: skip
+                                 "--controller", "pid", "--no-zenoh", "--params", str(tmp_path / "params.json"),
+                                 *signing], stdout=subprocess.DEVNULL, stderr=stderr, start_new_session=True)  # fmt: skip
     try:
         gs.connect(timeout_s=60)
         assert gs.armed and gs.mode == HOLD

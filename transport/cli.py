@@ -13,6 +13,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import NoReturn
 
+from transport.link_signing import KeyFileRefused, read_key_file
+
 
 class OneLineArgumentParser(argparse.ArgumentParser):
     """argparse with a one-line error (no usage dump) and exit code 2."""
@@ -26,6 +28,16 @@ def fail(prog: str, message: str) -> NoReturn:
     """Refuse a run for a reason found after parsing (broken file, port in use)."""
     print(f"{prog}: error: {message}", file=sys.stderr)
     raise SystemExit(2)
+
+
+def key_file_option(prog: str, option: str, path: str | None) -> bytes | None:
+    """The signing key in the file an option names (None without the option), or the run refused in one line."""
+    if path is None:
+        return None
+    try:
+        return read_key_file(path)
+    except KeyFileRefused as exc:
+        fail(prog, f"{option} {exc}")
 
 
 def writable_folder(prog: str, folder: Path) -> Path:

@@ -14,19 +14,32 @@ os.environ.setdefault("MAVLINK20", "1")
 
 from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 
+from transport.link_signing import sign_everything  # noqa: E402
+
 MAV_RESULT_ACCEPTED = mavlink.MAV_RESULT_ACCEPTED
 MAV_RESULT_DENIED = mavlink.MAV_RESULT_DENIED
 MAV_RESULT_UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
 MAV_RESULT_FAILED = mavlink.MAV_RESULT_FAILED
 
 
+def drop_reason(parser_reason: str) -> str:
+    """The counter a frame pymavlink could not use goes to."""
+    reason = parser_reason.lower()
+    if "signature" in reason:
+        return "bad_signature"  # unsigned, another key, or replayed, on a link that signs (transport/link_signing.py)
+    return "bad_crc" if "crc" in reason else "bad_data"
+
+
 class Link:
     """One MAVLink endpoint's encoder and robust parser with drop counters."""
 
-    def __init__(self, system_id: int, component_id: int) -> None:
+    def __init__(self, system_id: int, component_id: int, signing_key: bytes | None = None) -> None:
+        """`signing_key`: sign everything sent and keep only frames signed with it (transport/link_signing.py)."""
         self.mav = mavlink.MAVLink(None, srcSystem=system_id, srcComponent=component_id)
         self.mav.robust_parsing = True
         self.dropped: Counter[str] = Counter()
+        if signing_key is not None:
+            sign_everything(self.mav, signing_key)
 
     def parse(self, data: bytes) -> list[mavlink.MAVLink_message]:
         """Every good message in one UDP datagram; bad frames are counted in `dropped`, never raised."""
@@ -45,8 +58,7 @@ class Link:
         good = []
         for message in messages:
             if isinstance(message, mavlink.MAVLink_bad_data):
-                reason = message.reason or ""
-                self.dropped["bad_crc" if "crc" in reason.lower() else "bad_data"] += 1
+                self.dropped[drop_reason(message.reason or "")] += 1
             elif isinstance(message, mavlink.MAVLink_unknown):
                 self.dropped["unknown_message"] += 1
             else:
@@ -54,5 +66,5 @@ class Link:
         return good
 
     def pack(self, message: mavlink.MAVLink_message) -> bytes:
-        """Frame one message (sequence number, signature-free MAVLink 2)."""
+        """Frame one message (sequence number; signed when the link has a key)."""
         return message.pack(self.mav)

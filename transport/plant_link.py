@@ -34,9 +34,11 @@ class PlantLinkClient:
     """UDP client of a plant listening on 127.0.0.1:port."""
 
     def __init__(
-        self, port: int, system_id: int = 1, component_id: int = 1, host: str = LOOPBACK, local_port: int = 0
+        self, port: int, system_id: int = 1, component_id: int = 1, host: str = LOOPBACK, local_port: int = 0,
+        signing_key: bytes | None = None,
     ) -> None:
-        """`local_port` 0: an ephemeral port; a plant started with `--autopilot-port P` accepts only local_port P."""
+        """`local_port` 0: an ephemeral port; a plant started with `--autopilot-port P` accepts only local_port P.
+        `signing_key`: sign the link, as a plant given the same key does (docs/plant-link.md#signing)."""
         self.address = (host, port)
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
@@ -46,7 +48,7 @@ class PlantLinkClient:
             raise
         self.sock.setblocking(False)
         self.local_port: int = self.sock.getsockname()[1]
-        self.link = Link(system_id, component_id)
+        self.link = Link(system_id, component_id, signing_key)
         self.received_other: list[Any] = []
         self.confirmed = 0  # handshake challenges answered (docs/plant-link.md#the-handshake)
         self.foreign = 0  # datagrams from anyone but the plant's address, ignored

@@ -16,7 +16,8 @@ from autopilot.mavlink.commands import for_us
 from autopilot.mavlink.router import GroundLink, Router
 from autopilot.mavlink.statustext import Announcer
 from autopilot.parameters import ParameterStore
-from autopilot.signing_key import SigningKey, SigningRefused, key_from_setup, timestamp_at
+from autopilot.signing_key import SigningKey, SigningRefused, key_from_setup
+from transport.link_signing import timestamp_at
 from transport.mavlink import MAV_RESULT_DENIED
 from transport.mavlink import mavlink as M
 

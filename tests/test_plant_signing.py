@@ -1,0 +1,133 @@
+"""The plant link signed with a shared key (docs/plant-link.md#signing): the keyed pair flies; an unkeyed or
+wrongly keyed sender never gets the plant, even before its autopilot arrives; a bad key file is refused."""
+
+from __future__ import annotations
+
+import json
+import secrets
+import signal
+import socket
+import subprocess
+import time
+from pathlib import Path
+
+import pytest
+
+from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, free_link_ports, free_udp_port
+from transport.link_signing import KeyFileRefused, parse_key
+from transport.mavlink import mavlink
+from transport.plant_handshake import hello_messages
+from transport.ports import LOOPBACK
+
+
+def key_file(folder: Path, name: str) -> Path:
+    path = folder / name
+    path.write_text(secrets.token_hex(32) + "\n")
+    return path
+
+
+def unsigned_hellos_get_no_challenge(port: int, count: int = 5) -> int:
+    """Send `count` unsigned HELLOs to the plant; how many were answered."""
+    impostor = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    hello = b"".join(m.pack(impostor) for m in hello_messages(impostor, 99))
+    answers = 0
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as other:
+        other.bind((LOOPBACK, 0))
+        other.settimeout(0.2)
+        for _ in range(count):
+            other.sendto(hello, (LOOPBACK, port))
+            try:
+                other.recvfrom(4096)
+                answers += 1
+            except TimeoutError:
+                pass
+    return answers
+
+
+def start_plant(port: int, key: Path) -> subprocess.Popen:
+    sim = SimCommand(port=port, spawn_alt=30.0, duration_s=2.0, summary=True, zenoh=Zenoh.off(), plant_signing_key=key)
+    plant = subprocess.Popen(sim.argv(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert plant.stderr is not None and "listening" in plant.stderr.readline()
+    return plant
+
+
+def autopilot_command(port: int, key: Path | None) -> list[str]:
+    return AutopilotCommand(sim_port=port, links=free_link_ports(), spawn_alt=30.0, profile="hover", duration_s=2.0,
+                            controller="mpc", zenoh=Zenoh.off(), quiet=True, summary=True,
+                            plant_signing_key=key).argv()  # fmt: skip
+
+
+def last_json(text: str) -> dict:
+    return json.loads(text.strip().splitlines()[-1])
+
+
+def test_the_keyed_autopilot_flies_and_unsigned_senders_never_get_the_plant(tmp_path):
+    port, key = free_udp_port(), key_file(tmp_path, "plant.key")
+    plant = start_plant(port, key)
+    try:
+        assert unsigned_hellos_get_no_challenge(port) == 0  # before the autopilot: no candidate at all
+        pilot = subprocess.run(autopilot_command(port, key), capture_output=True, text=True, timeout=300)
+        out, _ = plant.communicate(timeout=60)
+    finally:
+        if plant.poll() is None:
+            plant.kill()
+            plant.wait()
+    assert pilot.returncode == 0, pilot.stderr
+    autopilot, summary = last_json(pilot.stdout), last_json(out)
+    assert autopilot["steps"] >= 790 and autopilot["dropped_from_plant"] == {}
+    assert summary["handshakes"] == 1 and summary["missed_commands"] == 0
+    assert summary["foreign"] == {"datagrams": 5}  # from another address, and not one message fit to read
+    assert summary["dropped"]["bad_signature"] == 2 * 5  # HEARTBEAT + PING in each HELLO
+
+
+@pytest.mark.parametrize("autopilot_key", [None, "other.key"])
+def test_an_autopilot_without_the_key_never_gets_the_plant(tmp_path, autopilot_key):
+    port = free_udp_port()
+    plant = start_plant(port, key_file(tmp_path, "plant.key"))
+    wrong = None if autopilot_key is None else key_file(tmp_path, autopilot_key)
+    pilot = subprocess.Popen(autopilot_command(port, wrong), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        assert pilot.stderr is not None and "plant link udp" in pilot.stderr.readline()  # started, saying HELLO
+        time.sleep(1.5)  # a HELLO every 0.25 s of silence
+        assert pilot.poll() is None and plant.poll() is None
+        for process in (pilot, plant):
+            process.send_signal(signal.SIGTERM)
+        pilot_out, _ = pilot.communicate(timeout=60)
+        plant_out, _ = plant.communicate(timeout=60)
+    finally:
+        for process in (pilot, plant):
+            if process.poll() is None:
+                process.kill()
+                process.wait()
+    autopilot, summary = last_json(pilot_out), last_json(plant_out)
+    assert summary["handshakes"] == 0 and summary["peer"] is None
+    assert summary["dropped"]["bad_signature"] >= 4
+    assert autopilot["steps"] == 0
+
+
+@pytest.mark.parametrize("text, reason", [
+    ("abc", "3 characters, 64 hexadecimal digits expected"),
+    ("zz" * 32, "not hexadecimal"),
+    ("00" * 32, "an all-zero key"),
+])  # fmt: skip
+def test_a_key_must_be_64_hex_digits_and_not_zero(text, reason):
+    with pytest.raises(KeyFileRefused, match=reason):
+        parse_key(text)
+    assert parse_key(" " + "ab" * 32 + "\n") == bytes([0xAB] * 32)
+
+
+@pytest.mark.parametrize("program, content, reason", [
+    ("sim_bridge", "zz" * 32, "not hexadecimal"),
+    ("autopilot", None, "cannot be read"),
+])  # fmt: skip
+def test_a_bad_key_file_is_refused_with_one_line(tmp_path, program, content, reason):
+    path = tmp_path / "plant.key"
+    if content is not None:
+        path.write_text(content)
+    port = free_udp_port()
+    builder = (SimCommand(port=port, zenoh=Zenoh.off(), plant_signing_key=path) if program == "sim_bridge"
+               else AutopilotCommand(sim_port=port, links=free_link_ports(), zenoh=Zenoh.off(), plant_signing_key=path))
+    result = subprocess.run(builder.argv(), capture_output=True, text=True, timeout=60)
+    assert result.returncode == 2
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "--plant-signing-key" in lines[0] and reason in lines[0]
