@@ -24,9 +24,13 @@ VELOCITY_MASK = 0x9C7  # what MAVSDK sends: velocity and yaw used
 class GroundStation:
     """mavutil 'udpin' connection on 127.0.0.1:port: the vehicle sends there, we answer its address."""
 
-    def __init__(self, port: int, system_id: int = 255, component_id: int = 190) -> None:
-        self.conn = mavutil.mavlink_connection(f"udpin:127.0.0.1:{port}", source_system=system_id,
-                                               source_component=component_id, dialect="common")  # fmt: skip
+    def __init__(self, port: int, system_id: int = 255, component_id: int = 190, *, speaks_first: bool = False) -> None:
+        """speaks_first: send to 127.0.0.1:port instead (a vehicle, or a proxy in front of one, that learns our
+        address from our HEARTBEATs), as MAVSDK and QGroundControl do when given the vehicle's address."""
+        url = f"udpout:127.0.0.1:{port}" if speaks_first else f"udpin:127.0.0.1:{port}"
+        self.conn = mavutil.mavlink_connection(url, source_system=system_id, source_component=component_id,
+                                               dialect="common")  # fmt: skip
+        self.speaks_first = speaks_first
         self.latest: dict[str, Any] = {}
         self.statustexts: list[str] = []
         self._chunks: dict[int, dict[int, str]] = {}
@@ -34,6 +38,7 @@ class GroundStation:
         self.heartbeats: list[tuple[float, Any]] = []  # (sim time, HEARTBEAT)
         self.param_values: list[Any] = []
         self.time_boot_ms = 0
+        self.retries = 0  # commands sent again for want of an ACK
         self._last_heartbeat = 0.0
 
     def close(self) -> None:
@@ -66,7 +71,7 @@ class GroundStation:
     def pump(self, timeout_s: float = 0.05) -> None:
         """Handle everything that arrives within timeout_s (wall); a HEARTBEAT each wall second, as GCSs do."""
         deadline = time.monotonic() + timeout_s
-        if deadline - self._last_heartbeat > 1.0 and "HEARTBEAT" in self.latest:
+        if deadline - self._last_heartbeat > 1.0 and ("HEARTBEAT" in self.latest or self.speaks_first):
             self.heartbeat()
         while True:
             message = self.conn.recv_match(blocking=True, timeout=max(0.0, deadline - time.monotonic()))
@@ -128,10 +133,12 @@ class GroundStation:
         self._last_heartbeat = time.monotonic()
         self.conn.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
 
-    def command(self, command: int, *params: float, timeout_s: float = 10.0) -> Any:
-        """COMMAND_LONG to 1/1; the COMMAND_ACK for it."""
+    def command(self, command: int, *params: float, timeout_s: float = 10.0, retry_s: float | None = None) -> Any:
+        """COMMAND_LONG to 1/1; the COMMAND_ACK for it. retry_s: send it again (confirmation + 1) each retry_s wall
+        seconds until acknowledged, as MAVSDK and QGroundControl do; `retries` counts the resends."""
         p = list(params) + [0.0] * (7 - len(params))
         start = len(self.acks)
+        sent = [time.monotonic(), 0]  # when last sent, confirmation
         self.conn.mav.command_long_send(1, 1, command, 0, *p)
         found: list[Any] = []
 
@@ -139,7 +146,13 @@ class GroundStation:
             found.extend(a for a in self.acks[start:] if a.command == command)
             return bool(found)
 
-        self.wait(acked, f"COMMAND_ACK for {command}", timeout_s)
+        def resend() -> None:
+            if retry_s is not None and time.monotonic() - sent[0] > retry_s:
+                sent[0], sent[1] = time.monotonic(), min(sent[1] + 1, 255)
+                self.retries += 1
+                self.conn.mav.command_long_send(1, 1, command, sent[1], *p)
+
+        self.wait(acked, f"COMMAND_ACK for {command}", timeout_s, every=resend)
         return found[0]
 
     def set_mode(self, custom_mode: int) -> Any:

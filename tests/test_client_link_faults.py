@@ -1,0 +1,50 @@
+"""A ground station behind a lossy link (docs/faults.md): through the seeded fault proxy, with loss, duplication,
+reordering and jitter both ways, commands are acknowledged with retries, Offboard flies on a lossy set-point
+stream, and a link that drops everything triggers the Offboard-loss failsafe."""
+
+from __future__ import annotations
+
+from ground_tools.fault_proxy import Faults, FaultProxy
+from ground_tools.processes import free_udp_port
+from tests.ground_station import HOLD, OFFBOARD, GroundStation
+from tiltrotor_sitl import Vehicle
+from transport.mavlink import mavlink as M
+
+LOSSY = Faults(loss=0.3, duplicate=0.1, reorder=0.1, jitter_s=0.01)
+
+
+def test_commands_and_offboard_through_a_lossy_link_then_the_link_lost(tmp_path):
+    nobody = free_udp_port()  # the vehicle's GCS link sends here until our HEARTBEAT reaches it through the proxy
+    # COM_OF_LOSS_T 2 s and real time: a test process starved of the CPU for a second on a busy machine is not a
+    # lost link (what this test is about is the proxy's faults)
+    with Vehicle(spawn_alt=30.0, speed=1.0, truth=False, gcs_port=nobody, folder=tmp_path,
+                 params={"COM_OF_LOSS_T": 2.0}) as vehicle:
+        with FaultProxy(vehicle.ports.links.gcs_bind, upstream=LOSSY, downstream=LOSSY, seed=7) as proxy:
+            gs = GroundStation(proxy.port, speaks_first=True)
+            try:
+                gs.connect()
+                for _ in range(10):  # Hold asked 10 times: each acknowledged, with retries where the command or
+                    # its ACK was lost (with 30 % loss each way, 10 round trips without a loss: 1 in 1200)
+                    ack = gs.command(M.MAV_CMD_DO_SET_MODE, M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 4, 3, retry_s=0.3)
+                    assert ack.result == M.MAV_RESULT_ACCEPTED
+                assert gs.retries > 0
+                stream = lambda: gs.velocity_setpoint(2.0, 0.0, 0.0)  # noqa: E731 (20 Hz or so, with the pump)
+                gs.wait_sim(0.5, every=stream)
+                offboard = gs.command(M.MAV_CMD_DO_SET_MODE, M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 6, 0, retry_s=0.3)
+                assert offboard.result == M.MAV_RESULT_ACCEPTED
+                gs.wait(lambda: gs.velocity[0] > 1.5, "2 m/s north", 60.0, every=stream)
+                modes = []
+                gs.wait_sim(3.0, every=lambda: (stream(), modes.append(gs.mode)))
+                assert set(modes) == {OFFBOARD}, gs.statustexts  # 30 % loss is no loss of the stream
+                counters = proxy.summary()
+                assert counters["upstream"]["lost"] > 10 and counters["upstream"]["duplicated"] > 5
+                assert counters["downstream"]["lost"] > 10 and counters["downstream"]["reordered"] > 5
+
+                proxy.set_faults(Faults(loss=1.0), LOSSY)  # the ground station's datagrams no longer arrive
+                lost_at = gs.sim_time
+                gs.wait(lambda: gs.mode != OFFBOARD, "the Offboard-loss failsafe", 60.0, every=stream)
+                assert gs.mode == HOLD and gs.armed
+                assert 1.8 < gs.sim_time - lost_at < 3.5
+                print(f"retries {gs.retries}, proxy {proxy.summary()}")
+            finally:
+                gs.close()
