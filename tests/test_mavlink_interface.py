@@ -95,6 +95,9 @@ def test_identity_streams_and_requests(hovering):
     capabilities = gs.latest["AUTOPILOT_VERSION"].capabilities
     assert capabilities & M.MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE
     assert capabilities & M.MAV_PROTOCOL_CAPABILITY_MAVLINK2
+    for mission_protocol in (M.MAV_PROTOCOL_CAPABILITY_MISSION_INT, M.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE,
+                             M.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY):
+        assert capabilities & mission_protocol
     assert gs.command(M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 1).result == M.MAV_RESULT_ACCEPTED
     assert gs.command(M.MAV_CMD_REQUEST_MESSAGE, M.MAVLINK_MSG_ID_HOME_POSITION).result == M.MAV_RESULT_ACCEPTED
     home = gs.latest["HOME_POSITION"]

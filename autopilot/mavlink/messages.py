@@ -26,6 +26,10 @@ CAPABILITIES = (
     M.MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE | M.MAV_PROTOCOL_CAPABILITY_MAVLINK2
     | M.MAV_PROTOCOL_CAPABILITY_COMMAND_INT | M.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
     | M.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_GLOBAL_INT
+    # the mission protocol with MISSION_ITEM_INT, for missions, fences and rally points (MAVSDK refuses to upload
+    # without MISSION_INT)
+    | M.MAV_PROTOCOL_CAPABILITY_MISSION_INT | M.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
+    | M.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY
 )  # fmt: skip
 # The PX4 protocol level this vehicle behaves like (QGroundControl checks it); ours is in flight_custom_version.
 PX4_VERSION = (1 << 24) | (15 << 16) | (0 << 8) | 255  # 1.15.0 release
