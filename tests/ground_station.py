@@ -35,6 +35,7 @@ class GroundStation:
         self.param_values: list[Any] = []
         self.time_boot_ms = 0
         self._last_heartbeat = 0.0
+        self.sends_heartbeats = True  # False: the ground station falls silent (a data-link loss)
 
     def close(self) -> None:
         self.conn.close()
@@ -66,7 +67,7 @@ class GroundStation:
     def pump(self, timeout_s: float = 0.05) -> None:
         """Handle everything that arrives within timeout_s (wall); a HEARTBEAT each wall second, as GCSs do."""
         deadline = time.monotonic() + timeout_s
-        if deadline - self._last_heartbeat > 1.0 and "HEARTBEAT" in self.latest:
+        if self.sends_heartbeats and deadline - self._last_heartbeat > 1.0 and "HEARTBEAT" in self.latest:
             self.heartbeat()
         while True:
             message = self.conn.recv_match(blocking=True, timeout=max(0.0, deadline - time.monotonic()))

@@ -1,0 +1,98 @@
+"""PX4's failsafes through MAVLink (docs/failsafes.md), in lockstep with the unified MPC: offboard loss takes
+COM_OBL_RC_ACT (Land, then Return), a silent ground station takes NAV_DLL_ACT, and flying past GF_MAX_HOR_DIST takes
+GF_ACTION = Return, which lands at the rally point closer than home."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+from autopilot.parameters import BY_NAME, encode_value
+from tests.ground_station import HOLD, LAND, OFFBOARD
+from tests.mavlink_sitl import start_sitl
+from tests.test_mavlink_missions import Client
+from tests.test_mavlink_navigation import RETURN_MODE, latlon_e7
+from transport.geodesy import Home
+from transport.mavlink import mavlink as M
+
+HOME = Home()
+REL = M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+
+
+def set_param(gs, name: str, value: float) -> None:
+    definition = BY_NAME[name]
+    kind = M.MAV_PARAM_TYPE_INT32 if definition.kind == "INT32" else M.MAV_PARAM_TYPE_REAL32
+    assert gs.param_set(name, encode_value(definition, value), kind).param_value == encode_value(definition, value)
+
+
+@contextmanager
+def hovering(tmp_path) -> Iterator:
+    """A vehicle spawned hovering 20 m over home, in lockstep with the MPC; its connected ground station."""
+    sitl = start_sitl(tmp_path / "params.json", spawn_alt=20.0, speed=None)
+    try:
+        sitl.gs.connect()
+        yield sitl.gs
+    finally:
+        sitl.kill()
+
+
+def test_offboard_loss_lands_or_returns_as_com_obl_rc_act_says(tmp_path):
+    with hovering(tmp_path) as gs:
+
+        def stream() -> None:
+            gs.velocity_setpoint(0.0, 0.0, 0.0)
+
+        for action, mode, name in ((4, LAND, "Land"), (3, RETURN_MODE, "Return")):
+            set_param(gs, "COM_OBL_RC_ACT", action)
+            stream()
+            gs.pump(0.02)
+            assert gs.set_mode(OFFBOARD).result == M.MAV_RESULT_ACCEPTED
+            gs.wait(lambda: gs.mode == OFFBOARD, "Offboard", every=stream)
+            gs.wait_sim(1.0, every=stream)
+            stopped = gs.sim_time
+            gs.wait(lambda: gs.mode == mode, f"the offboard loss failsafe to custom mode {mode:#x}", timeout_s=30)
+            assert gs.sim_time - stopped <= 1.0 + 0.15  # COM_OF_LOSS_T
+            gs.wait(lambda: f"Failsafe activated: {name}" in gs.statustexts, "the failsafe's STATUSTEXT")
+            assert gs.armed and gs.altitude > 15.0
+        assert sum("Offboard lost" in text for text in gs.statustexts) == 2
+
+
+def test_a_silent_ground_station_triggers_nav_dll_act_and_the_regained_link_is_said(tmp_path):
+    with hovering(tmp_path) as gs:
+        set_param(gs, "COM_DL_LOSS_T", 5)
+        set_param(gs, "NAV_DLL_ACT", 3)  # Land
+        gs.wait_sim(6.0, every=gs.heartbeat, timeout_s=60)
+        assert gs.mode == HOLD  # heartbeats all along: the link holds
+        gs.sends_heartbeats = False
+        silent = gs.sim_time
+        gs.wait(lambda: gs.mode == LAND, "the data-link loss failsafe to Land", timeout_s=60)
+        assert gs.sim_time - silent <= 5.0 + 0.5  # COM_DL_LOSS_T after the last heartbeat
+        assert "Connection to ground station lost, Land" in gs.statustexts
+        gs.sends_heartbeats = True
+        gs.wait(lambda: "Data link regained" in gs.statustexts, "the link regained", timeout_s=30)
+        assert gs.mode == LAND  # the failsafe's mode stays until the user changes it
+
+
+def test_flying_past_gf_max_hor_dist_returns_to_the_closer_rally_point_and_lands_there(tmp_path):
+    with hovering(tmp_path) as gs:
+        client = Client(gs)
+        rally = (REL, M.MAV_CMD_NAV_RALLY_POINT, 0, 0, 0, 0, *latlon_e7(30.0, 0.0), 0.0)
+        assert client.upload(M.MAV_MISSION_TYPE_RALLY, [rally]) == M.MAV_MISSION_ACCEPTED
+        set_param(gs, "GF_MAX_HOR_DIST", 40.0)
+        set_param(gs, "GF_ACTION", 3)  # Return
+        set_param(gs, "RTL_RETURN_ALT", 20.0)
+        lat, lon = latlon_e7(80.0, 0.0)
+        ack = gs.command(M.MAV_CMD_DO_REPOSITION, -1, 1, 0, math.nan, lat * 1e-7, lon * 1e-7, HOME.alt + 20.0)
+        assert ack.result == M.MAV_RESULT_ACCEPTED
+        gs.wait(lambda: gs.mode == RETURN_MODE, "the geofence failsafe to Return", timeout_s=60)
+        assert any("beyond GF_MAX_HOR_DIST 40 m" in text for text in gs.statustexts)
+        farthest = [0.0]
+
+        def far() -> None:
+            farthest[0] = max(farthest[0], gs.latest["LOCAL_POSITION_NED"].x)
+
+        gs.wait(lambda: not gs.armed, "Return to land and disarm", timeout_s=120, every=far)
+        final = gs.latest["LOCAL_POSITION_NED"]
+        print(f"breached at 40 m, farthest {farthest[0]:.1f} m north, landed at ({final.x:.2f}, {final.y:.2f}) m")
+        assert farthest[0] < 60.0 and math.hypot(final.x - 30.0, final.y) <= 2.0
