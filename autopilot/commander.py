@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from autopilot.auto_flight import AutoFlight, Circle
-from autopilot.failsafe import TERMINATE, WARN, Decision, Failsafe, FailsafeInputs
+from autopilot.failsafe import DESCEND, TERMINATE, WARN, Decision, Failsafe, FailsafeInputs
 from autopilot.flight_modes import (HOLD, LAND, MISSION, MODES, OFFBOARD, ORBIT, RETURN, TAKEOFF, VTOL_FW, VTOL_MC,
                                     FlightMode, HoldMode, LandMode, MissionMode, OffboardMode, OrbitMode, ReturnMode,
                                     TakeoffMode)  # fmt: skip
@@ -92,10 +92,11 @@ class Commander:
         self.offboard = OffboardSetpoint(stamped=stamped_setpoints)
         self.hold = HoldMode(navigator, auto)
         self.takeoff_mode = TakeoffMode(navigator)
+        self.land_mode = LandMode(navigator)
         self.orbit = OrbitMode(auto)
         self.mission_mode = MissionMode(mission)
         self.modes: dict[str, FlightMode] = {mode.name: mode for mode in (
-            self.hold, self.takeoff_mode, LandMode(navigator), OffboardMode(navigator, self.offboard), self.mission_mode,
+            self.hold, self.takeoff_mode, self.land_mode, OffboardMode(navigator, self.offboard), self.mission_mode,
             ReturnMode(params, auto, mission), self.orbit)}  # fmt: skip
         self.land_detector = LandDetector(hover_fraction)
         self.say = say
@@ -204,12 +205,15 @@ class Commander:
         if self.profile is None and self.flying:
             self.hold.activate(state)
 
-    def _refusal(self, name: str | None = None) -> Reply | None:
-        """Commands are off while the internal --profile flies; `name` needs a vehicle state first."""
+    def _refusal(self, name: str | None = None, positional: bool = False) -> Reply | None:
+        """Commands are off while the internal --profile flies; `name` needs a vehicle state first, and a
+        `positional` one a position estimate (PX4: the mode cannot run)."""
         if self.profile is not None:
             return TEMPORARILY_REJECTED, "flying the internal --profile: flight commands are off"
         if name is not None and not self.started:
             return TEMPORARILY_REJECTED, f"{name} denied: no vehicle state from the plant yet"
+        if name is not None and positional and self.failsafe.position_lost:
+            return TEMPORARILY_REJECTED, f"{name} denied: no position estimate (GPS lost)"
         return None
 
     # ---- requests (commands) ---------------------------------------------------------------------------------
@@ -249,6 +253,8 @@ class Commander:
             return refusal
         if mode == self.mode:
             return ACCEPTED, None
+        if (refusal := self._refusal(mode, positional=mode != LAND)) is not None:
+            return refusal
         if mode == OFFBOARD and not self._offboard_fresh():
             return TEMPORARILY_REJECTED, (f"Offboard denied: no set-point in the last "
                                           f"{self.params['COM_OF_LOSS_T']:g} s")  # fmt: skip
@@ -265,7 +271,7 @@ class Commander:
 
     def takeoff(self, state: VehicleState, altitude_above_home: float | None) -> Reply:
         """Climb to `altitude_above_home` (None: MIS_TAKEOFF_ALT) over the current position, then Hold."""
-        if (refusal := self._refusal("Takeoff")) is not None:
+        if (refusal := self._refusal("Takeoff", positional=True)) is not None:
             return refusal
         if altitude_above_home is None:
             altitude_above_home = self.params["MIS_TAKEOFF_ALT"]
@@ -322,9 +328,9 @@ class Commander:
 
     def route(self, request: Reposition | Orbit, state: VehicleState) -> Reply:
         """DO_REPOSITION: Hold at a new position (flown there); DO_ORBIT: Orbit mode around a centre."""
-        if (refusal := self._refusal()) is not None:
-            return refusal
         name = "Reposition" if isinstance(request, Reposition) else "Orbit"
+        if (refusal := self._refusal(name, positional=True)) is not None:
+            return refusal
         if not self.flying:
             return TEMPORARILY_REJECTED, f"{name} denied: not flying"
         if isinstance(request, Reposition):
@@ -393,6 +399,10 @@ class Commander:
         action = decision.action
         if action == WARN or action == self.mode or (action == RETURN and self.mode == LAND):
             self.say(mavlink.MAV_SEVERITY_WARNING, decision.cause)
+        elif action == DESCEND:
+            self._set_mode(LAND, state, f"{decision.cause}, Descend")
+            self.land_mode.descend = True
+            self.say(mavlink.MAV_SEVERITY_CRITICAL, "Failsafe activated: Descend")
         elif action == TERMINATE:
             self.say(mavlink.MAV_SEVERITY_CRITICAL, f"{decision.cause}: flight termination")
             self._set_armed(False, "Failsafe activated: flight termination, motors off")

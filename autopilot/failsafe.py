@@ -2,6 +2,7 @@
 checked from the vehicle's status, and when one starts to hold, the action PX4's parameter names for it is chosen:
 
     offboard loss      Offboard with no set-point for COM_OF_LOSS_T         COM_OBL_RC_ACT
+    position loss      the GPS OFF (injected) for COM_POS_FS_DELAY          Descend (PX4's mode fallback)
     data-link loss     no GCS HEARTBEAT for COM_DL_LOSS_T (after a first)   NAV_DLL_ACT (ignored in Land)
     geofence breach    GF_MAX_HOR_DIST, GF_MAX_VER_DIST, the fence items    GF_ACTION
 
@@ -18,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from aircraft.failures import Failure, FailureUnit, failed_sensors
 from autopilot.flight_modes import HOLD, LAND, RETURN
 from autopilot.geofence import Fence, breach, fence_from_items
 from autopilot.mission_store import MissionStore
@@ -26,6 +28,7 @@ from transport.geodesy import Home
 from transport.mavlink import mavlink
 
 NONE, WARN, TERMINATE = "None", "Warn", "Terminate"  # the actions that are not modes (Hold, Return, Land are)
+DESCEND = "Descend"  # Land with no horizontal position control (PX4 reports it as AUTO.LAND too)
 OFFBOARD_LOSS_ACTIONS = {0: HOLD, 1: HOLD, 2: HOLD, 3: RETURN, 4: LAND, 5: HOLD}  # COM_OBL_RC_ACT
 DATALINK_LOSS_ACTIONS = {0: NONE, 1: HOLD, 2: RETURN, 3: LAND}  # NAV_DLL_ACT
 GEOFENCE_ACTIONS = {0: NONE, 1: WARN, 2: HOLD, 3: RETURN, 4: TERMINATE, 5: LAND}  # GF_ACTION
@@ -61,6 +64,10 @@ class Failsafe:
         self.gcs_heard_usec: int | None = None  # the last GCS HEARTBEAT (simulation time)
         self.datalink_lost = False
         self.breached = False
+        self.sensors_failed: frozenset[FailureUnit] = frozenset()
+        self.position_lost_usec: int | None = None  # when the GPS went OFF
+        self._position_failsafe_done = False
+        self._failures: list[Failure] = []
         self._fence = Fence((), ())
         self._fence_items: tuple = ()
 
@@ -71,6 +78,17 @@ class Failsafe:
         if self.datalink_lost:
             self.datalink_lost = False
             self.say(mavlink.MAV_SEVERITY_INFO, "Data link regained")
+
+    def failure_known(self, failure: Failure) -> None:
+        """A failure the plant applied (sensors matter here: the controllers fly on truth)."""
+        if failure.sensor:
+            self._failures.append(failure)
+            self.sensors_failed = failed_sensors(self._failures)
+
+    @property
+    def position_lost(self) -> bool:
+        """No position estimate: the GPS is OFF (PX4's position modes cannot run)."""
+        return FailureUnit.GPS in self.sensors_failed
 
     def restart(self) -> None:
         """A new plant run: nothing heard yet in its time."""
@@ -83,7 +101,21 @@ class Failsafe:
         if status.offboard_lost:
             action = OFFBOARD_LOSS_ACTIONS[self.params.get_int("COM_OBL_RC_ACT")] if status.flying else HOLD
             return Decision(action, f"Offboard lost: no set-point for {self.params['COM_OF_LOSS_T']:g} s")
-        return self._geofence(status) or self._datalink(status)
+        return self._position(status) or self._geofence(status) or self._datalink(status)
+
+    def _position(self, status: FailsafeInputs) -> Decision | None:
+        if not self.position_lost:
+            self.position_lost_usec = None
+            self._position_failsafe_done = False
+            return None
+        if self.position_lost_usec is None:
+            self.position_lost_usec = status.now_usec
+            self.say(mavlink.MAV_SEVERITY_CRITICAL, "GPS lost: no position estimate")
+        delay_usec = self.params.get_int("COM_POS_FS_DELAY") * 1_000_000
+        if self._position_failsafe_done or not status.flying or status.now_usec - self.position_lost_usec < delay_usec:
+            return None
+        self._position_failsafe_done = True
+        return Decision(DESCEND, "Position lost")
 
     def _datalink(self, status: FailsafeInputs) -> Decision | None:
         timeout_usec = self.params["COM_DL_LOSS_T"] * 1e6

@@ -118,7 +118,8 @@ class TakeoffMode(FlightMode):
 
 
 class LandMode(FlightMode):
-    """AUTO.LAND: brake, descend, touch down."""
+    """AUTO.LAND: brake, descend, touch down; PX4's Descend (position lost): the same with no horizontal position
+    control, only a zero horizontal velocity."""
 
     name = LAND
     landing = True
@@ -126,12 +127,17 @@ class LandMode(FlightMode):
 
     def __init__(self, navigator: Navigator) -> None:
         self.navigator = navigator
+        self.descend = False
 
     def activate(self, state: VehicleState) -> None:
+        self.descend = False
         self.navigator.start_land(state)
 
     def setpoint(self, state: VehicleState) -> np.ndarray:
-        return self.navigator.land(state)
+        setpoint = self.navigator.land(state)
+        if self.descend:
+            setpoint[0:2] = 0.0
+        return setpoint
 
 
 class OffboardMode(FlightMode):

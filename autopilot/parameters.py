@@ -62,6 +62,7 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
     P("COM_DL_LOSS_T", INT32, 10, 5, 300, "s", "data-link loss: no ground-station HEARTBEAT for this long"),
     P("NAV_DLL_ACT", INT32, 0, 0, 3, "", "data-link loss failsafe: 0 disabled, 1 Hold, 2 Return, 3 Land (PX4's 5 "
       "Terminate and 6 Disarm are refused)"),
+    P("COM_POS_FS_DELAY", INT32, 1, 1, 100, "s", "position loss failsafe (GPS OFF): Descend after this long"),
     P("GF_ACTION", INT32, 2, 0, 5, "", "geofence breach action: 0 none, 1 warning, 2 Hold, 3 Return, 4 terminate "
       "(motors off), 5 Land"),
     P("GF_MAX_HOR_DIST", REAL32, 0.0, 0.0, 10000.0, "m", "geofence: the farthest from home horizontally (0: no "

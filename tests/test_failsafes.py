@@ -1,6 +1,6 @@
 """PX4's failsafes in simulation time, without processes (docs/failsafes.md): the geofence's geometry, the offboard
-loss action COM_OBL_RC_ACT, the data-link loss action NAV_DLL_ACT, the geofence action GF_ACTION, and Return to the
-closest of home and the rally points."""
+loss action COM_OBL_RC_ACT, the data-link loss action NAV_DLL_ACT, the geofence action GF_ACTION, Return to the
+closest of home and the rally points, and the sensor failures (what the plant sends, the GPS loss failsafe)."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ import numpy as np
 import pymap3d
 import pytest
 
+from aircraft.failures import Failure, FailureRejected, FailureType, FailureUnit
 from autopilot.commander import HOLD, LAND, OFFBOARD, RETURN, Commander
 from autopilot.geofence import breach, fence_from_items, inside_polygon
 from autopilot.mission_flight import closest_safe_point
@@ -134,3 +135,44 @@ def test_geofence_breach_takes_gf_action_once_and_return_heads_for_the_closest_r
     terminate, said = flying_commander(GF_MAX_VER_DIST=40.0, GF_ACTION=4)
     fly(terminate, 0.0, 0.1)
     assert not terminate.armed and any("flight termination" in text for text in said)
+
+
+# ---- sensor failures ----------------------------------------------------------------------------------------------------
+def test_a_failed_sensor_leaves_the_plant_s_messages_and_a_failed_gps_sends_no_hil_gps(airframe):
+    from sim_bridge.plant import Plant, Spawn
+    from sim_bridge.sensors import GPS_PERIOD_USEC, SensorSuite
+    from transport.geodesy import LocalGeodetic
+    from transport.mavlink import Link
+
+    plant = Plant(airframe, Spawn(altitude=20.0), compile_model=False)
+    suite = SensorSuite(plant, Link(1, 200), LocalGeodetic(HOME))
+    reader = Link(255, 190)
+
+    def kinds() -> dict:
+        return {message.get_type(): message for message in reader.parse(suite.datagram())}
+
+    assert plant.time_usec % GPS_PERIOD_USEC == 0 and {"HIL_GPS", "HIL_SENSOR"} <= set(kinds())
+    assert plant.inject_failure(4, 1, 0, math.nan) == ["GPS all OFF"]
+    plant.inject_failure(3, 1, 1, math.nan)  # baro
+    sent = kinds()
+    assert "HIL_GPS" not in sent and "HIL_STATE_QUATERNION" in sent  # the truth still goes out
+    assert sent["HIL_SENSOR"].fields_updated == 0x1FFF & ~0x1A00 and sent["HIL_SENSOR"].abs_pressure == 0.0
+    plant.inject_failure(4, 0, 0, math.nan)
+    assert "HIL_GPS" in kinds()
+    with pytest.raises(FailureRejected):
+        plant.inject_failure(4, 2, 1, math.nan)  # STUCK is not simulated for sensors
+
+
+def test_gps_loss_in_the_air_descends_after_com_pos_fs_delay_and_position_modes_are_refused():
+    commander, said = flying_commander(COM_POS_FS_DELAY=2)
+    commander.failsafe.failure_known(Failure(FailureUnit.GPS, FailureType.OFF, 0))
+    fly(commander, 0.0, 1.9)
+    assert commander.mode == HOLD and "GPS lost: no position estimate" in said
+    fly(commander, 1.9, 2.1)
+    assert commander.mode == LAND and "Failsafe activated: Descend" in said
+    setpoint = commander.tick(state_at(2.2), 2_200_000, HOVER)
+    assert list(setpoint[0:2]) == [0.0, 0.0]  # no horizontal position control
+    result, reason = commander.set_mode(HOLD, state_at(2.2))
+    assert result == M.MAV_RESULT_TEMPORARILY_REJECTED and "GPS lost" in reason
+    commander.failsafe.failure_known(Failure(FailureUnit.GPS, FailureType.OK, 0))
+    assert commander.set_mode(HOLD, state_at(2.2))[0] == M.MAV_RESULT_ACCEPTED

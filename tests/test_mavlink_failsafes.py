@@ -27,9 +27,9 @@ def set_param(gs, name: str, value: float) -> None:
 
 
 @contextmanager
-def hovering(tmp_path) -> Iterator:
-    """A vehicle spawned hovering 20 m over home, in lockstep with the MPC; its connected ground station."""
-    sitl = start_sitl(tmp_path / "params.json", spawn_alt=20.0, speed=None)
+def hovering(tmp_path, altitude: float = 20.0) -> Iterator:
+    """A vehicle spawned hovering over home, in lockstep with the MPC; its connected ground station."""
+    sitl = start_sitl(tmp_path / "params.json", spawn_alt=altitude, speed=None)
     try:
         sitl.gs.connect()
         yield sitl.gs
@@ -62,7 +62,7 @@ def test_a_silent_ground_station_triggers_nav_dll_act_and_the_regained_link_is_s
     with hovering(tmp_path) as gs:
         set_param(gs, "COM_DL_LOSS_T", 5)
         set_param(gs, "NAV_DLL_ACT", 3)  # Land
-        gs.wait_sim(6.0, every=gs.heartbeat, timeout_s=60)
+        gs.wait_sim(2.0, every=gs.heartbeat, timeout_s=60)
         assert gs.mode == HOLD  # heartbeats all along: the link holds
         gs.sends_heartbeats = False
         silent = gs.sim_time
@@ -75,15 +75,15 @@ def test_a_silent_ground_station_triggers_nav_dll_act_and_the_regained_link_is_s
 
 
 def test_flying_past_gf_max_hor_dist_returns_to_the_closer_rally_point_and_lands_there(tmp_path):
-    with hovering(tmp_path) as gs:
+    with hovering(tmp_path, altitude=10.0) as gs:
         client = Client(gs)
         rally = (REL, M.MAV_CMD_NAV_RALLY_POINT, 0, 0, 0, 0, *latlon_e7(30.0, 0.0), 0.0)
         assert client.upload(M.MAV_MISSION_TYPE_RALLY, [rally]) == M.MAV_MISSION_ACCEPTED
         set_param(gs, "GF_MAX_HOR_DIST", 40.0)
         set_param(gs, "GF_ACTION", 3)  # Return
-        set_param(gs, "RTL_RETURN_ALT", 20.0)
+        set_param(gs, "RTL_RETURN_ALT", 10.0)
         lat, lon = latlon_e7(80.0, 0.0)
-        ack = gs.command(M.MAV_CMD_DO_REPOSITION, -1, 1, 0, math.nan, lat * 1e-7, lon * 1e-7, HOME.alt + 20.0)
+        ack = gs.command(M.MAV_CMD_DO_REPOSITION, -1, 1, 0, math.nan, lat * 1e-7, lon * 1e-7, HOME.alt + 10.0)
         assert ack.result == M.MAV_RESULT_ACCEPTED
         gs.wait(lambda: gs.mode == RETURN_MODE, "the geofence failsafe to Return", timeout_s=60)
         assert any("beyond GF_MAX_HOR_DIST 40 m" in text for text in gs.statustexts)
@@ -96,3 +96,20 @@ def test_flying_past_gf_max_hor_dist_returns_to_the_closer_rally_point_and_lands
         final = gs.latest["LOCAL_POSITION_NED"]
         print(f"breached at 40 m, farthest {farthest[0]:.1f} m north, landed at ({final.x:.2f}, {final.y:.2f}) m")
         assert farthest[0] < 60.0 and math.hypot(final.x - 30.0, final.y) <= 2.0
+
+
+def test_gps_loss_in_a_hover_descends_and_ends_on_the_ground_disarmed(tmp_path):
+    with hovering(tmp_path, altitude=10.0) as gs:
+        set_param(gs, "SYS_FAILURE_EN", 1)
+        assert gs.command(M.MAV_CMD_INJECT_FAILURE, 4, 1, 0).result == M.MAV_RESULT_ACCEPTED  # GPS OFF
+        gs.wait(lambda: gs.mode == LAND, "Descend (reported as AUTO.LAND, as PX4 does)", timeout_s=30)
+        gs.wait(lambda: gs.latest["GPS_RAW_INT"].fix_type == M.GPS_FIX_TYPE_NO_FIX, "GPS_RAW_INT without a fix")
+        assert not gs.latest["SYS_STATUS"].onboard_control_sensors_health & M.MAV_SYS_STATUS_SENSOR_GPS
+        assert gs.set_mode(HOLD).result == M.MAV_RESULT_TEMPORARILY_REJECTED  # Hold needs a position
+        gs.wait(lambda: not gs.armed, "the landing and the disarm", timeout_s=90)
+        assert gs.altitude < 0.5
+        said = [text for text in gs.statustexts if text in (
+            "GPS lost: no position estimate", "Position lost, Descend", "Failsafe activated: Descend",
+            "Landing detected", "Disarmed after landing")]  # fmt: skip
+        assert said == ["GPS lost: no position estimate", "Position lost, Descend", "Failsafe activated: Descend",
+                        "Landing detected", "Disarmed after landing"]  # fmt: skip
