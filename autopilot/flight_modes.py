@@ -15,6 +15,8 @@ DO_REPOSITION fly routes of targets (auto_flight.py, mission_flight.py).
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
+
 import numpy as np
 
 from autopilot.auto_flight import AutoFlight, Circle, FlyTo, HoldAt
@@ -33,7 +35,7 @@ OFFBOARD_TAKEOFF_CLIMB = 0.3  # m/s: an Offboard set-point climbing faster than 
 VTOL_FW, VTOL_MC = mavlink.MAV_VTOL_STATE_FW, mavlink.MAV_VTOL_STATE_MC  # 4, 3
 
 
-class FlightMode:
+class FlightMode(ABC):
     """The interface; the defaults are those of a mode that neither takes off nor lands."""
 
     name = ""
@@ -43,8 +45,8 @@ class FlightMode:
     def activate(self, state: VehicleState) -> None:
         pass
 
-    def setpoint(self, state: VehicleState) -> np.ndarray:
-        raise NotImplementedError
+    @abstractmethod
+    def setpoint(self, state: VehicleState) -> np.ndarray: ...
 
     def lifts_off(self, state: VehicleState) -> bool:
         return False

@@ -289,6 +289,7 @@ class PlantLoop:
             "flight_mode": self.commander.mode,
             "armed": self.commander.armed,
             "controllers_started": self.controllers_started,
+            "failsafes": self.commander.failsafes,
         }
         summary["controller"] = self.controller.controller_statistics()
         if self.services is not None:
