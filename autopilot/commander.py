@@ -228,6 +228,8 @@ class Commander:
         if not force and (abs(roll) > MAX_LEVEL_TILT or abs(pitch) > MAX_LEVEL_TILT):
             return DENIED, (f"Arming denied: not level (roll {math.degrees(roll):.0f}, "
                             f"pitch {math.degrees(pitch):.0f} deg)")  # fmt: skip
+        if not force and (outside := self.failsafe.outside_fence(state.position_ned)) is not None:
+            return DENIED, f"Arming denied: vehicle outside the geofence ({outside})"
         self._set_armed(True, "Armed")
         if self.mode == MISSION:
             self.mission_mode.activate(state)  # a takeoff item first: the mission takes off
@@ -366,7 +368,7 @@ class Commander:
         self.offboard.take_due(time_usec)
         if self.profile is not None:
             return self.profile((time_usec - self._start_usec) / 1e6) if self.flying else None
-        decision = self.failsafe.check(FailsafeInputs(time_usec, self.armed, self.flying, self.mode, state.position_ned,
+        decision = self.failsafe.check(FailsafeInputs(time_usec, self.flying, self.mode, state.position_ned,
                                                       self.mode == OFFBOARD and not self._offboard_fresh()))  # fmt: skip
         if decision is not None:
             self._failsafe(decision, state)

@@ -47,7 +47,6 @@ class FailsafeInputs:
     """The vehicle's status as the failsafe checks see it, this tick."""
 
     now_usec: int
-    armed: bool
     flying: bool
     mode: str
     position_ned: np.ndarray
@@ -138,14 +137,16 @@ class Failsafe:
                 self.say(mavlink.MAV_SEVERITY_WARNING, f"Geofence: {reason}: ignored")
         return self._fence
 
-    def _geofence(self, status: FailsafeInputs) -> Decision | None:
-        action = GEOFENCE_ACTIONS[self.params.get_int("GF_ACTION")]
-        if not status.flying or action == NONE:
-            self.breached = False
+    def outside_fence(self, position_ned: np.ndarray) -> str | None:
+        """Why `position_ned` is outside the geofence (None: inside, or GF_ACTION 0 disables the fence)."""
+        if GEOFENCE_ACTIONS[self.params.get_int("GF_ACTION")] == NONE:
             return None
-        why = breach(status.position_ned, self.fence(), self.params["GF_MAX_HOR_DIST"], self.params["GF_MAX_VER_DIST"])
+        return breach(position_ned, self.fence(), self.params["GF_MAX_HOR_DIST"], self.params["GF_MAX_VER_DIST"])
+
+    def _geofence(self, status: FailsafeInputs) -> Decision | None:
+        why = self.outside_fence(status.position_ned) if status.flying else None
         started = why is not None and not self.breached
         self.breached = why is not None
         if not started:
             return None
-        return Decision(action, f"Geofence violated: {why}")
+        return Decision(GEOFENCE_ACTIONS[self.params.get_int("GF_ACTION")], f"Geofence violated: {why}")

@@ -132,6 +132,15 @@ def test_geofence_breach_takes_gf_action_once_and_return_heads_for_the_closest_r
     warn, said = flying_commander(GF_MAX_VER_DIST=40.0, GF_ACTION=1)
     fly(warn, 0.0, 0.1)
     assert warn.mode == HOLD and any("GF_MAX_VER_DIST" in text for text in said)
+    fenced = MissionStore()
+    fenced.store(M.MAV_MISSION_TYPE_FENCE, (item(M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, 500.0, 0.0, 50.0),))
+    store = ParameterStore(None)
+    on_ground = Commander(store, HOVER, armed=False, in_air=False, missions=fenced, home=HOME)
+    on_ground.start(state_at(0.0, down=0.0))
+    result, reason = on_ground.arm(state_at(0.0, down=0.0))
+    assert result == M.MAV_RESULT_DENIED and "outside the geofence" in reason  # PX4's pre-arm check
+    store.set("GF_ACTION", 0)
+    assert on_ground.arm(state_at(0.0, down=0.0))[0] == M.MAV_RESULT_ACCEPTED
     terminate, said = flying_commander(GF_MAX_VER_DIST=40.0, GF_ACTION=4)
     fly(terminate, 0.0, 0.1)
     assert not terminate.armed and any("flight termination" in text for text in said)
