@@ -24,7 +24,7 @@ import numpy as np
 
 from autopilot.auto_flight import AutoFlight, Circle
 from autopilot.failsafe import DESCEND, TERMINATE, WARN, Decision, Failsafe, FailsafeInputs
-from autopilot.flight_modes import (HOLD, LAND, MISSION, MODES, OFFBOARD, ORBIT, RETURN, TAKEOFF, VTOL_FW, VTOL_MC,
+from autopilot.flight_modes import (HOLD, LAND, MISSION, OFFBOARD, ORBIT, RETURN, TAKEOFF, VTOL_FW, VTOL_MC,
                                     FlightMode, HoldMode, LandMode, MissionMode, OffboardMode, OrbitMode, ReturnMode,
                                     TakeoffMode)  # fmt: skip
 from autopilot.mission_flight import MissionFlight
@@ -42,8 +42,6 @@ TEMPORARILY_REJECTED = mavlink.MAV_RESULT_TEMPORARILY_REJECTED
 DENIED = mavlink.MAV_RESULT_DENIED
 UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
 
-__all__ = ["ACCEPTED", "DENIED", "TEMPORARILY_REJECTED", "UNSUPPORTED", "FORCE_MAGIC", "MODES", "HOLD", "TAKEOFF",
-           "LAND", "OFFBOARD", "MISSION", "RETURN", "ORBIT", "Commander", "CommanderReport"]
 FORCE_MAGIC = 21196  # MAV_CMD_COMPONENT_ARM_DISARM param2: skip the checks (PX4)
 
 LANDED_UNDEFINED = mavlink.MAV_LANDED_STATE_UNDEFINED
@@ -70,19 +68,10 @@ class CommanderReport:
 class Commander:
     """The vehicle's arming state, mode and ground/air state; velocity set-points at 100 Hz."""
 
-    def __init__(
-        self,
-        params: ParameterStore,
-        hover_fraction: float,
-        *,
-        armed: bool,
-        in_air: bool,
-        say: Callable[..., None] = lambda severity, text, key=None: None,
-        profile: Callable[[float], np.ndarray] | None = None,
-        stamped_setpoints: bool = False,
-        missions: MissionStore | None = None,
-        home: Home = Home(),
-    ) -> None:
+    def __init__(self, params: ParameterStore, hover_fraction: float, *, armed: bool, in_air: bool,
+                 say: Callable[..., None] = lambda severity, text, key=None: None,
+                 profile: Callable[[float], np.ndarray] | None = None, stamped_setpoints: bool = False,
+                 missions: MissionStore | None = None, home: Home = Home()) -> None:  # fmt: skip
         self.params = params
         missions = missions if missions is not None else MissionStore()
         navigator = Navigator(params)
@@ -309,15 +298,8 @@ class Commander:
             return TEMPORARILY_REJECTED, "Transition denied: in Offboard the set-points choose the phase"
         if self.mode != HOLD:
             return TEMPORARILY_REJECTED, f"Transition denied: in {self.mode} (switch to Hold first)"
-        if target == self.hold.transition_target:
-            return ACCEPTED, None
-        if target == VTOL_FW:
-            self.hold.fixed_wing(state)
-            self.say(mavlink.MAV_SEVERITY_INFO, "Transition to fixed wing: circling at "
-                     f"{self.params['FW_AIRSPD_TRIM']:g} m/s")  # fmt: skip
-        else:
-            self.hold.multicopter(state)
-            self.say(mavlink.MAV_SEVERITY_INFO, "Transition to multicopter: braking to a hover")
+        if (text := self.hold.transition(target, state)) is not None:
+            self.say(mavlink.MAV_SEVERITY_INFO, text)
         return ACCEPTED, None
 
     # ---- typed requests from the ground stations ------------------------------------------------------------

@@ -81,13 +81,17 @@ class HoldMode(FlightMode):
         self.repositioning = True
         self.auto.start(state, [FlyTo(position, REPOSITION_ACCEPTANCE, speed), HoldAt(position, None)])
 
-    def fixed_wing(self, state: VehicleState) -> None:
-        self.transition_target = VTOL_FW
-        self.navigator.start_fixed_wing_hold(state)
-
-    def multicopter(self, state: VehicleState) -> None:
-        self.transition_target = VTOL_MC
+    def transition(self, target: int, state: VehicleState) -> str | None:
+        """MAV_CMD_DO_VTOL_TRANSITION in Hold: to FW circle at cruise speed, to MC brake and hover; what to say
+        (None: already there)."""
+        if target == self.transition_target:
+            return None
+        self.transition_target = target
+        if target == VTOL_FW:
+            self.navigator.start_fixed_wing_hold(state)
+            return f"Transition to fixed wing: circling at {self.navigator.params['FW_AIRSPD_TRIM']:g} m/s"
         self.navigator.start_hold(state, down=self.navigator.hold_down)
+        return "Transition to multicopter: braking to a hover"
 
     def setpoint(self, state: VehicleState) -> np.ndarray:
         return self.auto.step(state) if self.repositioning else self.navigator.hold(state)
