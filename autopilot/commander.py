@@ -378,10 +378,11 @@ class Commander:
         return setpoint
 
     def _failsafe(self, decision: Decision, state: VehicleState) -> None:
-        """A failsafe's action: a warning, flight termination, or its mode (not Return while landing, as PX4)."""
+        """A failsafe's action: a warning, flight termination, or its mode (not Return while landing, as PX4; Hold
+        again when in Hold, which stops a Go-to)."""
         self.failsafes += 1
         action = decision.action
-        if action == WARN or action == self.mode or (action == RETURN and self.mode == LAND):
+        if action == WARN or (action == self.mode != HOLD) or (action == RETURN and self.mode == LAND):
             self.say(mavlink.MAV_SEVERITY_WARNING, decision.cause)
         elif action == DESCEND:
             self._set_mode(LAND, state, f"{decision.cause}, Descend")
@@ -390,7 +391,9 @@ class Commander:
         elif action == TERMINATE:
             self.say(mavlink.MAV_SEVERITY_CRITICAL, f"{decision.cause}: flight termination")
             self._set_armed(False, "Failsafe activated: flight termination, motors off")
-        else:
+        else:  # Hold again stops a Go-to where it is
+            if action == self.mode:
+                self.say(mavlink.MAV_SEVERITY_WARNING, f"{decision.cause}, {action}")
             self._set_mode(action, state, f"{decision.cause}, {action}")
             if self.flying:
                 self.say(mavlink.MAV_SEVERITY_CRITICAL, f"Failsafe activated: {action}")

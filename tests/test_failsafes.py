@@ -17,6 +17,7 @@ from autopilot.mission_flight import closest_safe_point
 from autopilot.mission_items import MissionItem
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterRejected, ParameterStore
+from autopilot.requests import Reposition
 from autopilot.vehicle_state import VehicleState
 from transport.geodesy import Home
 from transport.mavlink import mavlink as M
@@ -129,6 +130,11 @@ def test_geofence_breach_takes_gf_action_once_and_return_heads_for_the_closest_r
     commander.set_mode(HOLD, state_at(1.02, 101.0))
     fly(commander, 1.02, 2.0, north=101.0)
     assert commander.mode == HOLD  # still outside, but the breach acted once: the user flies out of it
+    going, said = flying_commander(GF_MAX_HOR_DIST=100.0)  # GF_ACTION 2: Hold
+    assert going.route(Reposition(np.array([200.0, 0.0, -50.0]), None), state_at(0.0))[0] == M.MAV_RESULT_ACCEPTED
+    fly(going, 0.0, 0.1, north=101.0)
+    assert going.mode == HOLD and not going.hold.repositioning  # the Go-to stops where the fence is
+    assert "Failsafe activated: Hold" in said
     warn, said = flying_commander(GF_MAX_VER_DIST=40.0, GF_ACTION=1)
     fly(warn, 0.0, 0.1)
     assert warn.mode == HOLD and any("GF_MAX_VER_DIST" in text for text in said)

@@ -113,3 +113,18 @@ def test_gps_loss_in_a_hover_descends_and_ends_on_the_ground_disarmed(tmp_path):
             "Landing detected", "Disarmed after landing")]  # fmt: skip
         assert said == ["GPS lost: no position estimate", "Position lost, Descend", "Failsafe activated: Descend",
                         "Landing detected", "Disarmed after landing"]  # fmt: skip
+
+
+def test_a_go_to_into_an_uploaded_exclusion_zone_stops_in_hold_at_its_edge(tmp_path):
+    with hovering(tmp_path, altitude=5.0) as gs:
+        client = Client(gs)
+        zone = (REL, M.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, 10.0, 0, 0, 0, *latlon_e7(30.0, 0.0), 0.0)
+        assert client.upload(M.MAV_MISSION_TYPE_FENCE, [zone]) == M.MAV_MISSION_ACCEPTED  # GF_ACTION 2: Hold
+        lat, lon = latlon_e7(60.0, 0.0)
+        ack = gs.command(M.MAV_CMD_DO_REPOSITION, -1, 1, 0, math.nan, lat * 1e-7, lon * 1e-7, HOME.alt + 5.0)
+        assert ack.result == M.MAV_RESULT_ACCEPTED
+        gs.wait(lambda: "Geofence violated: inside exclusion zone 1, Hold" in gs.statustexts, "the breach", 60)
+        gs.wait(lambda: math.hypot(*gs.velocity[0:2]) < 0.3, "Hold to stop the vehicle", timeout_s=60)
+        stopped = gs.latest["LOCAL_POSITION_NED"].x
+        print(f"stopped {stopped:.1f} m north (the zone begins at 20 m)")
+        assert 20.0 <= stopped < 30.0 and gs.mode == HOLD
