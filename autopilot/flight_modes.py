@@ -39,8 +39,14 @@ class FlightMode(ABC):
     """The interface; the defaults are those of a mode that neither takes off nor lands."""
 
     name = ""
-    landing = False
-    detects_landing = False
+
+    @property
+    def landing(self) -> bool:
+        return False
+
+    @property
+    def detects_landing(self) -> bool:
+        return self.landing
 
     def activate(self, state: VehicleState) -> None:
         pass
@@ -128,8 +134,10 @@ class LandMode(FlightMode):
     control, only a zero horizontal velocity."""
 
     name = LAND
-    landing = True
-    detects_landing = True
+
+    @property
+    def landing(self) -> bool:
+        return True
 
     def __init__(self, navigator: Navigator) -> None:
         self.navigator = navigator
@@ -150,7 +158,9 @@ class OffboardMode(FlightMode):
     """OFFBOARD: the client's velocity set-point, or the velocity that flies to its position set-point."""
 
     name = OFFBOARD
-    detects_landing = True  # a client may land the vehicle with its set-points
+    @property
+    def detects_landing(self) -> bool:  # a client may land the vehicle with its set-points
+        return True
 
     def __init__(self, navigator: Navigator, offboard: OffboardSetpoint) -> None:
         self.navigator = navigator
@@ -185,11 +195,7 @@ class MissionMode(FlightMode):
         self.mission.start(state)
 
     @property
-    def landing(self) -> bool:  # type: ignore[override]
-        return self.mission.landing
-
-    @property
-    def detects_landing(self) -> bool:  # type: ignore[override]
+    def landing(self) -> bool:
         return self.mission.landing
 
     def lifts_off(self, state: VehicleState) -> bool:
@@ -216,11 +222,7 @@ class ReturnMode(FlightMode):
         self.auto.start(state, return_route(self.params, state, self.mission.rally_points()))
 
     @property
-    def landing(self) -> bool:  # type: ignore[override]
-        return self.auto.descending
-
-    @property
-    def detects_landing(self) -> bool:  # type: ignore[override]
+    def landing(self) -> bool:
         return self.auto.descending
 
     def setpoint(self, state: VehicleState) -> np.ndarray:
