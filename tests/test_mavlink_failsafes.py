@@ -75,18 +75,18 @@ def test_a_silent_ground_station_triggers_nav_dll_act_and_the_regained_link_is_s
 
 
 def test_flying_past_gf_max_hor_dist_returns_to_the_closer_rally_point_and_lands_there(tmp_path):
-    with hovering(tmp_path, altitude=10.0) as gs:
+    with hovering(tmp_path, altitude=8.0) as gs:
         client = Client(gs)
-        rally = (REL, M.MAV_CMD_NAV_RALLY_POINT, 0, 0, 0, 0, *latlon_e7(30.0, 0.0), 0.0)
+        rally = (REL, M.MAV_CMD_NAV_RALLY_POINT, 0, 0, 0, 0, *latlon_e7(20.0, 0.0), 0.0)
         assert client.upload(M.MAV_MISSION_TYPE_RALLY, [rally]) == M.MAV_MISSION_ACCEPTED
-        set_param(gs, "GF_MAX_HOR_DIST", 40.0)
+        set_param(gs, "GF_MAX_HOR_DIST", 25.0)
         set_param(gs, "GF_ACTION", 3)  # Return
-        set_param(gs, "RTL_RETURN_ALT", 10.0)
-        lat, lon = latlon_e7(80.0, 0.0)
-        ack = gs.command(M.MAV_CMD_DO_REPOSITION, -1, 1, 0, math.nan, lat * 1e-7, lon * 1e-7, HOME.alt + 10.0)
+        set_param(gs, "RTL_RETURN_ALT", 8.0)
+        lat, lon = latlon_e7(50.0, 0.0)
+        ack = gs.command(M.MAV_CMD_DO_REPOSITION, -1, 1, 0, math.nan, lat * 1e-7, lon * 1e-7, HOME.alt + 8.0)
         assert ack.result == M.MAV_RESULT_ACCEPTED
         gs.wait(lambda: gs.mode == RETURN_MODE, "the geofence failsafe to Return", timeout_s=60)
-        assert any("beyond GF_MAX_HOR_DIST 40 m" in text for text in gs.statustexts)
+        assert any("beyond GF_MAX_HOR_DIST 25 m" in text for text in gs.statustexts)
         farthest = [0.0]
 
         def far() -> None:
@@ -94,8 +94,8 @@ def test_flying_past_gf_max_hor_dist_returns_to_the_closer_rally_point_and_lands
 
         gs.wait(lambda: not gs.armed, "Return to land and disarm", timeout_s=120, every=far)
         final = gs.latest["LOCAL_POSITION_NED"]
-        print(f"breached at 40 m, farthest {farthest[0]:.1f} m north, landed at ({final.x:.2f}, {final.y:.2f}) m")
-        assert farthest[0] < 60.0 and math.hypot(final.x - 30.0, final.y) <= 2.0
+        print(f"breached at 25 m, farthest {farthest[0]:.1f} m north, landed at ({final.x:.2f}, {final.y:.2f}) m")
+        assert farthest[0] < 40.0 and math.hypot(final.x - 20.0, final.y) <= 2.0
 
 
 def test_gps_loss_in_a_hover_descends_and_ends_on_the_ground_disarmed(tmp_path):
