@@ -2,14 +2,17 @@
 ground tools: units, types, instances, the request's checks, and how a failure is said.
 
 param1 unit: 101 motor (instances 1-4, the rotors), 102 servo (1-4 the tilt servos, 5-8 left aileron, right
-aileron, elevator, rudder); param2 type: 0 OK (clears), 1 OFF, 2 STUCK, 4 WRONG; param3 instance (1-based,
-0 = every instance of the unit); param4 (our extension): for STUCK the angle in degrees (servo, surface) or the
-thrust fraction (motor), NaN = where it is now; for WRONG the remaining fraction 0..1 (NaN = 0.5).
+aileron, elevator, rudder), or a sensor (PX4's FAILURE_UNIT_SENSOR_*: 0 gyro, 1 accel, 2 mag, 3 baro, 4 GPS,
+8 airspeed; one instance each); param2 type: 0 OK (clears), 1 OFF, 2 STUCK, 4 WRONG (sensors: OK and OFF);
+param3 instance (1-based, 0 = every instance of the unit); param4 (our extension): for STUCK the angle in degrees
+(servo, surface) or the thrust fraction (motor), NaN = where it is now; for WRONG the remaining fraction 0..1
+(NaN = 0.5).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 from enum import IntEnum
 
@@ -19,6 +22,12 @@ from aircraft.actuators import ROTORS, SERVO_CHANNELS
 class FailureUnit(IntEnum):
     """MAVLink FAILURE_UNIT values this aircraft simulates."""
 
+    GYRO = 0  # FAILURE_UNIT_SENSOR_GYRO
+    ACCEL = 1  # FAILURE_UNIT_SENSOR_ACCEL
+    MAG = 2  # FAILURE_UNIT_SENSOR_MAG
+    BARO = 3  # FAILURE_UNIT_SENSOR_BARO
+    GPS = 4  # FAILURE_UNIT_SENSOR_GPS
+    AIRSPEED = 8  # FAILURE_UNIT_SENSOR_AIRSPEED
     MOTOR = 101  # FAILURE_UNIT_SYSTEM_MOTOR
     SERVO = 102  # FAILURE_UNIT_SYSTEM_SERVO
 
@@ -33,13 +42,18 @@ class FailureType(IntEnum):
 
 
 DEFAULT_WRONG_FRACTION = 0.5
-UNIT_NAMES = {FailureUnit.MOTOR: "motor", FailureUnit.SERVO: "servo"}
+SENSORS = frozenset({FailureUnit.GYRO, FailureUnit.ACCEL, FailureUnit.MAG, FailureUnit.BARO, FailureUnit.GPS,
+                     FailureUnit.AIRSPEED})  # fmt: skip
+SENSOR_TYPES = frozenset({FailureType.OK, FailureType.OFF})
+UNIT_NAMES = {FailureUnit.MOTOR: "motor", FailureUnit.SERVO: "servo", FailureUnit.GYRO: "gyro",
+              FailureUnit.ACCEL: "accel", FailureUnit.MAG: "mag", FailureUnit.BARO: "baro", FailureUnit.GPS: "GPS",
+              FailureUnit.AIRSPEED: "airspeed"}  # fmt: skip
 # Instances of each unit, in the order of the 12 actuator channels (aircraft/actuators.py).
 UNIT_CHANNELS: dict[FailureUnit, range] = {
     FailureUnit.MOTOR: range(ROTORS.start, ROTORS.stop),
     FailureUnit.SERVO: range(SERVO_CHANNELS.start, SERVO_CHANNELS.stop),
 }
-UNITS_TEXT = "101 motor, 102 servo"
+UNITS_TEXT = "0 gyro, 1 accel, 2 mag, 3 baro, 4 GPS, 8 airspeed, 101 motor, 102 servo"
 TYPES_TEXT = "0 OK, 1 OFF, 2 STUCK, 4 WRONG"
 
 
@@ -61,8 +75,14 @@ class Failure:
     value: float = math.nan
 
     @property
+    def sensor(self) -> bool:
+        return self.unit in SENSORS
+
+    @property
     def channels(self) -> list[int]:
-        """The actuator channels (0..11) the failure addresses."""
+        """The actuator channels (0..11) the failure addresses (none for a sensor)."""
+        if self.sensor:
+            return []
         channels = UNIT_CHANNELS[self.unit]
         return list(channels) if self.instance == 0 else [channels[self.instance - 1]]
 
@@ -109,7 +129,9 @@ def parse_failure(unit: float, kind: float, instance: float, value: float) -> Fa
     if kind_number not in FailureType._value2member_map_:
         raise FailureRejected(f"failure type {kind_number} not simulated ({TYPES_TEXT})", unsupported=True)
     failure_unit = FailureUnit(unit_number)
-    count = len(UNIT_CHANNELS[failure_unit])
+    if failure_unit in SENSORS and kind_number not in SENSOR_TYPES:
+        raise FailureRejected(f"failure type {kind_number} not simulated for sensors (0 OK, 1 OFF)", unsupported=True)
+    count = 1 if failure_unit in SENSORS else len(UNIT_CHANNELS[failure_unit])
     if not 0 <= instance_number <= count:
         raise FailureRejected(f"{UNIT_NAMES[failure_unit]} instance {instance_number} not in 0..{count}")
     if math.isinf(value):
@@ -118,3 +140,15 @@ def parse_failure(unit: float, kind: float, instance: float, value: float) -> Fa
     if failure.kind == FailureType.WRONG and not 0.0 <= failure.wrong_fraction <= 1.0:
         raise FailureRejected(f"WRONG needs a remaining fraction in 0..1 (param4), got {value:g}")
     return failure
+
+
+def failed_sensors(failures: Iterable[Failure]) -> frozenset[FailureUnit]:
+    """The sensors OFF after these failures, in the order they were applied (OK clears)."""
+    failed: set[FailureUnit] = set()
+    for failure in failures:
+        if failure.sensor:
+            if failure.kind == FailureType.OFF:
+                failed.add(failure.unit)
+            else:
+                failed.discard(failure.unit)
+    return frozenset(failed)

@@ -2,9 +2,8 @@
 (docs/mavlink.md).
 
 Modes (PX4 custom modes): Hold (AUTO.LOITER), Takeoff (AUTO.TAKEOFF), Land (AUTO.LAND), Offboard, Mission
-(AUTO.MISSION), Return (AUTO.RTL), Orbit (POSCTL.ORBIT). Hold, Takeoff and Land's position logic is in navigator.py;
-Mission, Return, Orbit and Hold after a DO_REPOSITION fly routes of targets (auto_flight.py, mission_flight.py).
-The result is a velocity set-point for the flight controller.
+(AUTO.MISSION), Return (AUTO.RTL), Orbit (POSCTL.ORBIT), one class each in flight_modes.py: the commander chooses
+the mode, the mode gives the velocity set-point for the flight controller.
 
 On the ground the flight controller does not run: disarmed, the rotors are off; armed, they idle until a
 takeoff (Takeoff mode, or an Offboard set-point that climbs). A takeoff starts a fresh flight controller, so
@@ -23,8 +22,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from autopilot.auto_flight import AutoFlight, Circle, FlyTo, HoldAt
-from autopilot.mission_flight import MissionFlight, return_route
+from autopilot.auto_flight import AutoFlight, Circle
+from autopilot.failsafe import DESCEND, TERMINATE, WARN, Decision, Failsafe, FailsafeInputs
+from autopilot.flight_modes import (HOLD, LAND, MISSION, OFFBOARD, ORBIT, RETURN, TAKEOFF, VTOL_FW, VTOL_MC,
+                                    FlightMode, HoldMode, LandMode, MissionMode, OffboardMode, OrbitMode, ReturnMode,
+                                    TakeoffMode)  # fmt: skip
+from autopilot.mission_flight import MissionFlight
 from autopilot.mission_store import MissionStore
 from autopilot.navigator import LandDetector, Navigator
 from autopilot.offboard_setpoint import OffboardSetpoint
@@ -39,10 +42,6 @@ TEMPORARILY_REJECTED = mavlink.MAV_RESULT_TEMPORARILY_REJECTED
 DENIED = mavlink.MAV_RESULT_DENIED
 UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
 
-HOLD, TAKEOFF, LAND, OFFBOARD = "Hold", "Takeoff", "Land", "Offboard"
-MISSION, RETURN, ORBIT = "Mission", "Return", "Orbit"
-MODES = (HOLD, TAKEOFF, LAND, OFFBOARD, MISSION, RETURN, ORBIT)
-REPOSITION_ACCEPTANCE = 1.0  # m: a DO_REPOSITION flies the leg to within this, then holds there
 FORCE_MAGIC = 21196  # MAV_CMD_COMPONENT_ARM_DISARM param2: skip the checks (PX4)
 
 LANDED_UNDEFINED = mavlink.MAV_LANDED_STATE_UNDEFINED
@@ -52,8 +51,6 @@ TAKING_OFF = mavlink.MAV_LANDED_STATE_TAKEOFF
 LANDING = mavlink.MAV_LANDED_STATE_LANDING
 
 MAX_LEVEL_TILT = math.radians(30.0)  # arming on the ground: roll and pitch within this
-OFFBOARD_TAKEOFF_CLIMB = 0.3  # m/s: an Offboard set-point climbing faster than this lifts off from the ground
-VTOL_FW, VTOL_MC = mavlink.MAV_VTOL_STATE_FW, mavlink.MAV_VTOL_STATE_MC  # 4, 3
 
 
 @dataclass(frozen=True)
@@ -71,38 +68,37 @@ class CommanderReport:
 class Commander:
     """The vehicle's arming state, mode and ground/air state; velocity set-points at 100 Hz."""
 
-    def __init__(
-        self,
-        params: ParameterStore,
-        hover_fraction: float,
-        *,
-        armed: bool,
-        in_air: bool,
-        say: Callable[..., None] = lambda severity, text, key=None: None,
-        profile: Callable[[float], np.ndarray] | None = None,
-        stamped_setpoints: bool = False,
-        missions: MissionStore | None = None,
-        home: Home = Home(),
-    ) -> None:
+    def __init__(self, params: ParameterStore, hover_fraction: float, *, armed: bool, in_air: bool,
+                 say: Callable[..., None] = lambda severity, text, key=None: None,
+                 profile: Callable[[float], np.ndarray] | None = None, stamped_setpoints: bool = False,
+                 missions: MissionStore | None = None, home: Home = Home()) -> None:  # fmt: skip
         self.params = params
-        self.navigator = Navigator(params)
-        self.auto = AutoFlight(params)
-        self.mission = MissionFlight(params, missions if missions is not None else MissionStore(), home, self.auto)
-        self.repositioning = False  # Hold flies self.auto's route (DO_REPOSITION)
+        missions = missions if missions is not None else MissionStore()
+        navigator = Navigator(params)
+        auto = AutoFlight(params)
+        mission = MissionFlight(params, missions, home, auto)
+        self.failsafe = Failsafe(params, missions, home, say)
+        self.offboard = OffboardSetpoint(stamped=stamped_setpoints)
+        self.hold = HoldMode(navigator, auto)
+        self.takeoff_mode = TakeoffMode(navigator)
+        self.land_mode = LandMode(navigator)
+        self.orbit = OrbitMode(auto)
+        self.mission_mode = MissionMode(mission)
+        self.modes: dict[str, FlightMode] = {mode.name: mode for mode in (
+            self.hold, self.takeoff_mode, self.land_mode, OffboardMode(navigator, self.offboard), self.mission_mode,
+            ReturnMode(params, auto, mission), self.orbit)}  # fmt: skip
         self.land_detector = LandDetector(hover_fraction)
         self.say = say
         self.profile = profile
         self.armed = armed
         self.on_ground = not in_air
         self.mode = OFFBOARD if profile is not None else HOLD
-        self.transition_target = VTOL_MC
         self.started = False
         self.flight_number = 0  # lift-offs so far: each starts a fresh flight controller
         self._controller_flight = 0  # the flight the running flight controller was started for
         self.state_version = 1  # counts arming, mode and ground-state changes (each sends a HEARTBEAT)
         self._reported_version = 0
         self.setpoints_clamped = 0
-        self.offboard = OffboardSetpoint(stamped=stamped_setpoints)
         self.now_usec = 0
         self.state = VehicleState()  # the current step's estimate (observe())
         self._start_usec = 0
@@ -148,30 +144,20 @@ class Commander:
             return ON_GROUND
         if self.mode == TAKEOFF:
             return TAKING_OFF
-        if self.mode == LAND or self.auto_landing:
+        if self.active.landing:
             return LANDING
         return IN_AIR
 
     @property
-    def auto_landing(self) -> bool:
-        """Mission or Return descends onto its landing point."""
-        return self.mode in (MISSION, RETURN) and self.auto.descending
+    def active(self) -> FlightMode:
+        return self.modes[self.mode]
 
     def _set_mode(self, mode: str, state: VehicleState, reason: str | None = None) -> None:
-        self.repositioning = False
-        if mode == MISSION:
-            self.mission.start(state)
-        elif mode == RETURN:
-            self.auto.start(state, return_route(self.params, state))
-        if mode == HOLD:
-            self.navigator.start_hold(state)
-            self.transition_target = VTOL_MC
-        elif mode == LAND:
-            self.navigator.start_land(state)
+        """Enter `mode` (again, if it is the current one: it starts afresh, except Offboard)."""
+        if mode != OFFBOARD or self.mode != OFFBOARD:
+            self.modes[mode].activate(state)
+        if mode == LAND:
             self.land_detector.reset()
-            self.transition_target = VTOL_MC
-        elif mode == OFFBOARD and self.mode != OFFBOARD:
-            self.navigator.start_tracking(state)
         if mode != self.mode:
             self.mode = mode
             self.state_version += 1
@@ -193,7 +179,7 @@ class Commander:
         self.started = True
         self.now_usec = self._start_usec = state.time_usec
         if self.flying and self.profile is None:
-            self.navigator.start_hold(state)
+            self.hold.activate(state)
         if self.armed:
             self._armed_on_ground_usec = state.time_usec
 
@@ -201,20 +187,27 @@ class Commander:
         """The plant's clock went back (a new plant run): time-stamped things start afresh."""
         self.now_usec = self._start_usec = state.time_usec
         self.offboard.restart()
+        self.failsafe.restart()
         self._landed_usec = None
         if self.armed:
             self._armed_on_ground_usec = state.time_usec
         if self.profile is None and self.flying:
-            self.navigator.start_hold(state)
+            self.hold.activate(state)
 
-    def _profile_refusal(self) -> Reply | None:
+    def _refusal(self, name: str | None = None, positional: bool = False) -> Reply | None:
+        """Commands are off while the internal --profile flies; `name` needs a vehicle state first, and a
+        `positional` one a position estimate (PX4: the mode cannot run)."""
         if self.profile is not None:
             return TEMPORARILY_REJECTED, "flying the internal --profile: flight commands are off"
+        if name is not None and not self.started:
+            return TEMPORARILY_REJECTED, f"{name} denied: no vehicle state from the plant yet"
+        if name is not None and positional and self.failsafe.position_lost:
+            return TEMPORARILY_REJECTED, f"{name} denied: no position estimate (GPS lost)"
         return None
 
     # ---- requests (commands) ---------------------------------------------------------------------------------
     def arm(self, state: VehicleState, force: bool = False) -> Reply:
-        if (refusal := self._profile_refusal()) is not None:
+        if (refusal := self._refusal()) is not None:
             return refusal
         if self.armed:
             return ACCEPTED, None
@@ -224,15 +217,17 @@ class Commander:
         if not force and (abs(roll) > MAX_LEVEL_TILT or abs(pitch) > MAX_LEVEL_TILT):
             return DENIED, (f"Arming denied: not level (roll {math.degrees(roll):.0f}, "
                             f"pitch {math.degrees(pitch):.0f} deg)")  # fmt: skip
+        if not force and (outside := self.failsafe.outside_fence(state.position_ned)) is not None:
+            return DENIED, f"Arming denied: vehicle outside the geofence ({outside})"
         self._set_armed(True, "Armed")
         if self.mode == MISSION:
-            self.mission.start(state)  # a takeoff item first: the mission takes off
+            self.mission_mode.activate(state)  # a takeoff item first: the mission takes off
         if self.mode == OFFBOARD and not self._offboard_fresh():
             self._set_mode(HOLD, state)
         return ACCEPTED, None
 
     def disarm(self, state: VehicleState, force: bool = False) -> Reply:
-        if (refusal := self._profile_refusal()) is not None:
+        if (refusal := self._refusal()) is not None:
             return refusal
         if not self.armed:
             return ACCEPTED, None
@@ -245,40 +240,35 @@ class Commander:
         return self.offboard.fresh(self.now_usec, self.params["COM_OF_LOSS_T"])
 
     def set_mode(self, mode: str, state: VehicleState) -> Reply:
-        if (refusal := self._profile_refusal()) is not None:
+        if (refusal := self._refusal(mode)) is not None:
             return refusal
-        if not self.started:
-            return TEMPORARILY_REJECTED, f"{mode} denied: no vehicle state from the plant yet"
         if mode == self.mode:
             return ACCEPTED, None
+        if (refusal := self._refusal(mode, positional=mode != LAND)) is not None:
+            return refusal
         if mode == OFFBOARD and not self._offboard_fresh():
             return TEMPORARILY_REJECTED, (f"Offboard denied: no set-point in the last "
                                           f"{self.params['COM_OF_LOSS_T']:g} s")  # fmt: skip
         if mode == TAKEOFF:
             return self.takeoff(state, None)
-        if mode == MISSION and not self.mission.items:
+        if mode == MISSION and not self.mission_mode.stored:
             return DENIED, "Mission denied: no mission stored"
         if mode == ORBIT:
             return DENIED, "Orbit: use MAV_CMD_DO_ORBIT (radius, speed, centre)"
         if mode == RETURN and not self.flying:
             return TEMPORARILY_REJECTED, "Return denied: not flying"
-        if mode == LAND and self.on_ground:
-            self._set_mode(LAND, state)
-            return ACCEPTED, None
         self._set_mode(mode, state)
         return ACCEPTED, None
 
     def takeoff(self, state: VehicleState, altitude_above_home: float | None) -> Reply:
         """Climb to `altitude_above_home` (None: MIS_TAKEOFF_ALT) over the current position, then Hold."""
-        if (refusal := self._profile_refusal()) is not None:
+        if (refusal := self._refusal("Takeoff", positional=True)) is not None:
             return refusal
-        if not self.started:
-            return TEMPORARILY_REJECTED, "Takeoff denied: no vehicle state from the plant yet"
         if altitude_above_home is None:
             altitude_above_home = self.params["MIS_TAKEOFF_ALT"]
         elif not 1.0 <= altitude_above_home <= 1000.0:
             return DENIED, f"Takeoff denied: altitude {altitude_above_home:.1f} m above home not in 1..1000 m"
-        self.navigator.start_takeoff(state, -altitude_above_home)
+        self.takeoff_mode.start(state, -altitude_above_home)
         if self.mode != TAKEOFF:
             self.mode = TAKEOFF
             self.state_version += 1
@@ -291,16 +281,14 @@ class Commander:
         return ACCEPTED, None
 
     def land(self, state: VehicleState) -> Reply:
-        if (refusal := self._profile_refusal()) is not None:
+        if (refusal := self._refusal("Land")) is not None:
             return refusal
-        if not self.started:
-            return TEMPORARILY_REJECTED, "Land denied: no vehicle state from the plant yet"
         self._set_mode(LAND, state, "Landing")
         return ACCEPTED, None
 
     def transition(self, target: int, state: VehicleState) -> Reply:
         """MAV_CMD_DO_VTOL_TRANSITION: in Hold, to FW circles at cruise speed, to MC brakes and hovers."""
-        if (refusal := self._profile_refusal()) is not None:
+        if (refusal := self._refusal()) is not None:
             return refusal
         if target not in (VTOL_FW, VTOL_MC):
             return DENIED, f"Transition denied: param1 must be {VTOL_MC} (MC) or {VTOL_FW} (FW)"
@@ -310,16 +298,8 @@ class Commander:
             return TEMPORARILY_REJECTED, "Transition denied: in Offboard the set-points choose the phase"
         if self.mode != HOLD:
             return TEMPORARILY_REJECTED, f"Transition denied: in {self.mode} (switch to Hold first)"
-        if target == self.transition_target:
-            return ACCEPTED, None
-        self.transition_target = target
-        if target == VTOL_FW:
-            self.navigator.start_fixed_wing_hold(state)
-            self.say(mavlink.MAV_SEVERITY_INFO, "Transition to fixed wing: circling at "
-                     f"{self.params['FW_AIRSPD_TRIM']:g} m/s")  # fmt: skip
-        else:
-            self.navigator.start_hold(state, down=self.navigator.hold_down)
-            self.say(mavlink.MAV_SEVERITY_INFO, "Transition to multicopter: braking to a hover")
+        if (text := self.hold.transition(target, state)) is not None:
+            self.say(mavlink.MAV_SEVERITY_INFO, text)
         return ACCEPTED, None
 
     # ---- typed requests from the ground stations ------------------------------------------------------------
@@ -332,21 +312,19 @@ class Commander:
 
     def route(self, request: Reposition | Orbit, state: VehicleState) -> Reply:
         """DO_REPOSITION: Hold at a new position (flown there); DO_ORBIT: Orbit mode around a centre."""
-        if (refusal := self._profile_refusal()) is not None:
-            return refusal
         name = "Reposition" if isinstance(request, Reposition) else "Orbit"
+        if (refusal := self._refusal(name, positional=True)) is not None:
+            return refusal
         if not self.flying:
             return TEMPORARILY_REJECTED, f"{name} denied: not flying"
         if isinstance(request, Reposition):
             self._set_mode(HOLD, state, "Reposition: Hold")
-            self.repositioning = True
-            self.auto.start(state, [FlyTo(request.position, REPOSITION_ACCEPTANCE, request.speed),
-                                    HoldAt(request.position, None)])  # fmt: skip
+            self.hold.reposition(state, request.position, request.speed)
             return ACCEPTED, None
         center = state.position_ned[0:2].copy() if request.center is None else request.center
         down = float(state.position_ned[2]) if request.down is None else request.down
         self._set_mode(ORBIT, state, f"Orbit: radius {request.radius:g} m at {request.speed:g} m/s")
-        self.auto.start(state, [Circle(center, down, request.radius, request.speed, request.clockwise)])
+        self.orbit.start(state, Circle(center, down, request.radius, request.speed, request.clockwise))
         return ACCEPTED, None
 
     def offboard_setpoint(self, velocity_ned: np.ndarray, stamp_ms: int | None = None) -> None:
@@ -369,56 +347,58 @@ class Commander:
     def tick(self, state: VehicleState, time_usec: int, mean_thrust_fraction: float) -> np.ndarray | None:
         """Mode logic at 100 Hz; the velocity set-point while flying (None on the ground)."""
         self.now_usec = time_usec
-        p = self.params
         self.offboard.take_due(time_usec)
         if self.profile is not None:
             return self.profile((time_usec - self._start_usec) / 1e6) if self.flying else None
-        if self.mode == OFFBOARD and not self._offboard_fresh():
-            self.failsafes += 1
-            self._set_mode(HOLD, state, f"Offboard lost: no set-point for {p['COM_OF_LOSS_T']:g} s, Hold")
-            if self.flying:
-                self.say(mavlink.MAV_SEVERITY_WARNING, "Failsafe: Hold")
+        decision = self.failsafe.check(FailsafeInputs(time_usec, self.flying, self.mode, state.position_ned,
+                                                      self.mode == OFFBOARD and not self._offboard_fresh()))  # fmt: skip
+        if decision is not None:
+            self._failsafe(decision, state)
         if not self.armed:
             return None
         if self.on_ground:
             return self._on_ground(state, time_usec)
         if self.mode == TAKEOFF:
-            if self.navigator.takeoff_done(state):
-                self._set_mode(HOLD, state, "Takeoff complete: Hold")
-                self.navigator.hold_xy = self.navigator.takeoff_xy.copy()
-                self.navigator.hold_down = self.navigator.takeoff_down
-            else:
-                return self.navigator.takeoff(state)
-        if self.mode == OFFBOARD:
-            setpoint = self._offboard_velocity(state)
-        elif self.mode == LAND:
-            setpoint = self.navigator.land(state)
-        elif self.mode == MISSION:
-            setpoint = self.mission.step(state)
-        elif self.mode in (RETURN, ORBIT) or self.repositioning:
-            setpoint = self.auto.step(state)
-        else:
-            setpoint = self.navigator.hold(state)
-        landing = self.mode in (LAND, OFFBOARD) or self.auto_landing
-        if landing and self.land_detector.update(state, mean_thrust_fraction, time_usec, float(setpoint[2])):
+            if not self.takeoff_mode.done(state):
+                return self.takeoff_mode.setpoint(state)
+            self._set_mode(HOLD, state, "Takeoff complete: Hold")
+            self.hold.hold_at(*self.takeoff_mode.end)
+        mode = self.active
+        setpoint = mode.setpoint(state)
+        if mode.detects_landing and self.land_detector.update(state, mean_thrust_fraction, time_usec,
+                                                              float(setpoint[2])):  # fmt: skip
             self.on_ground = True
             self._landed_usec = time_usec
             self.state_version += 1
             self.say(mavlink.MAV_SEVERITY_INFO, "Landing detected")
-            if self.mode == MISSION:
-                self.mission.landed(state)
+            mode.touched_down(state)
             return None
-        if not landing:
+        if not mode.detects_landing:
             self.land_detector.reset()
         return setpoint
 
-    def _offboard_velocity(self, state: VehicleState) -> np.ndarray:
-        """The Offboard velocity set-point: as received, or the one that flies to the position set-point."""
-        if self.offboard.position is None:
-            return self.offboard.velocity
-        return self.navigator.track(state, self.offboard.position, self.offboard.velocity)
+    def _failsafe(self, decision: Decision, state: VehicleState) -> None:
+        """A failsafe's action: a warning, flight termination, or its mode (not Return while landing, as PX4; Hold
+        again when in Hold, which stops a Go-to)."""
+        self.failsafes += 1
+        action = decision.action
+        if action == WARN or (action == self.mode != HOLD) or (action == RETURN and self.mode == LAND):
+            self.say(mavlink.MAV_SEVERITY_WARNING, decision.cause)
+        elif action == DESCEND:
+            self._set_mode(LAND, state, f"{decision.cause}, Descend")
+            self.land_mode.descend = True
+            self.say(mavlink.MAV_SEVERITY_CRITICAL, "Failsafe activated: Descend")
+        elif action == TERMINATE:
+            self.say(mavlink.MAV_SEVERITY_CRITICAL, f"{decision.cause}: flight termination")
+            self._set_armed(False, "Failsafe activated: flight termination, motors off")
+        else:  # Hold again stops a Go-to where it is
+            if action == self.mode:
+                self.say(mavlink.MAV_SEVERITY_WARNING, f"{decision.cause}, {action}")
+            self._set_mode(action, state, f"{decision.cause}, {action}")
+            if self.flying:
+                self.say(mavlink.MAV_SEVERITY_CRITICAL, f"Failsafe activated: {action}")
 
-    def _on_ground(self, state: VehicleState, time_usec: int) -> None:
+    def _on_ground(self, state: VehicleState, time_usec: int) -> np.ndarray | None:
         p = self.params
         if self._landed_usec is not None and time_usec - self._landed_usec >= p["COM_DISARM_LAND"] * 1e6:
             self._set_armed(False, "Disarmed after landing")
@@ -427,13 +407,7 @@ class Commander:
                 and time_usec - self._armed_on_ground_usec >= p["COM_DISARM_PRFLT"] * 1e6:  # fmt: skip
             self._set_armed(False, f"Disarmed: no takeoff within {p['COM_DISARM_PRFLT']:g} s")
             return None
-        if self.mode == MISSION and self.auto.climbing:
+        if self.active.lifts_off(state):
             self._lift_off()
-            return self.mission.step(state)
-        if self.mode == TAKEOFF or (self.mode == OFFBOARD and
-                                    self._offboard_velocity(state)[2] < -OFFBOARD_TAKEOFF_CLIMB):  # fmt: skip
-            self._lift_off()
-            if self.mode == TAKEOFF:
-                return self.navigator.takeoff(state)
-            return self._offboard_velocity(state)
+            return self.active.setpoint(state)
         return None

@@ -1,5 +1,6 @@
 """The flight stack as the MAVLink services see it: it takes their typed requests. Arming, modes, takeoff,
-landing, transitions and Offboard set-points go to the commander; a failure injection, once SYS_FAILURE_EN
+landing, transitions, Offboard set-points and ground-station heartbeats (for the data-link failsafe) go to the
+commander; a failure injection, once SYS_FAILURE_EN
 allows it (as PX4's commander checks it), goes to the plant link and is answered when the plant has. Mission
 uploads, clears and the current item go to the mission store (autopilot/mission_store.py), which the navigator reads."""
 
@@ -9,9 +10,9 @@ from autopilot.commander import MISSION, RETURN, Commander
 from autopilot.failure_injection import FailureInjection
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
-from autopilot.requests import (Arm, ClearMission, Disarm, InjectFailure, Land, OffboardPosition, OffboardVelocity,
-                                Orbit, Reply, Reposition, Request, ReturnToLaunch, SetMissionCurrent, SetMode,
-                                StartMission, StoreMission, Takeoff, Transition)  # fmt: skip
+from autopilot.requests import (Arm, ClearMission, Disarm, GcsHeartbeat, InjectFailure, Land, OffboardPosition,
+                                OffboardVelocity, Orbit, Reply, Reposition, Request, ReturnToLaunch, SetMissionCurrent,
+                                SetMode, StartMission, StoreMission, Takeoff, Transition)  # fmt: skip
 from transport.mavlink import mavlink
 
 
@@ -65,4 +66,7 @@ class FlightStack:
                 return commander.route(request, state)
             case OffboardVelocity() | OffboardPosition():
                 return commander.offboard_request(request)
+            case GcsHeartbeat():
+                commander.failsafe.gcs_heartbeat(commander.now_usec)
+                return mavlink.MAV_RESULT_ACCEPTED, None
         return mavlink.MAV_RESULT_UNSUPPORTED, f"{type(request).__name__} is not the flight stack's"

@@ -7,7 +7,7 @@ progress reported to the mission store (MISSION_CURRENT, MISSION_ITEM_REACHED).
     NAV_LAND, NAV_VTOL_LAND       FlyTo over the point (at the current altitude), LandAt (lat/lon 0: here)
     NAV_LOITER_TIME / _UNLIM      FlyTo, then HoldAt for param1 s (for ever)
     NAV_DELAY                     HoldAt here for param1 s
-    NAV_RETURN_TO_LAUNCH          the Return route
+    NAV_RETURN_TO_LAUNCH          the Return route (to the closest of home and the rally points)
     DO_CHANGE_SPEED               param2 > 0: the cruise speed of the following legs (-1: back to the defaults)
     DO_JUMP                       to item param1, param2 times
     DO_VTOL_TRANSITION, DO_SET_HOME accepted and passed (the legs' speeds choose the phase)
@@ -34,12 +34,19 @@ LANDS = (M.MAV_CMD_NAV_LAND, M.MAV_CMD_NAV_VTOL_LAND)
 TAKEOFFS = (M.MAV_CMD_NAV_TAKEOFF, M.MAV_CMD_NAV_VTOL_TAKEOFF)
 
 
-def return_route(params: ParameterStore, state: VehicleState) -> list[Target]:
-    """Climb to RTL_RETURN_ALT (if lower) over here, fly home at that altitude, land there."""
+def closest_safe_point(position_ned: np.ndarray, rally_points: list[np.ndarray]) -> np.ndarray:
+    """The closest (horizontally) of home and the rally points, (north, east) from home (PX4's RTL_TYPE 0)."""
+    return min([np.zeros(2), *(point[0:2] for point in rally_points)],
+               key=lambda point: float(np.hypot(*(point - position_ned[0:2]))))  # fmt: skip
+
+
+def return_route(params: ParameterStore, state: VehicleState, rally_points: list[np.ndarray]) -> list[Target]:
+    """Climb to RTL_RETURN_ALT (if lower) over here, fly at that altitude to the closest of home and the rally
+    points, land there."""
     down = min(float(state.position_ned[2]), -params["RTL_RETURN_ALT"])
-    home = np.array([0.0, 0.0, down])
+    destination = closest_safe_point(state.position_ned, rally_points)
     return [Climb(state.position_ned[0:2].copy(), down, params["MPC_Z_VEL_MAX_UP"]),
-            FlyTo(home, LANDING_APPROACH_RADIUS), LandAt(np.zeros(2))]  # fmt: skip
+            FlyTo(np.array([*destination, down]), LANDING_APPROACH_RADIUS), LandAt(destination.copy())]  # fmt: skip
 
 
 class MissionFlight:
@@ -75,6 +82,10 @@ class MissionFlight:
     @property
     def landing(self) -> bool:
         return self.auto.descending
+
+    def rally_points(self) -> list[np.ndarray]:
+        """The stored rally points, NED from home."""
+        return [self._position(np.zeros(3), item) for item in self.store.snapshot.rally]
 
     def landed(self, state: VehicleState) -> None:
         """Touchdown on a land item: it is reached, the mission goes on (usually to its end)."""
@@ -130,10 +141,10 @@ class MissionFlight:
         self._progress(self.seq, M.MISSION_STATE_COMPLETE)
         self.auto.follow(state, [HoldAt(state.position_ned.copy(), None)])
 
-    def _position(self, state: VehicleState, item: MissionItem) -> np.ndarray:
-        """The item's NED position (lat/lon 0: the vehicle's; altitude relative to home or AMSL)."""
+    def _position(self, here: np.ndarray, item: MissionItem) -> np.ndarray:
+        """The item's NED position (lat/lon 0: `here`, the vehicle's; altitude relative to home or AMSL)."""
         if item.x == 0 and item.y == 0:
-            north, east = float(state.position_ned[0]), float(state.position_ned[1])
+            north, east = float(here[0]), float(here[1])
         else:
             north, east, _ = ned_from_geodetic(self.home, item.latitude_deg, item.longitude_deg, self.home.alt)
         down = -item.z if item.relative_altitude else self.home.alt - item.z
@@ -144,19 +155,20 @@ class MissionFlight:
         command = item.command
         if command == M.MAV_CMD_NAV_WAYPOINT:
             radius = item.param2 if math.isfinite(item.param2) and item.param2 > 0 else p["NAV_ACC_RAD"]
-            return [FlyTo(self._position(state, item), radius)]
+            return [FlyTo(self._position(state.position_ned, item), radius)]
         if command in TAKEOFFS:
-            return [Climb(state.position_ned[0:2].copy(), float(self._position(state, item)[2]), p["MPC_TKO_SPEED"])]
+            down = float(self._position(state.position_ned, item)[2])
+            return [Climb(state.position_ned[0:2].copy(), down, p["MPC_TKO_SPEED"])]
         if command in LANDS:
-            point = self._position(state, item)
+            point = self._position(state.position_ned, item)
             point[2] = float(state.position_ned[2])
             return [FlyTo(point, LANDING_APPROACH_RADIUS), LandAt(point[0:2].copy())]
         if command in (M.MAV_CMD_NAV_LOITER_TIME, M.MAV_CMD_NAV_LOITER_UNLIM):
-            point = self._position(state, item)
+            point = self._position(state.position_ned, item)
             seconds = max(item.param1, 0.0) if command == M.MAV_CMD_NAV_LOITER_TIME else None
             return [FlyTo(point, p["NAV_ACC_RAD"]), HoldAt(point, seconds)]
         if command == M.MAV_CMD_NAV_DELAY:
             return [HoldAt(state.position_ned.copy(), max(item.param1, 0.0))]
         if command == M.MAV_CMD_NAV_RETURN_TO_LAUNCH:
-            return return_route(p, state)
+            return return_route(p, state, self.rally_points())
         return []  # DO_CHANGE_SPEED (done above), DO_VTOL_TRANSITION, DO_SET_HOME: nothing to fly

@@ -56,7 +56,18 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
     P("SYS_FAILURE_EN", INT32, 0, 0, 1, "", "1 enables MAV_CMD_INJECT_FAILURE"),
     P("SYS_FAILURE_DLY", REAL32, 0.0, 0.0, 60.0, "s", "delay before the controllers learn of an injected failure",
       px4=False),
-    P("COM_OF_LOSS_T", REAL32, 1.0, 0.1, 60.0, "s", "offboard set-point loss timeout: then Hold"),
+    P("COM_OF_LOSS_T", REAL32, 1.0, 0.1, 60.0, "s", "offboard set-point loss timeout: then COM_OBL_RC_ACT"),
+    P("COM_OBL_RC_ACT", INT32, 0, 0, 5, "", "offboard loss failsafe: 0 Position, 1 Altitude, 2 Stabilized (with no "
+      "RC all three fall back to Hold), 3 Return, 4 Land, 5 Hold (PX4's 6 Terminate and 7 Disarm are refused)"),
+    P("COM_DL_LOSS_T", INT32, 10, 5, 300, "s", "data-link loss: no ground-station HEARTBEAT for this long"),
+    P("NAV_DLL_ACT", INT32, 0, 0, 3, "", "data-link loss failsafe: 0 disabled, 1 Hold, 2 Return, 3 Land (PX4's 5 "
+      "Terminate and 6 Disarm are refused)"),
+    P("COM_POS_FS_DELAY", INT32, 1, 1, 100, "s", "position loss failsafe (GPS OFF): Descend after this long"),
+    P("GF_ACTION", INT32, 2, 0, 5, "", "geofence breach action: 0 none, 1 warning, 2 Hold, 3 Return, 4 terminate "
+      "(motors off), 5 Land"),
+    P("GF_MAX_HOR_DIST", REAL32, 0.0, 0.0, 10000.0, "m", "geofence: the farthest from home horizontally (0: no "
+      "limit)"),
+    P("GF_MAX_VER_DIST", REAL32, 0.0, 0.0, 10000.0, "m", "geofence: the highest above home (0: no limit)"),
     P("COM_DISARM_LAND", REAL32, 2.0, 0.0, 20.0, "s", "disarm this long after a landing is detected"),
     P("COM_DISARM_PRFLT", REAL32, 10.0, -1.0, 300.0, "s", "disarm when armed on the ground without taking off for "
       "this long (negative: never)"),
@@ -80,7 +91,7 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
     P("NAV_ACC_RAD", REAL32, 10.0, 0.05, 200.0, "m", "mission waypoint acceptance radius (when the item's param2 is "
       "0)"),
     P("RTL_RETURN_ALT", REAL32, 60.0, 0.0, 1000.0, "m", "Return: climb to this height above home (if lower) before "
-      "flying home"),
+      "flying to the closest of home and the rally points"),
     P("NAV_LOITER_RAD", REAL32, 250.0, 100.0, 2000.0, "m", "radius of the fixed-wing Hold circle"),
 )
 del P

@@ -28,6 +28,7 @@ import numpy as np
 
 from aircraft.actuators import ROTORS, ROTOR_COUNT, TILTS, command_to_pwm
 from aircraft.airframe import Airframe
+from aircraft.failures import Failure
 from autopilot.commander import Commander
 from autopilot.control_telemetry import ControlTelemetry
 from autopilot.failure_injection import FailureInjection
@@ -127,7 +128,7 @@ class PlantLoop:
             if kind == "COMMAND_ACK" and message.command == mavlink.MAV_CMD_INJECT_FAILURE:
                 delay_s = self.params["SYS_FAILURE_DLY"]
                 for failure in self.injection.acknowledged(message.result, self._last_usec, delay_s):
-                    self.controller.apply_failure(failure)
+                    self._learn(failure)
             elif kind == "STATUSTEXT":
                 self.events.say(message.severity, message.text)
         self.client.received_other.clear()
@@ -158,6 +159,11 @@ class PlantLoop:
         self.controllers_started += 1
         for failure in self.injection.known:
             self.controller.apply_failure(failure)
+
+    def _learn(self, failure: Failure) -> None:
+        """A failure the plant applied becomes known: the controllers' (actuators) and the failsafes' (sensors)."""
+        self.controller.apply_failure(failure)
+        self.commander.failsafe.failure_known(failure)
 
     def _parameters_changed(self) -> None:
         """Parameters the running controller uses (VT_ARSP_*) handed on after a change."""
@@ -239,7 +245,7 @@ class PlantLoop:
                 self.services.hold(t_usec, lambda: self.commander.setpoints_cover(t_usec), self.should_stop)
             self.injection.inject_scheduled(t, t_usec)
             for failure in self.injection.tick(t_usec):
-                self.controller.apply_failure(failure)
+                self._learn(failure)
             if self.params.version != self._params_seen:
                 self._parameters_changed()
             fixed = self._control(t_usec, t)
@@ -284,6 +290,7 @@ class PlantLoop:
             "flight_mode": self.commander.mode,
             "armed": self.commander.armed,
             "controllers_started": self.controllers_started,
+            "failsafes": self.commander.failsafes,
         }
         summary["controller"] = self.controller.controller_statistics()
         if self.services is not None:

@@ -126,9 +126,14 @@ class Orbit:
     speed: float  # m/s
 
 
+@dataclass(frozen=True)
+class GcsHeartbeat:
+    """A HEARTBEAT from a ground station (MAV_TYPE_GCS) arrived now: the data link is alive (NAV_DLL_ACT)."""
+
+
 Request = (Arm | Disarm | Takeoff | Land | SetMode | Transition | OffboardVelocity | OffboardPosition | InjectFailure
            | StoreMission | ClearMission | SetMissionCurrent | StartMission | ReturnToLaunch | Reposition
-           | Orbit)  # fmt: skip
+           | Orbit | GcsHeartbeat)  # fmt: skip
 
 
 class RequestHandler(Protocol):

@@ -10,7 +10,7 @@ import numpy as np
 from aircraft.actuators import ROTORS
 from aircraft.airframe import Airframe
 from aircraft.codegen import compiled
-from aircraft.failures import parse_failure
+from aircraft.failures import FailureType, FailureUnit, parse_failure
 from sim_bridge.dynamics import (
     COMMAND_SIZE,
     POSITION,
@@ -73,6 +73,7 @@ class Plant:
         hovering = spawn.altitude is not None and spawn.rotors_spinning
         self.command = hover_command(airframe) if hovering else np.zeros(COMMAND_SIZE)
         self.failures = ActuatorFailures(parameters=healthy_parameters(wind_ned))
+        self.failed_sensors: set[FailureUnit] = set()  # OFF: the sensor suite stops sending what it measures
         self.specific_force = np.zeros(3)
         self.airspeed = np.zeros(1)
         self.on_ground = np.zeros(1)
@@ -116,6 +117,12 @@ class Plant:
     def inject_failure(self, unit: float, kind: float, instance: float, extra: float) -> list[str]:
         """Apply a MAV_CMD_INJECT_FAILURE (param1..param4) at once; raises FailureRejected for bad requests.
 
-        Returns one line per affected actuator, as the plant announces it."""
+        Returns one line per affected actuator (or the sensor), as the plant announces it."""
         failure = parse_failure(unit, kind, instance, extra)
+        if failure.sensor:
+            if failure.kind == FailureType.OFF:
+                self.failed_sensors.add(failure.unit)
+            else:
+                self.failed_sensors.discard(failure.unit)
+            return [failure.describe()]
         return apply_failure(self.failures, self.airframe, self.state, failure)

@@ -2,7 +2,9 @@
 
 HIL_STATE_QUATERNION is ground truth. HIL_SENSOR carries IMU (specific force, body rates), magnetometer
 (gauss), barometer and differential pressure (hPa); HIL_GPS goes out at 10 Hz. Noise is off unless a seed is
-given, so runs repeat exactly.
+given, so runs repeat exactly. A sensor failed OFF (MAV_CMD_INJECT_FAILURE, a FAILURE_UNIT_SENSOR_* unit) is
+left out: its HIL_SENSOR fields are zero and their fields_updated bits clear, and a failed GPS sends no HIL_GPS;
+HIL_STATE_QUATERNION stays the truth.
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ import math
 
 import numpy as np
 
+from aircraft.failures import FailureUnit
 from aircraft.frames import rotation_rows
 from sim_bridge.plant import DT_USEC, Plant
 from transport.geodesy import LocalGeodetic
@@ -21,6 +24,15 @@ MAG_FIELD_NED_GAUSS = (0.2008, -0.0300, 0.4787)
 GPS_PERIOD_USEC = 100_000  # 10 Hz
 HEARTBEAT_PERIOD_USEC = 1_000_000
 HIL_SENSOR_ALL_FIELDS = 0x1FFF  # acc xyz, gyro xyz, mag xyz, abs pressure, diff pressure, pressure alt, temperature
+# HIL_SENSOR fields of each sensor: the fields_updated bits and the value indices (acc xyz, gyro xyz, mag xyz, abs
+# pressure, diff pressure, pressure alt, temperature).
+SENSOR_FIELDS = {
+    FailureUnit.ACCEL: (0x007, (0, 1, 2)),
+    FailureUnit.GYRO: (0x038, (3, 4, 5)),
+    FailureUnit.MAG: (0x1C0, (6, 7, 8)),
+    FailureUnit.BARO: (0x1A00, (9, 11, 12)),
+    FailureUnit.AIRSPEED: (0x400, (10,)),
+}
 NOISE_STD = {"accel": 0.05, "gyro": 0.003, "mag": 0.002, "baro_hpa": 0.02, "diff_hpa": 0.01}
 
 
@@ -78,15 +90,10 @@ class SensorSuite:
             p, q, r = p + NOISE_STD["gyro"] * n[3], q + NOISE_STD["gyro"] * n[4], r + NOISE_STD["gyro"] * n[5]
             mx, my, mz = mx + NOISE_STD["mag"] * n[6], my + NOISE_STD["mag"] * n[7], mz + NOISE_STD["mag"] * n[8]
             baro, diff = baro + NOISE_STD["baro_hpa"] * n[9], diff + NOISE_STD["diff_hpa"] * n[10]
-        frames.append(
-            link.pack(
-                mav.hil_sensor_encode(
-                    t, ax, ay, az, p, q, r, mx, my, mz, baro, diff, alt, isa_temperature_c(alt),
-                    HIL_SENSOR_ALL_FIELDS,
-                )
-            )
-        )  # fmt: skip
-        if t % GPS_PERIOD_USEC == 0:
+        values = [ax, ay, az, p, q, r, mx, my, mz, baro, diff, alt, isa_temperature_c(alt)]
+        fields = silence(plant.failed_sensors, values) if plant.failed_sensors else HIL_SENSOR_ALL_FIELDS
+        frames.append(link.pack(mav.hil_sensor_encode(t, *values, fields)))
+        if t % GPS_PERIOD_USEC == 0 and FailureUnit.GPS not in plant.failed_sensors:
             course = math.degrees(math.atan2(ve, vn)) % 360.0
             frames.append(
                 link.pack(
@@ -106,6 +113,17 @@ class SensorSuite:
                 )
             )
         return b"".join(frames)
+
+
+def silence(failed: set[FailureUnit], values: list[float]) -> int:
+    """Zero the HIL_SENSOR values of the failed sensors; the fields_updated bits of the others."""
+    fields = HIL_SENSOR_ALL_FIELDS
+    for unit in failed:
+        bits, indices = SENSOR_FIELDS.get(unit, (0, ()))
+        fields &= ~bits
+        for index in indices:
+            values[index] = 0.0
+    return fields
 
 
 def _clip_int16(value: float) -> int:

@@ -43,6 +43,7 @@ class GroundStation:
         self.time_boot_ms = 0
         self.retries = 0  # commands sent again for want of an ACK
         self._last_heartbeat = 0.0
+        self.sends_heartbeats = True  # False: the ground station falls silent (a data-link loss)
 
     def close(self) -> None:
         self.conn.close()
@@ -74,7 +75,8 @@ class GroundStation:
     def pump(self, timeout_s: float = 0.05) -> None:
         """Handle everything that arrives within timeout_s (wall); a HEARTBEAT each wall second, as GCSs do."""
         deadline = time.monotonic() + timeout_s
-        if deadline - self._last_heartbeat > 1.0 and ("HEARTBEAT" in self.latest or self.speaks_first):
+        if (self.sends_heartbeats and deadline - self._last_heartbeat > 1.0
+                and ("HEARTBEAT" in self.latest or self.speaks_first)):
             self.heartbeat()
         while True:
             message = self.conn.recv_match(blocking=True, timeout=max(0.0, deadline - time.monotonic()))

@@ -8,6 +8,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+from aircraft.failures import FailureUnit, failed_sensors
 from autopilot.mavlink.px4_modes import custom_mode
 from autopilot.vehicle_status import VehicleStatus
 from transport.geodesy import Home
@@ -22,6 +23,11 @@ SENSORS = (
     | M.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS | M.MAV_SYS_STATUS_AHRS | M.MAV_SYS_STATUS_SENSOR_BATTERY
     | M.MAV_SYS_STATUS_PREARM_CHECK
 )  # fmt: skip
+SENSOR_BITS = {  # a sensor failed OFF clears its health bit (present and enabled stay set, as PX4 reports it)
+    FailureUnit.GYRO: M.MAV_SYS_STATUS_SENSOR_3D_GYRO, FailureUnit.ACCEL: M.MAV_SYS_STATUS_SENSOR_3D_ACCEL,
+    FailureUnit.MAG: M.MAV_SYS_STATUS_SENSOR_3D_MAG, FailureUnit.BARO: M.MAV_SYS_STATUS_SENSOR_ABSOLUTE_PRESSURE,
+    FailureUnit.AIRSPEED: M.MAV_SYS_STATUS_SENSOR_DIFFERENTIAL_PRESSURE, FailureUnit.GPS: M.MAV_SYS_STATUS_SENSOR_GPS,
+}  # fmt: skip
 CAPABILITIES = (
     M.MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE | M.MAV_PROTOCOL_CAPABILITY_MAVLINK2
     | M.MAV_PROTOCOL_CAPABILITY_COMMAND_INT | M.MAV_PROTOCOL_CAPABILITY_SET_POSITION_TARGET_LOCAL_NED
@@ -52,6 +58,8 @@ def heartbeat(mav: Any, status: VehicleStatus) -> Any:
 
 def sys_status(mav: Any, status: VehicleStatus) -> Any:
     health = SENSORS if status.started else SENSORS & ~M.MAV_SYS_STATUS_PREARM_CHECK
+    for unit in failed_sensors(status.failures):
+        health &= ~SENSOR_BITS[unit]
     return mav.sys_status_encode(SENSORS, SENSORS, health, 0, 16800, -1, 100, 0, 0, 0, 0, 0, 0)
 
 
@@ -88,6 +96,8 @@ def gps_raw(mav: Any, status: VehicleStatus) -> Any:
     g = status.position
     vn, ve = float(status.estimate.velocity_ned[0]), float(status.estimate.velocity_ned[1])
     cog = int(round(math.degrees(math.atan2(ve, vn)) * 100)) % 36000 if math.hypot(vn, ve) > 0.1 else 65535
+    if FailureUnit.GPS in failed_sensors(status.failures):  # PX4 reports the GPS it no longer hears as no fix
+        return mav.gps_raw_int_encode(status.time_usec, M.GPS_FIX_TYPE_NO_FIX, 0, 0, 0, 65535, 65535, 65535, 65535, 0)
     return mav.gps_raw_int_encode(status.time_usec, M.GPS_FIX_TYPE_3D_FIX, g.lat_e7, g.lon_e7, g.alt_mm, 70, 100,
                                   int(round(math.hypot(vn, ve) * 100)), cog, 12)  # fmt: skip
 

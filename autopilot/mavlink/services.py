@@ -27,7 +27,7 @@ from autopilot.mavlink.signing import SigningService
 from autopilot.mavlink.statustext import Announcer
 from autopilot.mavlink.view import StatusView
 from autopilot.parameters import ParameterStore
-from autopilot.requests import RequestHandler
+from autopilot.requests import GcsHeartbeat, RequestHandler
 from autopilot.vehicle_status import VehicleStatus
 from transport.geodesy import Home
 from transport.mavlink import mavlink as M
@@ -44,6 +44,7 @@ class MavlinkServices:
     def __init__(self, router: Router, params: ParameterStore, flight_stack: RequestHandler, *, system_id: int,
                  home: Home, events_publisher: Any | None = None, quiet: bool = False) -> None:  # fmt: skip
         self.router = router
+        self.flight_stack = flight_stack
         self.view = StatusView()
         self.announcer = Announcer(router, self.view.clock, events_publisher, quiet)
         self.commands = CommandService(flight_stack, self.view, self.announcer, system_id=system_id, home=home)
@@ -55,7 +56,7 @@ class MavlinkServices:
         self.hold_wall_s = 0.0
         self._heartbeat_version = 0
         self._handlers: dict[str, Handler] = {
-            "HEARTBEAT": lambda link, message: None,  # learning the client's address is all it is for
+            "HEARTBEAT": self._on_heartbeat,
             "COMMAND_LONG": self.commands.on_command_long,
             "COMMAND_INT": self.commands.on_command_int,
             "SET_MODE": self.commands.on_set_mode,
@@ -164,6 +165,11 @@ class MavlinkServices:
                 link.counters.ignored[f"error:{kind}"] += 1
                 self.announcer.say(M.MAV_SEVERITY_ERROR, f"{kind} not handled: {type(exc).__name__}: {exc}",
                                    key=f"error:{kind}")  # fmt: skip
+
+    def _on_heartbeat(self, link: GroundLink, message: Any) -> None:
+        """Besides teaching the link its client's address: a ground station's says the data link is alive."""
+        if message.type == M.MAV_TYPE_GCS:
+            self.flight_stack.handle(GcsHeartbeat())
 
     def _on_timesync(self, link: GroundLink, message: Any) -> None:
         if message.tc1 == 0:

@@ -1,0 +1,244 @@
+"""The flight modes, one class each behind one small interface, as PX4's navigator has one NavigatorMode per mode
+(docs/mavlink.md). The commander (autopilot/commander.py) chooses the mode; the active mode turns the state into a
+velocity set-point (NED, m/s) at 100 Hz.
+
+    activate(state)     the mode is entered (or entered again) here
+    setpoint(state)     the velocity set-point of this tick
+    lifts_off(state)    armed on the ground, the mode asks to take off
+    landing             it is descending onto a landing point (reported as MAV_LANDED_STATE_LANDING)
+    detects_landing     the commander's land detector watches for a touchdown
+    touched_down(state) the land detector saw the touchdown
+
+Hold, Takeoff, Land and Offboard use the position logic of navigator.py; Mission, Return, Orbit and Hold after a
+DO_REPOSITION fly routes of targets (auto_flight.py, mission_flight.py).
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+
+import numpy as np
+
+from autopilot.auto_flight import AutoFlight, Circle, FlyTo, HoldAt
+from autopilot.mission_flight import MissionFlight, return_route
+from autopilot.navigator import Navigator
+from autopilot.offboard_setpoint import OffboardSetpoint
+from autopilot.parameters import ParameterStore
+from autopilot.vehicle_state import VehicleState
+from transport.mavlink import mavlink
+
+HOLD, TAKEOFF, LAND, OFFBOARD = "Hold", "Takeoff", "Land", "Offboard"
+MISSION, RETURN, ORBIT = "Mission", "Return", "Orbit"
+MODES = (HOLD, TAKEOFF, LAND, OFFBOARD, MISSION, RETURN, ORBIT)
+REPOSITION_ACCEPTANCE = 1.0  # m: a DO_REPOSITION flies the leg to within this, then holds there
+OFFBOARD_TAKEOFF_CLIMB = 0.3  # m/s: an Offboard set-point climbing faster than this lifts off from the ground
+VTOL_FW, VTOL_MC = mavlink.MAV_VTOL_STATE_FW, mavlink.MAV_VTOL_STATE_MC  # 4, 3
+
+
+class FlightMode(ABC):
+    """The interface; the defaults are those of a mode that neither takes off nor lands."""
+
+    name = ""
+
+    @property
+    def landing(self) -> bool:
+        return False
+
+    @property
+    def detects_landing(self) -> bool:
+        return self.landing
+
+    def activate(self, state: VehicleState) -> None:
+        pass
+
+    @abstractmethod
+    def setpoint(self, state: VehicleState) -> np.ndarray: ...
+
+    def lifts_off(self, state: VehicleState) -> bool:
+        return False
+
+    def touched_down(self, state: VehicleState) -> None:
+        pass
+
+
+class HoldMode(FlightMode):
+    """AUTO.LOITER: brake and hold here; circle at cruise speed after a transition to fixed wing; or fly to a
+    DO_REPOSITION point and hold there."""
+
+    name = HOLD
+
+    def __init__(self, navigator: Navigator, auto: AutoFlight) -> None:
+        self.navigator = navigator
+        self.auto = auto
+        self.repositioning = False  # flying self.auto's route (DO_REPOSITION)
+        self.transition_target = VTOL_MC
+
+    def activate(self, state: VehicleState) -> None:
+        self.repositioning = False
+        self.transition_target = VTOL_MC
+        self.navigator.start_hold(state)
+
+    def hold_at(self, xy: np.ndarray, down: float) -> None:
+        """Hold this point (a takeoff ended over it)."""
+        self.navigator.hold_xy = xy.copy()
+        self.navigator.hold_down = down
+
+    def reposition(self, state: VehicleState, position: np.ndarray, speed: float | None) -> None:
+        self.repositioning = True
+        self.auto.start(state, [FlyTo(position, REPOSITION_ACCEPTANCE, speed), HoldAt(position, None)])
+
+    def transition(self, target: int, state: VehicleState) -> str | None:
+        """MAV_CMD_DO_VTOL_TRANSITION in Hold: to FW circle at cruise speed, to MC brake and hover; what to say
+        (None: already there)."""
+        if target == self.transition_target:
+            return None
+        self.transition_target = target
+        if target == VTOL_FW:
+            self.navigator.start_fixed_wing_hold(state)
+            return f"Transition to fixed wing: circling at {self.navigator.params['FW_AIRSPD_TRIM']:g} m/s"
+        self.navigator.start_hold(state, down=self.navigator.hold_down)
+        return "Transition to multicopter: braking to a hover"
+
+    def setpoint(self, state: VehicleState) -> np.ndarray:
+        return self.auto.step(state) if self.repositioning else self.navigator.hold(state)
+
+
+class TakeoffMode(FlightMode):
+    """AUTO.TAKEOFF: climb over the takeoff point to the target altitude (then the commander holds there)."""
+
+    name = TAKEOFF
+
+    def __init__(self, navigator: Navigator) -> None:
+        self.navigator = navigator
+
+    def start(self, state: VehicleState, target_down: float) -> None:
+        self.navigator.start_takeoff(state, target_down)
+
+    def done(self, state: VehicleState) -> bool:
+        return self.navigator.takeoff_done(state)
+
+    @property
+    def end(self) -> tuple[np.ndarray, float]:
+        """Where the takeoff ends: the point and altitude to hold."""
+        return self.navigator.takeoff_xy, self.navigator.takeoff_down
+
+    def lifts_off(self, state: VehicleState) -> bool:
+        return True
+
+    def setpoint(self, state: VehicleState) -> np.ndarray:
+        return self.navigator.takeoff(state)
+
+
+class LandMode(FlightMode):
+    """AUTO.LAND: brake, descend, touch down; PX4's Descend (position lost): the same with no horizontal position
+    control, only a zero horizontal velocity."""
+
+    name = LAND
+
+    @property
+    def landing(self) -> bool:
+        return True
+
+    def __init__(self, navigator: Navigator) -> None:
+        self.navigator = navigator
+        self.descend = False
+
+    def activate(self, state: VehicleState) -> None:
+        self.descend = False
+        self.navigator.start_land(state)
+
+    def setpoint(self, state: VehicleState) -> np.ndarray:
+        setpoint = self.navigator.land(state)
+        if self.descend:
+            setpoint[0:2] = 0.0
+        return setpoint
+
+
+class OffboardMode(FlightMode):
+    """OFFBOARD: the client's velocity set-point, or the velocity that flies to its position set-point."""
+
+    name = OFFBOARD
+    @property
+    def detects_landing(self) -> bool:  # a client may land the vehicle with its set-points
+        return True
+
+    def __init__(self, navigator: Navigator, offboard: OffboardSetpoint) -> None:
+        self.navigator = navigator
+        self.offboard = offboard
+
+    def activate(self, state: VehicleState) -> None:
+        self.navigator.start_tracking(state)
+
+    def setpoint(self, state: VehicleState) -> np.ndarray:
+        if self.offboard.position is None:
+            return self.offboard.velocity
+        return self.navigator.track(state, self.offboard.position, self.offboard.velocity)
+
+    def lifts_off(self, state: VehicleState) -> bool:
+        return bool(self.setpoint(state)[2] < -OFFBOARD_TAKEOFF_CLIMB)
+
+
+class MissionMode(FlightMode):
+    """AUTO.MISSION: the stored mission, item by item (mission_flight.py)."""
+
+    name = MISSION
+
+    def __init__(self, mission: MissionFlight) -> None:
+        self.mission = mission
+
+    @property
+    def stored(self) -> bool:
+        """A mission is stored to fly."""
+        return bool(self.mission.items)
+
+    def activate(self, state: VehicleState) -> None:
+        self.mission.start(state)
+
+    @property
+    def landing(self) -> bool:
+        return self.mission.landing
+
+    def lifts_off(self, state: VehicleState) -> bool:
+        return self.mission.auto.climbing
+
+    def setpoint(self, state: VehicleState) -> np.ndarray:
+        return self.mission.step(state)
+
+    def touched_down(self, state: VehicleState) -> None:
+        self.mission.landed(state)
+
+
+class ReturnMode(FlightMode):
+    """AUTO.RTL: climb to RTL_RETURN_ALT, fly to the closest of home and the rally points, land there."""
+
+    name = RETURN
+
+    def __init__(self, params: ParameterStore, auto: AutoFlight, mission: MissionFlight) -> None:
+        self.params = params
+        self.auto = auto
+        self.mission = mission
+
+    def activate(self, state: VehicleState) -> None:
+        self.auto.start(state, return_route(self.params, state, self.mission.rally_points()))
+
+    @property
+    def landing(self) -> bool:
+        return self.auto.descending
+
+    def setpoint(self, state: VehicleState) -> np.ndarray:
+        return self.auto.step(state)
+
+
+class OrbitMode(FlightMode):
+    """Orbit (PX4's POSCTL.ORBIT navigation state): circle a centre for ever."""
+
+    name = ORBIT
+
+    def __init__(self, auto: AutoFlight) -> None:
+        self.auto = auto
+
+    def start(self, state: VehicleState, circle: Circle) -> None:
+        self.auto.start(state, [circle])
+
+    def setpoint(self, state: VehicleState) -> np.ndarray:
+        return self.auto.step(state)
