@@ -7,29 +7,27 @@ import time
 
 import zenoh
 
-from ground_tools.processes import free_zenoh_endpoint
 from tiltrotor_sitl import Controller, Vehicle
 from transport.telemetry import control_key, decode_plant_state, mpc_key, plant_state_key
 from transport.zenoh_bus import session_config
 
 
 def fly_with_subscriber(controller: Controller, duration: str, *keys: str) -> dict[str, list]:
-    """Plant + autopilot (lockstep, accel profile) with zenoh on loopback; what a subscriber got per key. The
-    subscriber listens first and both processes connect to it, so it hears them from their first samples."""
-    endpoint = free_zenoh_endpoint()
+    """Plant + autopilot (lockstep, accel profile) with zenoh on loopback; what a subscriber got per key. It
+    connects as the processes start (they take a second or more to begin stepping)."""
     received: dict[str, list] = {key: [] for key in keys}
-    session = zenoh.open(session_config(listen=[endpoint], connect=[]))
-    try:
-        for key in keys:
-            decode = decode_plant_state if key == plant_state_key(1) else json.loads
-            session.declare_subscriber(key, lambda s, k=key, d=decode: received[k].append(d(bytes(s.payload))))
-        connect = ("--zenoh-connect", endpoint)
-        with Vehicle(controller=controller, spawn_alt=100.0, speed=None, duration_s=float(duration), wait_ready=False,
-                     plant_args=connect, autopilot_args=("--profile", "accel", *connect)) as vehicle:
+    with Vehicle(controller=controller, spawn_alt=100.0, speed=None, duration_s=float(duration), wait_ready=False,
+                 autopilot_args=("--profile", "accel")) as vehicle:
+        endpoints = [vehicle.ports.zenoh_plant, vehicle.ports.zenoh_autopilot]
+        session = zenoh.open(session_config(listen=[], connect=endpoints))
+        try:
+            for key in keys:
+                decode = decode_plant_state if key == plant_state_key(1) else json.loads
+                session.declare_subscriber(key, lambda s, k=key, d=decode: received[k].append(d(bytes(s.payload))))
             vehicle.wait_finished(timeout_s=300)  # (an autopilot that exits with an error fails the test here)
             time.sleep(0.5)
-    finally:
-        session.close()
+        finally:
+            session.close()
     return received
 
 

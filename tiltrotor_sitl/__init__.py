@@ -99,9 +99,8 @@ class VehicleHandle:
 
     @property
     def truth(self) -> TruthFeed:
-        """The plant's truth on zenoh, subscribed at the first use of this property (its `failures` are those
-        announced since). Raises VehicleError when started with truth=False."""
-        truth = self._started.truth_feed()
+        """The plant's truth on zenoh (raises VehicleError when started with truth=False or with plant_port)."""
+        truth = self._started.truth
         if truth is None:
             raise VehicleError(f"vehicle {self.sysid}: no truth: started with truth=False (no zenoh) or with "
                                f"plant_port (no plant of its own), or already stopped")  # fmt: skip

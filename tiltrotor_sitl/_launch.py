@@ -134,15 +134,7 @@ class Started:
     children: list[Child]
     folder: Path
     params_path: Path
-    has_truth: bool = False  # a plant of its own with zenoh on, not stopped yet
-    truth: TruthFeed | None = None  # subscribed at first use
-
-    def truth_feed(self) -> TruthFeed | None:
-        """The plant's truth feed, subscribed at first use, or None without one. Not before: a zenoh peer connected
-        to the plant costs it a copy of every physics step, which in lockstep doubled a flight's wall time."""
-        if self.truth is None and self.has_truth:
-            self.truth = TruthFeed(self.ports.zenoh_plant, self.sysid)
-        return self.truth
+    truth: TruthFeed | None = None
 
 
 def _vehicle_ports(options: Options, index: int, gcs_remote: int) -> VehiclePorts:
@@ -286,8 +278,9 @@ def launch(options: Options, count: int, folder: Path | None = None) -> tuple[li
                 what = "ready to arm" if watch is not None else "listening"
                 raise VehicleError(f"not {what} within {options.ready_timeout_s:g} s ({missing()})\n{tails}")
         ready_s = time.monotonic() - began
-        for vehicle in vehicles:
-            vehicle.has_truth = options.truth and options.starts_plant
+        if options.truth and options.starts_plant:
+            for vehicle in vehicles:
+                vehicle.truth = TruthFeed(vehicle.ports.zenoh_plant, vehicle.sysid)
     except BaseException:
         stop(vehicles, root if folder is None else None)
         raise
@@ -310,7 +303,6 @@ def _free_udp_port() -> int:
 def stop(vehicles: list[Started], remove: Path | None) -> None:
     """Close the truth feeds, stop every process (by PID), remove the folder `remove` (a temporary one)."""
     for vehicle in vehicles:
-        vehicle.has_truth = False
         if vehicle.truth is not None:
             vehicle.truth.close()
             vehicle.truth = None
