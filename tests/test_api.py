@@ -225,7 +225,7 @@ def test_no_readiness_in_time_is_a_clear_error() -> None:
 
 
 def test_a_process_that_dies_before_its_duration_is_quoted() -> None:
-    with Vehicle(autopilot=False, speed=None, truth=False, duration_s=10.0) as plant:  # the plant alone: nobody steps it
+    with Vehicle(autopilot=False, speed=None, truth=False, duration_s=10.0) as plant:  # alone: nobody steps it
         assert plant.pids == [plant.process("vtol-sim").pid]
         plant.process("vtol-sim").kill()
         with pytest.raises(VehicleError, match="vtol-sim .* exited with code -9 before the end"):

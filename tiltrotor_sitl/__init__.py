@@ -94,7 +94,7 @@ class VehicleHandle:
 
     @property
     def pids(self) -> list[int]:
-        """The PIDs of the vehicle's processes (plant, autopilot)."""
+        """The PIDs of the processes it started (plant, autopilot; one of them when started alone)."""
         return [child.pid for child in self._started.children]
 
     @property
@@ -107,7 +107,7 @@ class VehicleHandle:
         return truth
 
     def running(self) -> bool:
-        """Both processes are running."""
+        """Every process it started is running."""
         return all(child.running() for child in self._started.children)
 
     def stderr(self, process: str = "vtol-autopilot") -> str:
@@ -167,7 +167,8 @@ class Fleet:
                  gcs_port: int | None = None, truth: bool = True, ready_timeout_s: float = 60.0,
                  folder: str | Path | None = None, summary: bool = False, autopilot_args: Sequence[str] = (),
                  wait_ready: bool = True, params_file: str | Path | None = None, duration_s: float | None = None,
-                 plant_args: Sequence[str] = (), autopilot: bool = True, plant_port: int | None = None) -> None:  # fmt: skip
+                 plant_args: Sequence[str] = (), autopilot: bool = True,
+                 plant_port: int | None = None) -> None:  # fmt: skip
         self.count = count
         self.options = Options(controller=controller, airframe=None if airframe is None else Path(airframe),
                                spawn_alt=float(spawn_alt), home=home, speed=speed, params=dict(params or {}),
@@ -253,7 +254,8 @@ class Vehicle(VehicleHandle):
                  truth: bool = True, ready_timeout_s: float = 60.0, folder: str | Path | None = None,
                  summary: bool = False, autopilot_args: Sequence[str] = (), wait_ready: bool = True,
                  params_file: str | Path | None = None, duration_s: float | None = None,
-                 plant_args: Sequence[str] = (), autopilot: bool = True, plant_port: int | None = None) -> None:  # fmt: skip
+                 plant_args: Sequence[str] = (), autopilot: bool = True,
+                 plant_port: int | None = None) -> None:  # fmt: skip
         self._fleet = Fleet(1, controller=controller, airframe=airframe, spawn_alt=spawn_alt, home=home, speed=speed,
                             params=params, instance=instance, sysid=sysid, gcs_port=gcs_port, truth=truth,
                             ready_timeout_s=ready_timeout_s, folder=folder, summary=summary,

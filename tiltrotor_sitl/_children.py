@@ -3,8 +3,9 @@ reaches only the test, which then stops them in order), with PR_SET_PDEATHSIG = 
 them when the process that started them dies, even by SIGKILL), and stopped by PID: SIGTERM, then SIGKILL.
 
 They run with PYTHONHASHSEED fixed (and, as their callers build the command lines, address-space randomisation
-off), so two lockstep runs of the same vehicle repeat bit for bit. Their stdout and stderr go to files in the vehicle's folder (<name>.stdout, <name>.stderr), so a process that dies
-during start-up can be quoted and a --summary line read back; a restart appends to the same files.
+off), so two lockstep runs of the same vehicle repeat bit for bit. Their stdout and stderr go to files in the
+vehicle's folder (<name>.stdout, <name>.stderr), so a process that dies during start-up can be quoted and a
+--summary line read back; a restart appends to the same files.
 """
 
 from __future__ import annotations
