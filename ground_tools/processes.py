@@ -47,6 +47,10 @@ def _home(home: Home | None) -> list[str]:
     return [] if home is None else ["--home", f"{home.lat!r},{home.lon!r},{home.alt!r}"]
 
 
+def _wind(wind_ned: tuple[float, float, float] | None) -> list[str]:
+    return [] if wind_ned is None else ["--wind", ",".join(repr(float(v)) for v in wind_ned)]
+
+
 def fleet_home(index: int, home: Home | None = None, spacing_m: float = FLEET_SPACING_M) -> Home:
     """The home of a fleet's `index`-th vehicle: `spacing_m` metres east of the previous one (the first at `home`,
     default Home()). Plant and autopilot of a vehicle are given the same home, so each vehicle's local frame starts
@@ -184,6 +188,7 @@ class SimCommand:
     summary: bool = False  # a JSON line of counters on stdout at the end
     zenoh: Zenoh = field(default_factory=Zenoh)
     airframe: Path | None = None
+    wind_ned: tuple[float, float, float] | None = None  # m/s (vtol-sim's default: no wind)
     sysid: int | None = None  # the vehicle's system id (vtol-sim's default: instance + 1)
     home: Home | None = None  # geodetic origin (vtol-sim's default: Home())
     extra: tuple[str, ...] = ()  # further vtol-sim options, as they are
@@ -195,8 +200,8 @@ class SimCommand:
             *_option("--autopilot-port", self.autopilot_port),
             *_option("--spawn-alt", self.spawn_alt or None), *pacing, *_option("--duration", self.duration_s),
             *_option("--lockstep-timeout", self.lockstep_timeout_s), *_flag("--summary", self.summary),
-            *self.zenoh.argv(), *_option("--airframe", self.airframe), *_option("--sysid", self.sysid),
-            *_home(self.home), *self.extra,
+            *self.zenoh.argv(), *_option("--airframe", self.airframe), *_wind(self.wind_ned),
+            *_option("--sysid", self.sysid), *_home(self.home), *self.extra,
         ])  # fmt: skip
 
 
