@@ -40,11 +40,13 @@ def add_campaign_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _bar(total: int, done: int, disable: bool) -> tqdm:
-    return tqdm(total=total, initial=done, desc="flights", unit="flight", file=sys.stderr, disable=True if disable else None,
+    return tqdm(total=total, initial=done, desc="flights", unit="flight", file=sys.stderr,
+                disable=True if disable else None,
                 bar_format="{desc}: {n}/{total} |{bar}| {postfix} [{elapsed}, {remaining} left]")  # fmt: skip
 
 
-def fly_campaign(spec: CampaignSpec, out: Path, store: ResultStore, engine: DaskEngine, progress: bool) -> tuple[int, int]:
+def fly_campaign(spec: CampaignSpec, out: Path, store: ResultStore, engine: DaskEngine,
+                 progress: bool) -> tuple[int, int]:
     """Fly the points the store does not have; (flown, failed)."""
     points = campaign_points(spec)
     finished = store.finished_keys()
@@ -67,9 +69,21 @@ def fly_campaign(spec: CampaignSpec, out: Path, store: ResultStore, engine: Dask
                            f"{str(row['error']).strip().splitlines()[-1]}", file=sys.stderr)  # fmt: skip
             bar.set_postfix_str(f"done {counts['done']}, failed {counts['failed']}, aircraft lost {counts['lost']}")
             bar.update(1)
+            if not progress:
+                print(f"{PROG}: stored {bar.n}/{len(points)}: {_describe(point, row)}", file=sys.stderr, flush=True)
     finally:
         bar.close()
     return counts["done"] + counts["failed"], counts["failed"]
+
+
+def _describe(point: FlightPoint, row: dict) -> str:
+    params = ", ".join(f"{key} {value:g}" if isinstance(value, float) else f"{key} {value}"
+                       for key, value in point.params.items())  # fmt: skip
+    if row["status"] != "done":
+        outcome = "failed to fly"
+    else:
+        outcome = "survived" if row["metrics"].get("survived") else "aircraft lost"
+    return f"{point.key} {point.controller} ({params}): {outcome}"
 
 
 def _task_name(point: FlightPoint) -> str:
@@ -77,8 +91,9 @@ def _task_name(point: FlightPoint) -> str:
 
 
 def _lost_task(point: FlightPoint, exc: BaseException) -> dict:
-    return {"key": point.key, "scenario": point.scenario, "controller": point.controller, "repetition": point.repetition,
-            "params": point.params, "status": "failed", "error": f"the engine lost the task: {exc!r}", "metrics": {}}  # fmt: skip
+    return {"key": point.key, "scenario": point.scenario, "controller": point.controller,
+            "repetition": point.repetition, "params": point.params, "status": "failed",
+            "error": f"the engine lost the task: {exc!r}", "metrics": {}}  # fmt: skip
 
 
 def campaign(args: argparse.Namespace) -> int:
