@@ -76,8 +76,9 @@ def _value(values: Mapping[str, float], parameter: Parameter) -> float:
 
 def _circle(base: Scenario, values: Mapping[str, float]) -> Scenario:
     profile = CircleProfile(_value(values, SPEED), _value(values, RADIUS), _value(values, TURNS))
+    summary = f"2 m/s^2 to {profile.speed:g} m/s, then {profile.turns:g} turn(s) of a {profile.radius:g} m circle"
     return replace(base, profile=profile, duration_s=profile.duration_s, circle=Circle(profile.start_s, profile.radius),
-                   summary=f"2 m/s^2 to {profile.speed:g} m/s, then {profile.turns:g} turn(s) of a {profile.radius:g} m circle")  # fmt: skip
+                   summary=summary)
 
 
 def _motor_failure(base: Scenario, values: Mapping[str, float]) -> Scenario:
@@ -85,7 +86,8 @@ def _motor_failure(base: Scenario, values: Mapping[str, float]) -> Scenario:
     rotor, yaw = int(_value(values, ROTOR)), _value(values, FAILURE_YAW)
     failure = TriggeredFailure(Failure(FailureUnit.MOTOR, FailureType.OFF, rotor), yaw_reaches(yaw),
                                f"yaw reaches {yaw:g} deg")  # fmt: skip
-    return replace(circled, failure=failure, summary=f"{circled.summary}, rotor {rotor} off once the yaw reaches {yaw:g} deg")
+    return replace(circled, failure=failure,
+                   summary=f"{circled.summary}, rotor {rotor} off once the yaw reaches {yaw:g} deg")
 
 
 def _servo_failure(base: Scenario, values: Mapping[str, float]) -> Scenario:
@@ -106,7 +108,8 @@ def build_scenario(name: str, values: Mapping[str, float]) -> Scenario:
     scenario = SCENARIOS[name]
     shaped = {key: value for key, value in values.items() if key != DURATION.name}
     if shaped:
-        scenario = {"circle": _circle, "motor-failure": _motor_failure, "servo-failure": _servo_failure}[name](scenario, shaped)
+        shape = {"circle": _circle, "motor-failure": _motor_failure, "servo-failure": _servo_failure}[name]
+        scenario = shape(scenario, shaped)
     if DURATION.name in values:
         scenario = replace(scenario, duration_s=min(values[DURATION.name], scenario.duration_s))
     return scenario

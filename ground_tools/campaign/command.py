@@ -70,7 +70,8 @@ def fly_campaign(spec: CampaignSpec, out: Path, store: ResultStore, engine: Dask
             bar.set_postfix_str(f"done {counts['done']}, failed {counts['failed']}, aircraft lost {counts['lost']}")
             bar.update(1)
             if not progress:
-                print(f"{PROG}: stored {bar.n}/{len(points)}: {_describe(point, row)}", file=sys.stderr, flush=True)
+                stored = len(points) - len(todo) + counts["done"] + counts["failed"]
+                print(f"{PROG}: stored {stored}/{len(points)}: {_describe(point, row)}", file=sys.stderr, flush=True)
     finally:
         bar.close()
     return counts["done"] + counts["failed"], counts["failed"]

@@ -29,8 +29,8 @@ class DaskEngine:
     def __enter__(self) -> DaskEngine:
         try:
             if self.address is None:
-                self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True,
-                                            host=LOOPBACK, dashboard_address=None, silence_logs=logging.ERROR)  # fmt: skip
+                self.cluster = LocalCluster(n_workers=self.workers, threads_per_worker=1, processes=True, host=LOOPBACK,
+                                            dashboard_address=None, silence_logs=logging.ERROR)  # fmt: skip
                 self.client = Client(self.cluster)
             else:
                 self.client = Client(self.address, timeout=30)

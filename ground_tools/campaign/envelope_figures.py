@@ -9,6 +9,7 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib import patheffects  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas  # noqa: E402
 
@@ -42,9 +43,6 @@ def _draw_paper(ax: plt.Axes, lines: list[PaperLine], axes: MapAxes, xs: list, y
         else:
             span(_position(values, line.band_from), end, facecolor="none", edgecolor="black", hatch="//", linewidth=0)
             rule(end, color="black", linewidth=1.5, linestyle="--")
-        where = (end, len(ys) - 0.55) if on_x else (-0.45, end)
-        ax.annotate(line.text, where, fontsize=7, color="black", ha="left", va="top",
-                    bbox={"boxstyle": "round", "facecolor": "white", "alpha": 0.85})  # fmt: skip
 
 
 def plot_map(per_controller: dict[str, pandas.DataFrame], axes: MapAxes, lines: list[PaperLine], title: str,
@@ -66,14 +64,20 @@ def plot_map(per_controller: dict[str, pandas.DataFrame], axes: MapAxes, lines: 
         image = ax.imshow(grid, origin="lower", aspect="auto", cmap=cmap, vmin=low, vmax=max(high, low + 1e-9))
         for (row, column), value in np.ndenumerate(grid):
             if np.isfinite(value):
-                ax.text(column, row, fmt.format(value), ha="center", va="center", fontsize=7)
+                ax.text(column, row, fmt.format(value), ha="center", va="center", fontsize=7,
+                        path_effects=[patheffects.withStroke(linewidth=2.5, foreground="white")])
         ax.set_xticks(range(len(xs)), [f"{x:g}" if isinstance(x, (int, float)) else str(x) for x in xs], fontsize=7)
         ax.set_yticks(range(len(ys)), [f"{y:g}" if isinstance(y, (int, float)) else str(y) for y in ys], fontsize=7)
         ax.set_xlabel(axes.x)
         ax.set_title(NAMES.get(controller, controller))
         _draw_paper(ax, lines, axes, xs, ys)
     panels[0][0].set_ylabel(axes.y or "")
-    fig.suptitle(title, fontsize=10)
+    fig.suptitle(title, fontsize=10, y=1.02)
+    drawn = [line for line in lines if line.axis in (axes.x, axes.y)]
+    if drawn:
+        caption = "; ".join(("hatched: " if line.band_from is not None else "dashed: ") + line.text.replace("\n", " ")
+                            for line in drawn)  # fmt: skip
+        fig.text(0.01, -0.04, caption, fontsize=8, ha="left", va="top")
     if image is not None:
         fig.colorbar(image, ax=panels[0].tolist(), label=colorbar, shrink=0.9)
     fig.savefig(path, dpi=110, bbox_inches="tight")

@@ -56,10 +56,10 @@ def fly_point(point: FlightPoint, out: str, campaign_folder: str) -> dict[str, A
         scenario = build_scenario(point.scenario, scenario_params)
         wind = tuple(float(point.params.get(name, 0.0)) for name in WIND)
         airframe = point.params.get(PLANT_AIRFRAME)
+        plant_airframe = None if airframe is None else Path(campaign_folder) / airframe
         block = claim_block(FIRST_INSTANCE, INSTANCES, start=int(point.key, 16) % INSTANCES)
-        result = run_scenario(scenario, point.controller, flight_folder(Path(out), point.key), block=block,  # type: ignore[arg-type]
-                              wind_ned=wind, plant_airframe=None if airframe is None else Path(campaign_folder) / airframe,
-                              record=False)  # fmt: skip
+        result = run_scenario(scenario, point.controller, flight_folder(Path(out), point.key),  # type: ignore[arg-type]
+                              block=block, wind_ned=wind, plant_airframe=plant_airframe, record=False)  # fmt: skip
     except (FlightFailed, ScenarioError, NoFreeBlock) as exc:
         row["error"] = str(exc) or type(exc).__name__
     except Exception:  # a bug must not stop the other flights: it is the row's reason, with its traceback

@@ -58,7 +58,8 @@ def _boundaries(spec: CampaignSpec, axes: MapAxes, survival: dict[str, pandas.Da
     lines = ["## Where the survivable region begins", "",
              f"For each {axes.y or 'map'}: the {axes.x} values where a flight was lost, and the smallest {axes.x} from "
              "which every flight survived.", "",
-             f"| controller | {axes.y or ''} | lost at {axes.x} | all survived from {axes.x} |", "| --- | --- | --- | --- |"]  # fmt: skip
+             f"| controller | {axes.y or ''} | lost at {axes.x} | all survived from {axes.x} |",
+             "| --- | --- | --- | --- |"]  # fmt: skip
     for controller, frame in survival.items():
         safe, lost = safe_from(frame), lost_at(frame)
         for y in frame.index:
@@ -71,8 +72,8 @@ def _boundaries(spec: CampaignSpec, axes: MapAxes, survival: dict[str, pandas.Da
         for controller, frame in survival.items():
             safe = [s for s in safe_from(frame).values()]
             worst = None if any(s is None for s in safe) else max(safe)
-            verdict = (f"survives every {axes.x} from {worst:g} on at every {axes.y or 'point'} flown" if worst is not None
-                       else f"loses flights even at the largest {axes.x} flown")  # fmt: skip
+            verdict = (f"survives every {axes.x} from {worst:g} on at every {axes.y or 'point'} flown"
+                       if worst is not None else f"loses flights even at the largest {axes.x} flown")  # fmt: skip
             lines.append(f"- {line.text.replace(chr(10), ' ')}; {NAMES.get(controller, controller)}: {verdict}.")
         lines.append("")
     return lines
@@ -99,9 +100,11 @@ def write_report(spec: CampaignSpec, frame: pandas.DataFrame, out: Path) -> Path
         if errors:
             error_png = plot_map(errors, axes, lines_drawn, f"{spec.name}: median {axes.error}", axes.error,
                                  figures / "error.png", cmap="viridis", fmt="{:.3g}")  # fmt: skip
-            lines += [f"## Tracking error (`{axes.error}`, median per cell)", "", f"![error map]({FIGURES}/{error_png.name})", ""]
+            lines += [f"## Tracking error (`{axes.error}`, median per cell)", "",
+                      f"![error map]({FIGURES}/{error_png.name})", ""]
             for controller, frame_ in errors.items():
-                lines += [f"{NAMES.get(controller, controller)}, median {axes.error}:", "", *_table(frame_, axes, 3), ""]
+                name = NAMES.get(controller, controller)
+                lines += [f"{name}, median {axes.error}:", "", *_table(frame_, axes, 3), ""]
         lines += _boundaries(spec, axes, survival)
     failed = frame[frame["status"] != "done"]
     if not failed.empty:
