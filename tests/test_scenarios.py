@@ -196,8 +196,9 @@ def _free_instance() -> int:
         try:
             for port, kind in ((ports.plant, socket.SOCK_DGRAM), (ports.gcs_bind, socket.SOCK_DGRAM),
                                (ports.api_bind, socket.SOCK_DGRAM), (ports.api_remote, socket.SOCK_DGRAM),
-                               (ports.gcs_remote, socket.SOCK_DGRAM), (7447 + instance, socket.SOCK_STREAM),
-                               (7547 + instance, socket.SOCK_STREAM)):  # fmt: skip
+                               (ports.gcs_remote, socket.SOCK_DGRAM),
+                               (int(ports.zenoh_plant.rsplit(":", 1)[1]), socket.SOCK_STREAM),
+                               (int(ports.zenoh_autopilot.rsplit(":", 1)[1]), socket.SOCK_STREAM)):  # fmt: skip
                 with socket.socket(socket.AF_INET, kind) as s:
                     s.bind(("127.0.0.1", port))
         except OSError:
