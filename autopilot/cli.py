@@ -132,6 +132,10 @@ def main(argv: list[str] | None = None) -> int:
         airframe = load_airframe(args.airframe)
     except AirframeError as exc:
         fail(PROG, str(exc))
+    try:
+        home = home_from(args.home, os.environ)
+    except HomeRefused as exc:
+        fail(PROG, f"home refused: {exc}")
     ports = Ports(args.instance)
     params = ParameterStore(Path(args.params) if args.params else default_parameter_path(args.instance))
     try:
@@ -158,10 +162,6 @@ def main(argv: list[str] | None = None) -> int:
     in_air = args.spawn_alt > 0
     profile = PROFILES[args.profile][0] if args.profile else None
     events = EventOutbox()
-    try:
-        home = home_from(args.home, os.environ)
-    except HomeRefused as exc:
-        fail(PROG, f"home refused: {exc}")
     commander = Commander(params, airframe.hover_thrust_per_rotor / airframe.thrust_max, armed=in_air, in_air=in_air,
                           say=events.say, profile=profile, stamped_setpoints=args.offboard_lockstep,
                           missions=missions, home=home)  # fmt: skip

@@ -6,11 +6,11 @@ from __future__ import annotations
 import math
 import os
 import subprocess
-import sys
 
 import pytest
 from pymavlink import mavutil
 
+from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, free_link_ports, free_udp_port
 from tiltrotor_sitl import Vehicle
 from transport.geodesy import Home, HomeRefused, home_from
 
@@ -39,8 +39,10 @@ def test_a_home_that_cannot_be_one_is_refused(given, environ, message):
 @pytest.mark.parametrize("program", ["autopilot", "sim_bridge"])
 def test_a_bad_home_in_the_environment_stops_the_process_with_one_line(program):
     environ = {**os.environ, "PX4_HOME_LAT": "north"}
-    result = subprocess.run([sys.executable, "-m", program, "--no-zenoh", "--port" if program == "sim_bridge"
-                             else "--sim-port", "9"], env=environ, capture_output=True, text=True, timeout=60)  # fmt: skip
+    ports = free_link_ports()  # (refused before any port is bound, but a port in use must not be what stops it)
+    command = (SimCommand(port=free_udp_port(), zenoh=Zenoh.off()) if program == "sim_bridge"
+               else AutopilotCommand(sim_port=free_udp_port(), links=ports, zenoh=Zenoh.off()))
+    result = subprocess.run(command.argv(), env=environ, capture_output=True, text=True, timeout=60)
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "home refused: PX4_HOME_LAT='north' is not a number" in lines[0]
