@@ -61,8 +61,10 @@ def fly(sitl, until, timeout_s: float, sample) -> None:
 
 
 def test_a_mission_with_forward_flight_legs_and_no_transition_item_lands_at_home(tmp_path):
-    legs = [(400.0, 0.0, 30.0)]  # out in forward flight, and back to land at home (800 m: two cruises, two brakings)
-    rows = [waypoint(0, 0, 20.0, M.MAV_CMD_NAV_VTOL_TAKEOFF)] + [waypoint(*leg) for leg in legs] + [
+    # Out in forward flight and back to land at home (800 m: two cruises, two brakings), low, so the climb and the
+    # landing are short.
+    legs = [(400.0, 0.0, 12.0)]
+    rows = [waypoint(0, 0, 8.0, M.MAV_CMD_NAV_VTOL_TAKEOFF)] + [waypoint(*leg) for leg in legs] + [
         waypoint(0.0, 0.0, 0.0, M.MAV_CMD_NAV_VTOL_LAND)]  # fmt: skip
     sitl = start_sitl(tmp_path / "params.json", speed=None)
     try:
