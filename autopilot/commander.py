@@ -76,7 +76,7 @@ class Commander:
         missions = missions if missions is not None else MissionStore()
         navigator = Navigator(params)
         auto = AutoFlight(params)
-        mission = MissionFlight(params, missions, home, auto)
+        mission = MissionFlight(params, missions, home, auto, landed=lambda: self.on_ground)
         self.failsafe = Failsafe(params, missions, home, say)
         self.offboard = OffboardSetpoint(stamped=stamped_setpoints)
         self.hold = HoldMode(navigator, auto)
