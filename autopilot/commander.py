@@ -30,9 +30,9 @@ from autopilot.flight_modes import (HOLD, LAND, MISSION, OFFBOARD, ORBIT, RETURN
 from autopilot.mission_flight import MissionFlight
 from autopilot.mission_store import MissionStore
 from autopilot.navigator import LandDetector, Navigator
-from autopilot.offboard_setpoint import OffboardSetpoint
+from autopilot.offboard_setpoint import AttitudeTarget, OffboardSetpoint
 from autopilot.parameters import ParameterStore
-from autopilot.requests import OffboardPosition, OffboardVelocity, Orbit, Reply, Reposition
+from autopilot.requests import OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit, Reply, Reposition
 from autopilot.vehicle_state import VehicleState
 from transport.geodesy import Home
 from transport.mavlink import mavlink
@@ -85,7 +85,7 @@ class Commander:
         self.orbit = OrbitMode(auto)
         self.mission_mode = MissionMode(mission)
         self.modes: dict[str, FlightMode] = {mode.name: mode for mode in (
-            self.hold, self.takeoff_mode, self.land_mode, OffboardMode(navigator, self.offboard), self.mission_mode,
+            self.hold, self.takeoff_mode, self.land_mode, OffboardMode(navigator, self.offboard, hover_fraction), self.mission_mode,
             ReturnMode(params, auto, mission), self.orbit)}  # fmt: skip
         self.land_detector = LandDetector(hover_fraction)
         self.say = say
@@ -147,6 +147,11 @@ class Commander:
         if self.active.landing:
             return LANDING
         return IN_AIR
+
+    @property
+    def attitude_setpoint(self) -> AttitudeTarget | None:
+        """Offboard attitude flying: the set-point for the attitude loop (the velocity controller out of the loop)."""
+        return self.offboard.attitude if self.mode == OFFBOARD and self.flying else None
 
     @property
     def active(self) -> FlightMode:
@@ -303,8 +308,14 @@ class Commander:
         return ACCEPTED, None
 
     # ---- typed requests from the ground stations ------------------------------------------------------------
-    def offboard_request(self, request: OffboardVelocity | OffboardPosition) -> Reply:
+    def offboard_request(self, request: OffboardVelocity | OffboardPosition | OffboardAttitude) -> Reply:
         """A client's Offboard set-point, judged against the current step's state (observe())."""
+        if isinstance(request, OffboardAttitude):
+            if self.offboard.accept(request, self.state, self.now_usec):
+                self.setpoints_clamped += 1
+                self.say(mavlink.MAV_SEVERITY_WARNING, "Attitude set-point clamped (tilt <= 45 deg, rates <= 180 "
+                         "deg/s, thrust 0..1)", key="attitude clamped")  # fmt: skip
+            return ACCEPTED, None
         if self.offboard.accept(request, self.state, self.now_usec):
             self.setpoints_clamped += 1
             self.say(mavlink.MAV_SEVERITY_WARNING, "Set-point clamped to |v| <= (30, 30, 10) m/s", key="clamped")

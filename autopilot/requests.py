@@ -70,6 +70,17 @@ class OffboardPosition:
 
 
 @dataclass(frozen=True)
+class OffboardAttitude:
+    """SET_ATTITUDE_TARGET: a finite attitude (roll, pitch, yaw rad) or, when the attitude is ignored, body rates
+    (rad/s), and a collective thrust (0..1 of the rotors' full thrust; None: the last one). Checked for range by
+    the commander (clamped and reported)."""
+
+    euler: np.ndarray | None
+    body_rates: np.ndarray | None
+    thrust: float | None
+
+
+@dataclass(frozen=True)
 class InjectFailure:
     """MAV_CMD_INJECT_FAILURE, checked against the failure vocabulary; `ticket` names it in the outcome."""
 
@@ -131,7 +142,8 @@ class GcsHeartbeat:
     """A HEARTBEAT from a ground station (MAV_TYPE_GCS) arrived now: the data link is alive (NAV_DLL_ACT)."""
 
 
-Request = (Arm | Disarm | Takeoff | Land | SetMode | Transition | OffboardVelocity | OffboardPosition | InjectFailure
+Request = (Arm | Disarm | Takeoff | Land | SetMode | Transition | OffboardVelocity | OffboardPosition
+           | OffboardAttitude | InjectFailure
            | StoreMission | ClearMission | SetMissionCurrent | StartMission | ReturnToLaunch | Reposition
            | Orbit | GcsHeartbeat)  # fmt: skip
 
