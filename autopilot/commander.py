@@ -27,12 +27,14 @@ from autopilot.failsafe import DESCEND, TERMINATE, WARN, Decision, Failsafe, Fai
 from autopilot.flight_modes import (HOLD, LAND, MISSION, OFFBOARD, ORBIT, RETURN, TAKEOFF, VTOL_FW, VTOL_MC,
                                     FlightMode, HoldMode, LandMode, MissionMode, OffboardMode, OrbitMode, ReturnMode,
                                     TakeoffMode)  # fmt: skip
+from autopilot.manual_modes import ALTITUDE, POSITION, ManualControl, StickMode
 from autopilot.mission_flight import MissionFlight
 from autopilot.mission_store import MissionStore
 from autopilot.navigator import LandDetector, Navigator
 from autopilot.offboard_setpoint import AttitudeTarget, OffboardSetpoint
 from autopilot.parameters import ParameterStore
-from autopilot.requests import OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit, Reply, Reposition
+from autopilot.requests import (ManualControlInput, OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit,
+                                Reply, Reposition)
 from autopilot.vehicle_state import VehicleState
 from transport.geodesy import Home
 from transport.mavlink import mavlink
@@ -51,6 +53,9 @@ TAKING_OFF = mavlink.MAV_LANDED_STATE_TAKEOFF
 LANDING = mavlink.MAV_LANDED_STATE_LANDING
 
 MAX_LEVEL_TILT = math.radians(30.0)  # arming on the ground: roll and pitch within this
+
+
+NO_MAVLINK_MANUAL_CONTROL = (0, 4)  # COM_RC_IN_MODE: RC only (there is no RC here), manual control disabled
 
 
 @dataclass(frozen=True)
@@ -79,14 +84,17 @@ class Commander:
         mission = MissionFlight(params, missions, home, auto, landed=lambda: self.on_ground)
         self.failsafe = Failsafe(params, missions, home, say)
         self.offboard = OffboardSetpoint(stamped=stamped_setpoints)
+        self.manual = ManualControl()
         self.hold = HoldMode(navigator, auto)
         self.takeoff_mode = TakeoffMode(navigator)
         self.land_mode = LandMode(navigator)
         self.orbit = OrbitMode(auto)
         self.mission_mode = MissionMode(mission)
         self.modes: dict[str, FlightMode] = {mode.name: mode for mode in (
-            self.hold, self.takeoff_mode, self.land_mode, OffboardMode(navigator, self.offboard, hover_fraction), self.mission_mode,
-            ReturnMode(params, auto, mission), self.orbit)}  # fmt: skip
+            self.hold, self.takeoff_mode, self.land_mode, OffboardMode(navigator, self.offboard, hover_fraction),
+            self.mission_mode,
+            ReturnMode(params, auto, mission), self.orbit, StickMode(POSITION, params, self.manual),
+            StickMode(ALTITUDE, params, self.manual))}  # fmt: skip
         self.land_detector = LandDetector(hover_fraction)
         self.say = say
         self.profile = profile
@@ -192,6 +200,7 @@ class Commander:
         """The plant's clock went back (a new plant run): time-stamped things start afresh."""
         self.now_usec = self._start_usec = state.time_usec
         self.offboard.restart()
+        self.manual.restart()
         self.failsafe.restart()
         self._landed_usec = None
         if self.armed:
@@ -249,11 +258,13 @@ class Commander:
             return refusal
         if mode == self.mode:
             return ACCEPTED, None
-        if (refusal := self._refusal(mode, positional=mode != LAND)) is not None:
+        if (refusal := self._refusal(mode, positional=mode not in (LAND, ALTITUDE))) is not None:
             return refusal
         if mode == OFFBOARD and not self._offboard_fresh():
             return TEMPORARILY_REJECTED, (f"Offboard denied: no set-point in the last "
                                           f"{self.params['COM_OF_LOSS_T']:g} s")  # fmt: skip
+        if mode in (POSITION, ALTITUDE) and (refusal := self._manual_refusal(mode)) is not None:
+            return refusal
         if mode == TAKEOFF:
             return self.takeoff(state, None)
         if mode == MISSION and not self.mission_mode.stored:
@@ -263,6 +274,26 @@ class Commander:
         if mode == RETURN and not self.flying:
             return TEMPORARILY_REJECTED, "Return denied: not flying"
         self._set_mode(mode, state)
+        return ACCEPTED, None
+
+    def _manual_fresh(self) -> bool:
+        return self.manual.fresh(self.now_usec, self.params["COM_RC_LOSS_T"])
+
+    def _manual_refusal(self, mode: str) -> Reply | None:
+        """Position and Altitude need manual control: MANUAL_CONTROL allowed by COM_RC_IN_MODE and recent."""
+        if self.params.get_int("COM_RC_IN_MODE") in NO_MAVLINK_MANUAL_CONTROL:
+            return DENIED, f"{mode} denied: COM_RC_IN_MODE {self.params.get_int('COM_RC_IN_MODE')} takes no " \
+                "MANUAL_CONTROL"
+        if not self._manual_fresh():
+            return TEMPORARILY_REJECTED, (f"{mode} denied: no manual control (MANUAL_CONTROL) in the last "
+                                          f"{self.params['COM_RC_LOSS_T']:g} s")  # fmt: skip
+        return None
+
+    def manual_control(self, sticks: ManualControlInput) -> Reply:
+        """MANUAL_CONTROL as a virtual RC, when COM_RC_IN_MODE takes it."""
+        if self.params.get_int("COM_RC_IN_MODE") in NO_MAVLINK_MANUAL_CONTROL:
+            return DENIED, f"MANUAL_CONTROL ignored: COM_RC_IN_MODE {self.params.get_int('COM_RC_IN_MODE')}"
+        self.manual.receive(sticks, self.now_usec)
         return ACCEPTED, None
 
     def takeoff(self, state: VehicleState, altitude_above_home: float | None) -> Reply:
@@ -361,8 +392,10 @@ class Commander:
         self.offboard.take_due(time_usec)
         if self.profile is not None:
             return self.profile((time_usec - self._start_usec) / 1e6) if self.flying else None
+        manual_lost = self.mode in (POSITION, ALTITUDE) and not self._manual_fresh()
         decision = self.failsafe.check(FailsafeInputs(time_usec, self.flying, self.mode, state.position_ned,
-                                                      self.mode == OFFBOARD and not self._offboard_fresh()))  # fmt: skip
+                                                      self.mode == OFFBOARD and not self._offboard_fresh(),
+                                                      manual_lost))  # fmt: skip
         if decision is not None:
             self._failsafe(decision, state)
         if not self.armed:

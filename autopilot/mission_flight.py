@@ -143,8 +143,8 @@ class MissionFlight:
             if targets and self._takeoff_first:
                 self._takeoff_first = False
                 if item.command in TAKEOFF_BEFORE:
-                    down = takeoff_down(float(self._position(state.position_ned, item)[2]), float(state.position_ned[2]),
-                                        self.params["MIS_TAKEOFF_ALT"])  # fmt: skip
+                    item_down = float(self._position(state.position_ned, item)[2])
+                    down = takeoff_down(item_down, float(state.position_ned[2]), self.params["MIS_TAKEOFF_ALT"])
                     targets.insert(0, Climb(state.position_ned[0:2].copy(), down, self.params["MPC_TKO_SPEED"]))
             if targets:
                 self.seq = seq

@@ -1,6 +1,6 @@
 """The Offboard set-point as the commander keeps it: the latest velocity, position with a velocity
-feed-forward, or attitude (or body rates) with thrust, when it arrived (for the COM_OF_LOSS_T failsafe), and, with `--offboard-lockstep`, the stamped
-velocity set-points waiting for their simulation time.
+feed-forward, or attitude (or body rates) with thrust, when it arrived (for the COM_OF_LOSS_T failsafe), and, with
+`--offboard-lockstep`, the stamped velocity set-points waiting for their simulation time.
 """
 
 from __future__ import annotations

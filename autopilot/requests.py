@@ -81,6 +81,16 @@ class OffboardAttitude:
 
 
 @dataclass(frozen=True)
+class ManualControlInput:
+    """MANUAL_CONTROL (a virtual RC) normalised: pitch, roll, yaw -1..1, throttle 0..1 (0.5 centre)."""
+
+    pitch: float = 0.0
+    roll: float = 0.0
+    throttle: float = 0.5
+    yaw: float = 0.0
+
+
+@dataclass(frozen=True)
 class InjectFailure:
     """MAV_CMD_INJECT_FAILURE, checked against the failure vocabulary; `ticket` names it in the outcome."""
 
@@ -143,7 +153,7 @@ class GcsHeartbeat:
 
 
 Request = (Arm | Disarm | Takeoff | Land | SetMode | Transition | OffboardVelocity | OffboardPosition
-           | OffboardAttitude | InjectFailure
+           | OffboardAttitude | ManualControlInput | InjectFailure
            | StoreMission | ClearMission | SetMissionCurrent | StartMission | ReturnToLaunch | Reposition
            | Orbit | GcsHeartbeat)  # fmt: skip
 

@@ -47,7 +47,8 @@ def test_offboard_attitude_lifts_off_rolls_turns_and_hands_back_to_the_mpc(tmp_p
         yaw_before = gs.latest["ATTITUDE"].yaw
         target.update(mask=RATES_MASK, rates=(0.0, 0.0, 0.3), thrust=HOVER)
         gs.wait_sim(2.0, every=send, timeout_s=60)
-        turned = math.atan2(math.sin(gs.latest["ATTITUDE"].yaw - yaw_before), math.cos(gs.latest["ATTITUDE"].yaw - yaw_before))
+        change = gs.latest["ATTITUDE"].yaw - yaw_before
+        turned = math.atan2(math.sin(change), math.cos(change))
         print(f"turned {math.degrees(turned):.1f} deg in 2 s at 0.3 rad/s")
         assert 0.3 < turned < 0.9
         # Bad input: a NaN quaternion is dropped, a thrust above 1 clamped, both said.

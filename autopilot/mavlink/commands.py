@@ -185,7 +185,7 @@ class CommandService:
         mode = mode_from_px4(main, sub)
         if mode is None:
             return M.MAV_RESULT_DENIED, (f"Mode {px4_mode_name(main, sub)} not supported: Hold Takeoff Land Offboard "
-                                         "Mission Return Orbit")  # fmt: skip
+                                         "Mission Return Orbit Position Altitude")  # fmt: skip
         return self.flight_stack.handle(SetMode(mode))
 
     def _transition(self, origin: Origin, p: Params, frame: int | None) -> Reply:

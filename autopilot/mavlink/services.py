@@ -19,6 +19,7 @@ from typing import Any
 
 from autopilot.mavlink import messages
 from autopilot.mavlink.commands import CommandService
+from autopilot.mavlink.manual_control import ManualControlService
 from autopilot.mavlink.missions import MissionService
 from autopilot.mavlink.offboard import OffboardService
 from autopilot.mavlink.offboard_attitude import OffboardAttitudeService
@@ -51,6 +52,7 @@ class MavlinkServices:
         self.commands = CommandService(flight_stack, self.view, self.announcer, system_id=system_id, home=home)
         self.offboard = OffboardService(flight_stack, self.announcer, system_id=system_id, home=home)
         self.offboard_attitude = OffboardAttitudeService(flight_stack, self.announcer, system_id=system_id)
+        self.manual_control = ManualControlService(flight_stack, self.announcer, system_id=system_id)
         self.parameters = ParameterService(params, router, self.announcer, system_id=system_id)
         self.missions = MissionService(flight_stack, self.view, router, self.announcer, system_id=system_id)
         self.signing = SigningService(params, router, self.announcer, system_id=system_id)
@@ -65,6 +67,7 @@ class MavlinkServices:
             "SET_POSITION_TARGET_LOCAL_NED": self.offboard.on_position_target_local,
             "SET_POSITION_TARGET_GLOBAL_INT": self.offboard.on_position_target_global,
             "SET_ATTITUDE_TARGET": self.offboard_attitude.on_attitude_target,
+            "MANUAL_CONTROL": self.manual_control.on_manual_control,
             "PARAM_REQUEST_LIST": self.parameters.on_request_list,
             "PARAM_REQUEST_READ": self.parameters.on_request_read,
             "PARAM_SET": self.parameters.on_set,
