@@ -2,6 +2,7 @@
 
     vtol fly PROFILE [--controller pid|mpc] [--out DIR]
     vtol scenario NAME|all [--controller mpc|pid|both] [--out DIR] [--instance I] [--no-record] [--no-progress]
+    vtol campaign FILE [--out DIR] [--workers N | --address ADDR] [--report] [--no-progress]
     vtol up [--instance I] [--count N] [--controller mpc|pid] [--spawn-alt M] [--speed F] [--params FILE] [--no-zenoh]
     vtol record --out FILE.jsonl [--instance I | --connect ENDPOINT ...] [--sysid N|all] [--duration S]
     vtol watch [--instance I | --connect ENDPOINT ...] [--sysid N] [--duration S] [--snapshot FILE.png] [--text]
@@ -10,6 +11,7 @@
 with the autopilot's internal set-point source, and writes the flight log and figures to DIR/PROFILE/.
 `scenario` flies the paper's experiments through MAVLink in lockstep and writes run folders, figures and a
 report (ground_tools/scenario_command.py).
+`campaign` flies many scenario variants on a Dask cluster into a DuckDB store, with envelope maps (ground_tools/campaign/).
 `up` starts the plant in real time and the autopilot for a ground station (ground_tools/up.py).
 `record` and `watch` record / show a running vehicle's zenoh telemetry (ground_tools/telemetry_record.py, watch.py).
 """
@@ -20,6 +22,7 @@ import json
 import sys
 from pathlib import Path
 
+from ground_tools.campaign.command import add_campaign_arguments, campaign
 from ground_tools.figures import plot_flight
 from ground_tools.lockstep_flight import FlightFailed, fly_lockstep
 from ground_tools.processes import Controller
@@ -64,6 +67,8 @@ def main(argv: list[str] | None = None) -> int:
     fly_parser.add_argument("--spawn-alt", type=positive_float, default=100.0, metavar="M")
     add_scenario_arguments(commands.add_parser("scenario", help="fly a paper experiment through MAVLink, with "
                                                "metrics, figures and recordings"))
+    add_campaign_arguments(commands.add_parser("campaign", help="fly a campaign of scenario variants on a Dask "
+                                               "cluster, into a DuckDB store, with envelope maps"))
     up_parser = commands.add_parser("up", help="start the plant (real time) and the autopilot for a ground station")
     up_parser.add_argument("--instance", type=bounded_int(0, 999), default=0, help="shift every port by I")
     up_parser.add_argument("--count", type=bounded_int(1, 100), default=1, metavar="N",
@@ -84,6 +89,8 @@ def main(argv: list[str] | None = None) -> int:
         return up(args)
     if args.command == "scenario":
         return scenario(args)
+    if args.command == "campaign":
+        return campaign(args)
     if args.command == "record":
         return record(args)
     if args.command == "watch":

@@ -137,6 +137,8 @@ class LockstepClient:
             self._now_ms = max(self._now_ms, message.time_boot_ms)
             self.telemetry = replace(self.telemetry, roll_deg=math.degrees(message.roll),
                                      pitch_deg=math.degrees(message.pitch), yaw_deg=math.degrees(message.yaw))
+        elif kind == "LOCAL_POSITION_NED":
+            self.telemetry = replace(self.telemetry, ground_speed=math.hypot(message.vx, message.vy))
         elif kind == "SERVO_OUTPUT_RAW":
             self.telemetry = replace(self.telemetry, tilt_cmd_deg=tilt_commands_deg(self.airframe, message))
         elif kind == "STATUSTEXT":

@@ -1,6 +1,7 @@
 """Start `vtol-sim` and `vtol-autopilot` together in lockstep on a free port, fly a profile, collect the results.
 
-Used by `vtol fly`, the SITL benchmark and the closed-loop tests, so all three run the processes one way.
+Used by `vtol fly` and the SITL benchmark, so both run the processes one way (tests fly profiles through the public
+API instead: tests/sitl.py).
 """
 
 from __future__ import annotations

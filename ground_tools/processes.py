@@ -48,10 +48,15 @@ def _home(home: Home | None) -> list[str]:
     return [] if home is None else [f"--home={home.lat!r},{home.lon!r},{home.alt!r}"]
 
 
+def _wind(wind_ned: tuple[float, float, float] | None) -> list[str]:
+    return [] if wind_ned is None else ["--wind=" + ",".join(repr(float(v)) for v in wind_ned)]  # (as _home)
+
+
 def fleet_home(index: int, home: Home | None = None, spacing_m: float = FLEET_SPACING_M) -> Home:
     """The home of a fleet's `index`-th vehicle: `spacing_m` metres east of the previous one (the first at `home`,
-    default PX4's home or PX4_HOME_LAT/LON/ALT, as the processes read it). Plant and autopilot of a vehicle are given the same home, so each vehicle's local frame starts
-    at its own spot, and ground stations see the vehicles side by side."""
+    default PX4's home or PX4_HOME_LAT/LON/ALT, as the processes read it). Plant and autopilot of a vehicle are
+    given the same home, so each vehicle's local frame starts at its own spot, and ground stations see the vehicles
+    side by side."""
     origin = home if home is not None else home_from(None, os.environ)
     lat, lon, alt = LocalGeodetic(origin).to_geodetic(0.0, index * spacing_m, 0.0)
     return Home(lat, lon, alt)
@@ -185,6 +190,7 @@ class SimCommand:
     summary: bool = False  # a JSON line of counters on stdout at the end
     zenoh: Zenoh = field(default_factory=Zenoh)
     airframe: Path | None = None
+    wind_ned: tuple[float, float, float] | None = None  # m/s (vtol-sim's default: no wind)
     sysid: int | None = None  # the vehicle's system id (vtol-sim's default: instance + 1)
     home: Home | None = None  # geodetic origin (default: PX4's, or PX4_HOME_LAT/LON/ALT)
     plant_signing_key: Path | None = None  # a key file: the plant link signed (docs/plant-link.md#signing)
@@ -197,8 +203,9 @@ class SimCommand:
             *_option("--autopilot-port", self.autopilot_port),
             *_option("--spawn-alt", self.spawn_alt or None), *pacing, *_option("--duration", self.duration_s),
             *_option("--lockstep-timeout", self.lockstep_timeout_s), *_flag("--summary", self.summary),
-            *self.zenoh.argv(), *_option("--airframe", self.airframe), *_option("--sysid", self.sysid),
-            *_home(self.home), *_option("--plant-signing-key", self.plant_signing_key), *self.extra,
+            *self.zenoh.argv(), *_option("--airframe", self.airframe), *_wind(self.wind_ned),
+            *_option("--sysid", self.sysid), *_home(self.home), *_option("--plant-signing-key", self.plant_signing_key),
+            *self.extra,
         ])  # fmt: skip
 
 

@@ -16,7 +16,6 @@ autopilot's control and MPC samples. The run folder `<out>/<scenario>/<controlle
 from __future__ import annotations
 
 import json
-import socket
 import subprocess
 import sys
 import time
@@ -28,6 +27,7 @@ from typing import Any
 from aircraft.airframe import load_airframe
 from ground_tools.lockstep_client import START_MS, LockstepClient
 from ground_tools.lockstep_flight import FlightFailed
+from ground_tools.port_blocks import PortBlock
 from ground_tools.metrics import flight_metrics
 from ground_tools.processes import (AutopilotCommand, Controller, SimCommand, VehiclePorts, Zenoh, deterministic_argv,
                                     deterministic_environment)  # fmt: skip
@@ -69,23 +69,29 @@ def run_scenario(
     out: Path,
     *,
     instance: int | None = None,
+    block: PortBlock | None = None,
+    wind_ned: tuple[float, float, float] = (0.0, 0.0, 0.0),
+    plant_airframe: Path | None = None,
     record: bool = True,
     on_progress: Callable[[float], None] = lambda sim_s: None,
 ) -> RunResult:
-    """Fly `scenario` with `controller` ("mpc" | "pid"); raises FlightFailed (or ScenarioError)."""
+    """Fly `scenario` with `controller` ("mpc" | "pid"); raises FlightFailed (or ScenarioError). The processes use
+    `block`'s ports (it is closed when the run ends), else instance `instance`'s, else free ones. `wind_ned` and
+    `plant_airframe` (model mismatch: the autopilot keeps the paper's airframe) go to the plant."""
     run_dir = out / scenario.name / controller
     run_dir.mkdir(parents=True, exist_ok=True)
     for old in ("params.json", "telemetry.jsonl.gz", "metrics.json", "run.json", "timeseries.csv", "autopilot_log.csv"):
         (run_dir / old).unlink(missing_ok=True)
-    ports = run_ports(instance)
+    if block is None:
+        ports = run_ports(instance)
+        try:
+            block = PortBlock.bind(ports)
+        except OSError as exc:
+            raise FlightFailed(f"cannot bind UDP {LOOPBACK}:{ports.links.api_remote} for the ground station: "
+                               f"{exc.strerror}") from None  # fmt: skip
+    ports, gcs = block.ports, block.ground_station
     duration_s = START_MS / 1000.0 + scenario.duration_s
     airframe = load_airframe(None)
-    gcs, ground_station_port = socket.socket(socket.AF_INET, socket.SOCK_DGRAM), ports.links.api_remote
-    try:
-        gcs.bind((LOOPBACK, ground_station_port))
-    except OSError as exc:
-        gcs.close()
-        raise FlightFailed(f"cannot bind UDP {LOOPBACK}:{ground_station_port} for the ground station: {exc.strerror}")
     plant_err, autopilot_err = open(run_dir / "plant.log", "w"), open(run_dir / "autopilot.log", "w")
     processes: list[subprocess.Popen] = []
     recorder = None
@@ -94,6 +100,7 @@ def run_scenario(
         plant_command = SimCommand(
             port=ports.plant, spawn_alt=SPAWN_ALT_M, duration_s=duration_s, lockstep_timeout_s=PLANT_LOCKSTEP_TIMEOUT_S,
             summary=True, zenoh=Zenoh.listening(ports.zenoh_plant) if record else Zenoh.off(),
+            wind_ned=None if wind_ned == (0.0, 0.0, 0.0) else wind_ned, airframe=plant_airframe,
         )  # fmt: skip
         plant = subprocess.Popen(deterministic_argv(plant_command.argv()), stdout=subprocess.PIPE, stderr=plant_err, text=True,
                                  env=deterministic_environment())  # fmt: skip
@@ -178,6 +185,7 @@ def run_scenario(
         "sim_s": summaries["plant"]["sim_time_s"],
         "wall_s": round(wall_s, 2),
         "failure": None if scenario.failure is None else {"trigger": scenario.failure.trigger, "t_s": failure_s},
+        "plant": {"wind_ned": list(wind_ned), "airframe": None if plant_airframe is None else str(plant_airframe)},
         "lockstep_intact": summaries["plant"].get("missed_commands", 0) == 0,
         "holds_answered": events.holds_answered,
         "statustexts": [[ms / 1000.0 - start_s, text] for ms, text in events.statustexts],

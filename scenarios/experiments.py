@@ -35,6 +35,7 @@ class Telemetry:
     pitch_deg: float = 0.0
     yaw_deg: float = 0.0
     tilt_cmd_deg: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)  # from SERVO_OUTPUT_RAW
+    ground_speed: float = 0.0  # m/s, horizontal, from LOCAL_POSITION_NED
 
 
 @dataclass(frozen=True)
@@ -59,6 +60,10 @@ class Scenario:
 
 def servo_reaches(servo: int, angle_deg: float) -> Callable[[Telemetry], bool]:
     return lambda telemetry: telemetry.tilt_cmd_deg[servo - 1] >= angle_deg
+
+
+def ground_speed_reaches(speed: float) -> Callable[[Telemetry], bool]:
+    return lambda telemetry: telemetry.ground_speed >= speed
 
 
 def yaw_reaches(angle_deg: float) -> Callable[[Telemetry], bool]:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -33,23 +34,49 @@ def accel_decel(t: float) -> np.ndarray:
     return np.array([max(0.0, 24.0 - ACCELERATION * (t - 15.0)), 0.0, 0.0])
 
 
+@dataclass(frozen=True)
+class CircleProfile:
+    """Accelerate north at 2 m/s^2 to `speed`, then v = speed (cos wt', sin wt', 0), w = speed / radius: `turns`
+    clockwise turns (seen from above) of a circle of `radius`. The defaults are the paper's circle."""
+
+    speed: float = CIRCLE_SPEED  # m/s
+    radius: float = CIRCLE_RADIUS  # m
+    turns: float = 1.0
+
+    @property
+    def start_s(self) -> float:
+        """Time the circle begins: when the 2 m/s^2 ramp reaches the speed."""
+        return self.speed / ACCELERATION
+
+    @property
+    def duration_s(self) -> float:
+        """The ramp plus the turns, rounded up to 10 ms."""
+        return math.ceil((self.start_s + self.turns * 2 * math.pi * self.radius / self.speed) * 100) / 100
+
+    def __call__(self, t: float) -> np.ndarray:
+        start = self.start_s
+        if t < start:
+            return np.array([ACCELERATION * t, 0.0, 0.0])
+        angle = self.speed / self.radius * (t - start)
+        return np.array([self.speed * math.cos(angle), self.speed * math.sin(angle), 0.0])
+
+
+PAPER_CIRCLE = CircleProfile()
+
+
 def circle_start(t: float) -> float:
-    """Time the circle begins: when the 2 m/s^2 ramp reaches 26 m/s."""
-    return CIRCLE_SPEED / ACCELERATION
+    """Time the paper's circle begins: when the 2 m/s^2 ramp reaches 26 m/s."""
+    return PAPER_CIRCLE.start_s
 
 
 def circle(t: float) -> np.ndarray:
     """Accelerate north at 2 m/s^2 to 26 m/s, then v = 26 (cos wt', sin wt', 0), w = 26/250, one full turn."""
-    start = circle_start(t)
-    if t < start:
-        return np.array([ACCELERATION * t, 0.0, 0.0])
-    angle = CIRCLE_SPEED / CIRCLE_RADIUS * (t - start)
-    return np.array([CIRCLE_SPEED * math.cos(angle), CIRCLE_SPEED * math.sin(angle), 0.0])
+    return PAPER_CIRCLE(t)
 
 
 def circle_duration() -> float:
     """The ramp plus one full turn, rounded up to 10 ms."""
-    return math.ceil((circle_start(0.0) + 2 * math.pi * CIRCLE_RADIUS / CIRCLE_SPEED) * 100) / 100
+    return PAPER_CIRCLE.duration_s
 
 
 PROFILES: dict[str, tuple[Callable[[float], np.ndarray], float]] = {

@@ -1,18 +1,18 @@
-"""Shared fixtures: the airframe, free ports, and real plant processes that are always killed by PID."""
+"""Shared fixtures: the airframe, isolated parameter files, and the plant alone (started through the public API)."""
 
 from __future__ import annotations
 
-import json
 import os
-import signal
 import subprocess
+import time
 from collections.abc import Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import pytest
 
 from aircraft.airframe import Airframe, load_airframe
-from ground_tools.processes import SimCommand, Zenoh, free_udp_port
+from ground_tools.processes import SimCommand
+from tiltrotor_sitl import Vehicle
 from transport.plant_link import PlantLinkClient, PlantSample
 
 
@@ -35,23 +35,30 @@ def airframe() -> Airframe:
 
 @dataclass
 class PlantProcess:
-    """A running `vtol-sim` and a plant-link client talking to it."""
+    """A plant alone (`vtol-sim` started through tiltrotor_sitl.Vehicle(autopilot=False)) and a plant-link client
+    talking to it: the test plays the autopilot."""
 
-    process: subprocess.Popen
-    port: int
+    vehicle: Vehicle
     client: PlantLinkClient
-    output: str = ""
-    errors: str = ""
-    extra: dict = field(default_factory=dict)
+
+    @property
+    def process(self) -> subprocess.Popen:
+        return self.vehicle.process("vtol-sim")
+
+    @property
+    def port(self) -> int:
+        return self.vehicle.ports.plant
+
+    @property
+    def zenoh_endpoint(self) -> str:
+        return self.vehicle.ports.zenoh_plant
 
     def first_sample(self, timeout_s: float = 60.0) -> PlantSample:
         """Say hello until the plant answers with its first state (it starts stepping on our first message)."""
-        import time
-
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:
             if self.process.poll() is not None:
-                raise AssertionError(f"vtol-sim exited early: {self.process.communicate()[1]}")
+                raise AssertionError(f"vtol-sim exited early: {self.vehicle.stderr('vtol-sim')}")
             self.client.hello()
             sample = self.client.receive_step(0.2)
             if sample is not None:
@@ -60,37 +67,29 @@ class PlantProcess:
 
     def stop(self) -> dict:
         """SIGTERM the plant, return its --summary counters."""
-        if self.process.poll() is None:
-            self.process.send_signal(signal.SIGTERM)
-        self.output, self.errors = self.process.communicate(timeout=20)
-        lines = [line for line in self.output.splitlines() if line.startswith("{")]
-        return json.loads(lines[-1]) if lines else {}
+        self.vehicle.stop()
+        return self.vehicle.summary("vtol-sim")
 
 
 def vtol_sim_command(*args: str) -> list[str]:
-    """vtol-sim with exactly `args` (each test says what it wants)."""
+    """vtol-sim with exactly `args` (each test says what it wants), for the tests of its command line."""
     return SimCommand(extra=args).argv()
 
 
 @pytest.fixture
-def start_plant() -> Iterator:
-    """Factory: start_plant(*args) -> PlantProcess on a free port with --no-zenoh --summary (unless zenoh asked)."""
+def start_plant(tmp_path) -> Iterator:
+    """Factory: start_plant(*vtol-sim args, zenoh=False) -> PlantProcess: the plant alone on free ports, in
+    lockstep unless the args say otherwise, with --summary; zenoh (truth) only when asked."""
     started: list[PlantProcess] = []
 
-    def start(*args: str) -> PlantProcess:
-        port = free_udp_port()
-        zenoh = Zenoh() if any(a.startswith("--zenoh") for a in args) else Zenoh.off()
-        process = subprocess.Popen(
-            SimCommand(port=port, summary=True, zenoh=zenoh, extra=args).argv(), stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE, text=True, env={**os.environ, "PYTHONUNBUFFERED": "1"},
-        )  # fmt: skip
-        plant = PlantProcess(process, port, PlantLinkClient(port))
+    def start(*args: str, zenoh: bool = False) -> PlantProcess:
+        vehicle = Vehicle(autopilot=False, speed=None, truth=zenoh, summary=True, plant_args=args,
+                          folder=tmp_path / f"plant-{len(started)}").start()  # fmt: skip
+        plant = PlantProcess(vehicle, PlantLinkClient(vehicle.ports.plant))
         started.append(plant)
         return plant
 
     yield start
     for plant in started:
         plant.client.close()
-        if plant.process.poll() is None:
-            plant.process.kill()
-        plant.process.wait(timeout=20)
+        plant.vehicle.stop()

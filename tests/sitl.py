@@ -1,4 +1,5 @@
-"""Run the real plant and autopilot processes together in lockstep and read the autopilot's flight log."""
+"""Fly a profile with the real plant and autopilot processes in lockstep (through the public API) and read the
+autopilot's flight log."""
 
 from __future__ import annotations
 
@@ -7,8 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ground_tools.lockstep_flight import fly_lockstep
-from ground_tools.processes import Controller
+from tiltrotor_sitl import Controller, Vehicle
 from transport.flight_log import T, read_flight_log
 
 
@@ -35,9 +35,13 @@ def fly(
     tmp_path: Path, profile: str, duration: float, *autopilot_args: str, spawn_alt: float = 100.0,
     controller: Controller = "pid",
 ) -> Flight:
-    """Plant spawned hovering at spawn_alt, the autopilot flying `profile` for `duration` simulated seconds."""
+    """Plant spawned hovering at spawn_alt, the autopilot flying `profile` for `duration` simulated seconds, in
+    lockstep as fast as the processes go (tiltrotor_sitl.Vehicle with speed=None)."""
     log_path = tmp_path / f"{profile}-{controller}.csv"
-    flight = fly_lockstep(profile, duration, controller=controller, spawn_alt=spawn_alt, log_path=log_path,
-                          autopilot_args=autopilot_args)  # fmt: skip
+    with Vehicle(controller=controller, spawn_alt=spawn_alt, speed=None, truth=False, summary=True,
+                 duration_s=duration, wait_ready=False,
+                 autopilot_args=("--profile", profile, "--log", str(log_path), "--quiet", *autopilot_args)) as vehicle:
+        vehicle.wait_finished(timeout_s=900.0)
+        autopilot, plant = vehicle.summary("vtol-autopilot"), vehicle.summary("vtol-sim")
     log = read_flight_log(log_path)
-    return Flight(log=log.columns, modes=log.modes, autopilot=flight.autopilot, plant=flight.plant)
+    return Flight(log=log.columns, modes=log.modes, autopilot=autopilot, plant=plant)

@@ -188,6 +188,11 @@ def test_children_die_with_a_killed_parent(tmp_path: Path) -> None:
     ({"params": {"MIS_TAKEOFF_ALT": 1e9}}, "MIS_TAKEOFF_ALT"),
     ({"instance": 5000}, "instance must be in 0..999"),
     ({"airframe": "/nonexistent.toml"}, "airframe: no such file"),
+    ({"duration_s": 0.0}, "duration_s must be a positive number"),
+    ({"autopilot": False, "plant_port": 4560}, "plant_port starts the autopilot alone .* not both"),
+    ({"plant_port": 4560, "plant_args": ["--wind", "0,1,0"]}, "plant_args with plant_port: no plant is started"),
+    ({"autopilot": False, "autopilot_args": ["--quiet"]}, "autopilot_args with autopilot=False"),
+    ({"plant_port": 70000}, "plant_port must be a UDP port"),
 ])  # fmt: skip
 def test_bad_arguments_are_named(arguments: dict, message: str) -> None:
     with pytest.raises(ValueError, match=message):
@@ -216,6 +221,15 @@ def test_a_process_dying_at_start_up_is_quoted(tmp_path: Path) -> None:
 def test_no_readiness_in_time_is_a_clear_error() -> None:
     with pytest.raises(VehicleError, match="not ready to arm within 0.05 s .*system id 1: no HEARTBEAT"):
         Vehicle(controller="pid", truth=False, ready_timeout_s=0.05).start()
+    assert children_of(os.getpid()) == []
+
+
+def test_a_process_that_dies_before_its_duration_is_quoted() -> None:
+    with Vehicle(autopilot=False, speed=None, truth=False, duration_s=10.0) as plant:  # alone: nobody steps it
+        assert plant.pids == [plant.process("vtol-sim").pid]
+        plant.process("vtol-sim").kill()
+        with pytest.raises(VehicleError, match="vtol-sim .* exited with code -9 before the end"):
+            plant.wait_finished(timeout_s=30)
     assert children_of(os.getpid()) == []
 
 

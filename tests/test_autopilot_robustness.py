@@ -3,7 +3,6 @@ a silent plant is waited for; garbage is dropped and said (issue 3 "Done means")
 
 from __future__ import annotations
 
-import json
 import math
 import random
 import socket
@@ -12,8 +11,9 @@ import time
 
 import pytest
 
-from ground_tools.processes import AutopilotCommand, Zenoh, free_link_ports
-from transport.mavlink import Link, mavlink
+from ground_tools.processes import AutopilotCommand
+from tiltrotor_sitl import Vehicle
+from transport.mavlink import Link
 from transport.udp import receive
 
 
@@ -61,25 +61,23 @@ class FakePlant:
 
 
 @pytest.fixture
-def autopilot_with_fake_plant():
+def autopilot_with_fake_plant(tmp_path):
+    """The autopilot alone (tiltrotor_sitl.Vehicle with plant_port) flying the fake plant, which the test steps."""
     plant = FakePlant()
-    process = subprocess.Popen(
-        AutopilotCommand(sim_port=plant.port, spawn_alt=100.0, summary=True, zenoh=Zenoh.off(),
-                         links=free_link_ports()).argv(),
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
-    plant.wait_for_autopilot()
-    yield plant, process
-    if process.poll() is None:
-        process.kill()
-    process.wait(timeout=20)
-    plant.sock.close()
+    autopilot = Vehicle(plant_port=plant.port, spawn_alt=100.0, summary=True, truth=False, wait_ready=False,
+                        folder=tmp_path / "autopilot").start()  # fmt: skip
+    try:
+        plant.wait_for_autopilot()
+        yield plant, autopilot
+    finally:
+        autopilot.stop()
+        plant.sock.close()
 
 
-def stop(process) -> tuple[dict, str]:
-    process.terminate()
-    out, err = process.communicate(timeout=20)
-    return json.loads(out.strip().splitlines()[-1]), err
+def stop(autopilot: Vehicle) -> tuple[dict, str]:
+    """SIGTERM the autopilot; its --summary counters and what it said on stderr."""
+    autopilot.stop()
+    return autopilot.summary(), autopilot.stderr()
 
 
 NAN = float("nan")
@@ -96,7 +94,7 @@ ABSURD_STATES = [
 
 
 def test_pwm_is_always_valid_whatever_the_plant_says(autopilot_with_fake_plant):
-    plant, process = autopilot_with_fake_plant
+    plant, autopilot = autopilot_with_fake_plant
     answered = 0
     for k in range(400):
         t = k * 2500
@@ -112,12 +110,12 @@ def test_pwm_is_always_valid_whatever_the_plant_says(autopilot_with_fake_plant):
         assert stamp == t
         assert all(1000 <= value <= 2000 for value in pwm), (state, pwm)
         answered += 1
-    summary, _ = stop(process)
+    summary, _ = stop(autopilot)
     assert summary["invalid_states"] == 3 * 25 and answered == 400 - 75
 
 
 def test_a_silent_plant_is_waited_for_and_the_flight_resumes(autopilot_with_fake_plant):
-    plant, process = autopilot_with_fake_plant
+    plant, autopilot = autopilot_with_fake_plant
     for k in range(40):
         plant.send_state(k * 2500)
         assert plant.read_pwm() is not None
@@ -126,13 +124,13 @@ def test_a_silent_plant_is_waited_for_and_the_flight_resumes(autopilot_with_fake
         plant.send_state(k * 2500)
         reply = plant.read_pwm()
         assert reply is not None and reply[0] == k * 2500
-    summary, errors = stop(process)
+    summary, errors = stop(autopilot)
     assert summary["plant_silences"] >= 1 and summary["steps"] == 80
     assert "the plant is silent; waiting for it" in errors
 
 
 def test_garbage_from_the_plant_is_dropped_and_said(autopilot_with_fake_plant):
-    plant, process = autopilot_with_fake_plant
+    plant, autopilot = autopilot_with_fake_plant
     rng = random.Random(3)
     good = plant.link.pack(plant.link.mav.heartbeat_encode(1, 12, 0, 0, 4))
     wrong_crc = bytearray(good)
@@ -144,7 +142,7 @@ def test_garbage_from_the_plant_is_dropped_and_said(autopilot_with_fake_plant):
         plant.send_state(k * 2500)
         reply = plant.read_pwm()
         assert reply is not None and reply[0] == k * 2500
-    summary, errors = stop(process)
+    summary, errors = stop(autopilot)
     assert summary["steps"] == 100
     dropped = summary["dropped_from_plant"]
     assert dropped.get("bad_crc", 0) >= 100 and dropped.get("truncated", 0) >= 100

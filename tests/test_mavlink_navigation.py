@@ -67,7 +67,7 @@ def fly(sitl, until, timeout_s: float, sample) -> None:
 
 
 def test_a_mission_with_forward_flight_legs_and_no_transition_item_lands_at_home(tmp_path):
-    legs = [(400.0, 0.0, 30.0), (400.0, 400.0, 30.0)]
+    legs = [(400.0, 0.0, 30.0)]  # out in forward flight, and back to land at home (800 m: two cruises, two brakings)
     rows = [waypoint(0, 0, 20.0, M.MAV_CMD_NAV_VTOL_TAKEOFF)] + [waypoint(*leg) for leg in legs] + [
         waypoint(0.0, 0.0, 0.0, M.MAV_CMD_NAV_VTOL_LAND)]  # fmt: skip
     sitl = start_sitl(tmp_path / "params.json", speed=None)
@@ -99,7 +99,7 @@ def test_a_mission_with_forward_flight_legs_and_no_transition_item_lands_at_home
         assert all(distance <= 10.0 for distance in closest)
         assert fastest[0] > 20.0  # the legs were flown in forward flight
         assert landing_error <= 2.0
-        assert {1, 2} <= reached
+        assert 1 in reached
         gs.wait(lambda: gs.latest["MISSION_CURRENT"].mission_state == M.MISSION_STATE_COMPLETE, "mission complete", 30)
         assert gs.latest["HEARTBEAT"].custom_mode == MISSION_MODE
     finally:
@@ -153,20 +153,20 @@ def test_orbit_then_goto_then_return_lands_at_home_and_refusals_say_why(tmp_path
         assert ack.result == M.MAV_RESULT_ACCEPTED
         gs.wait(lambda: gs.mode == ORBIT_MODE, "Orbit mode")
         start = gs.latest["LOCAL_POSITION_NED"]
-        gs.wait_sim(40.0, timeout_s=120)
+        gs.wait_sim(20.0, timeout_s=120)
         now = gs.latest["LOCAL_POSITION_NED"]
         radius = math.hypot(now.x - start.x, now.y - start.y)
-        print(f"orbit radius after 40 s: {radius:.1f} m, speed {math.hypot(now.vx, now.vy):.1f} m/s")
+        print(f"orbit radius after 20 s: {radius:.1f} m, speed {math.hypot(now.vx, now.vy):.1f} m/s")
         assert 16.0 <= radius <= 24.0 and 3.5 <= math.hypot(now.vx, now.vy) <= 6.5
-        # Go-to (MAVSDK goto_location): 150 m north of home at 25 m above home, then Hold there.
-        lat, lon = latlon_e7(150.0, 0.0)
+        # Go-to (MAVSDK goto_location): 80 m north of home at 25 m above home, then Hold there.
+        lat, lon = latlon_e7(80.0, 0.0)
         ack = gs.command(M.MAV_CMD_DO_REPOSITION, -1, 1, 0, math.nan, lat * 1e-7, lon * 1e-7, HOME.alt + 25.0)
         assert ack.result == M.MAV_RESULT_ACCEPTED and gs.mode == HOLD or gs.wait(lambda: gs.mode == HOLD, "Hold")
-        gs.wait(lambda: math.hypot(gs.latest["LOCAL_POSITION_NED"].x - 150.0, gs.latest["LOCAL_POSITION_NED"].y) < 2.0
+        gs.wait(lambda: math.hypot(gs.latest["LOCAL_POSITION_NED"].x - 80.0, gs.latest["LOCAL_POSITION_NED"].y) < 2.0
                 and abs(gs.altitude - 25.0) < 1.0, "arrival at the go-to point", 180)  # fmt: skip
         gs.wait_sim(5.0)
         there = gs.latest["LOCAL_POSITION_NED"]
-        assert math.hypot(there.x - 150.0, there.y) < 2.0 and gs.mode == HOLD
+        assert math.hypot(there.x - 80.0, there.y) < 2.0 and gs.mode == HOLD
         # Return at RTL_RETURN_ALT 30 m: climb, fly home, land, disarm.
         gs.param_set("RTL_RETURN_ALT", 30.0, M.MAV_PARAM_TYPE_REAL32)
         assert gs.command(M.MAV_CMD_NAV_RETURN_TO_LAUNCH).result == M.MAV_RESULT_ACCEPTED

@@ -2,16 +2,16 @@
 
 from __future__ import annotations
 
-import json
 import socket
-import subprocess
 import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, free_link_ports, free_udp_port
+
+from ground_tools.processes import free_udp_port
+from tiltrotor_sitl import Vehicle
 from transport.flight_log import DOWN, read_flight_log
 from transport.mavlink import mavlink
 from transport.plant_handshake import hello_messages
@@ -93,37 +93,28 @@ class Hover:
 def hover(tmp_path: Path, name: str, strays_at: str | None = None) -> Hover:
     """A paced hover at 50 m for DURATION_S; strays from another socket during its middle second(s), sent to the
     plant's port (`strays_at` "plant") or to the autopilot's end of the plant link ("autopilot")."""
-    port, bind, log = free_udp_port(), free_udp_port(), tmp_path / f"{name}.csv"
-    sim = SimCommand(port=port, spawn_alt=50.0, realtime_speed=2.0, duration_s=DURATION_S, summary=True,
-                     zenoh=Zenoh.off())  # fmt: skip
-    autopilot = AutopilotCommand(sim_port=port, sim_bind_port=bind, links=free_link_ports(), spawn_alt=50.0,
-                                 profile="hover", duration_s=DURATION_S, controller="pid", zenoh=Zenoh.off(),
-                                 quiet=True, log=log, summary=True)  # fmt: skip
-    plant = subprocess.Popen(sim.argv(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    pilot = subprocess.Popen(autopilot.argv(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    log, bind = tmp_path / f"{name}.csv", free_udp_port()
     strays, stop = Strays(), threading.Event()
-    target, forge = (bind, forged_plant_states) if strays_at == "autopilot" else (port, stray_datagrams)
-    sender = threading.Thread(target=send_strays, args=(target, stop, strays, forge))
-    with_strays = strays_at is not None
-    try:
-        if with_strays:
-            wait_for_log(log)  # the autopilot has the plant (a HELLO before that would be a candidate, answered)
-            time.sleep(0.3)
-            sender.start()
-            time.sleep(1.0)
+    with Vehicle(controller="pid", spawn_alt=50.0, speed=2.0, duration_s=DURATION_S, summary=True, truth=False,
+                 wait_ready=False, folder=tmp_path / name,
+                 autopilot_args=("--profile", "hover", "--quiet", "--log", str(log), "--sim-bind-port", str(bind)),
+                 ) as vehicle:  # fmt: skip
+        target, forge = (bind, forged_plant_states) if strays_at == "autopilot" else (vehicle.ports.plant,
+                                                                                       stray_datagrams)
+        sender = threading.Thread(target=send_strays, args=(target, stop, strays, forge))
+        try:
+            if strays_at is not None:
+                wait_for_log(log)  # the autopilot has the plant (a HELLO before that would be a candidate, answered)
+                time.sleep(0.3)
+                sender.start()
+                time.sleep(1.0)
+                stop.set()
+                sender.join()
+            vehicle.wait_finished(timeout_s=300)  # (an autopilot that exits with an error fails the test here)
+        finally:
             stop.set()
-            sender.join()
-        pilot_out, pilot_err = pilot.communicate(timeout=300)
-        out, _ = plant.communicate(timeout=60)
-    finally:
-        stop.set()
-        for process in (pilot, plant):
-            if process.poll() is None:
-                process.kill()
-                process.wait()
-    assert pilot.returncode == 0, pilot_err
-    last_line = json.loads(out.strip().splitlines()[-1])
-    return Hover(read_flight_log(log).columns[DOWN], last_line, json.loads(pilot_out.strip().splitlines()[-1]), strays)
+    return Hover(read_flight_log(log).columns[DOWN], vehicle.summary("vtol-sim"), vehicle.summary("vtol-autopilot"),
+                 strays)
 
 
 def max_deviation(down: np.ndarray, clean_down: np.ndarray) -> float:
@@ -164,11 +155,10 @@ def test_forged_plant_states_sent_to_the_autopilot_change_nothing_and_are_counte
 
 def test_a_named_autopilot_alone_gets_the_plant(tmp_path):
     """vtol-sim --autopilot-port P: a HELLO from any other port is never answered; the named one flies."""
-    port, bind = free_udp_port(), free_udp_port()
-    sim = SimCommand(port=port, autopilot_port=bind, spawn_alt=50.0, duration_s=1.0, summary=True, zenoh=Zenoh.off())
-    plant = subprocess.Popen(sim.argv(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        assert plant.stderr is not None and "listening" in plant.stderr.readline()  # the port is bound
+    bind = free_udp_port()
+    with Vehicle(autopilot=False, spawn_alt=50.0, speed=None, duration_s=1.0, summary=True, truth=False,
+                 plant_args=("--autopilot-port", str(bind))) as plant:  # started once it listens: the port is bound
+        port = plant.ports.plant
         with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as other:
             other.bind((LOOPBACK, 0))
             other.settimeout(0.2)
@@ -183,15 +173,10 @@ def test_a_named_autopilot_alone_gets_the_plant(tmp_path):
                 except TimeoutError:
                     pass
         assert answers == 0
-        autopilot = AutopilotCommand(sim_port=port, sim_bind_port=bind, links=free_link_ports(), spawn_alt=50.0,
-                                     profile="hover", duration_s=1.0, zenoh=Zenoh.off(), quiet=True)  # fmt: skip
-        result = subprocess.run(autopilot.argv(), capture_output=True, text=True, timeout=300)
-        assert result.returncode == 0, result.stderr
-        out, _ = plant.communicate(timeout=60)
-    finally:
-        if plant.poll() is None:
-            plant.kill()
-            plant.wait()
-    summary = json.loads(out.strip().splitlines()[-1])
+        with Vehicle(plant_port=port, spawn_alt=50.0, duration_s=1.0, truth=False, wait_ready=False,
+                     autopilot_args=("--sim-bind-port", str(bind), "--profile", "hover", "--quiet")) as autopilot:
+            autopilot.wait_finished(timeout_s=300)  # exit code 0, or VehicleError with its stderr
+        plant.wait_finished(timeout_s=60)
+        summary = plant.summary("vtol-sim")
     assert summary["handshakes"] == 1 and summary["foreign"]["datagrams"] == 10
     assert summary["peer"] == f"{LOOPBACK}:{bind}" and summary["steps"] == 400

@@ -183,14 +183,12 @@ def test_failure_injection_over_the_link(start_plant, airframe):
 def test_stuck_servo_over_the_link_seen_in_zenoh_truth(start_plant, airframe):
     import zenoh
 
-    from ground_tools.processes import free_zenoh_endpoint
     from transport.telemetry import decode_plant_state, plant_state_key
     from transport.zenoh_bus import session_config
 
-    endpoint = free_zenoh_endpoint()
-    plant = start_plant("--spawn-alt", "100", "--zenoh-listen", endpoint)
+    plant = start_plant("--spawn-alt", "100", zenoh=True)
     received = []
-    session = zenoh.open(session_config(listen=[], connect=[endpoint]))
+    session = zenoh.open(session_config(listen=[], connect=[plant.zenoh_endpoint]))
     try:
         subscriber = session.declare_subscriber(plant_state_key(1), lambda s: received.append(bytes(s.payload)))
         sample = plant.first_sample()

@@ -10,7 +10,6 @@ import subprocess
 import sys
 import threading
 import time
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -18,10 +17,11 @@ import pytest
 
 from autopilot.stamped_setpoints import StampedSetpoints
 from ground_tools.lockstep_client import PERIOD_MS, START_MS, grid_stamp, setpoint_for, tilt_commands_deg
-from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, free_link_ports, free_udp_port
+from ground_tools.processes import AutopilotCommand
 from ground_tools.scenario_report import acceptance, velocity_rmse, write_report
 from ground_tools.scenario_run import WALL_CLOCK_KEYS
 from scenarios.experiments import BANK_THEORY_DEG, SCENARIOS, Telemetry, servo_reaches, yaw_reaches
+from tiltrotor_sitl import Vehicle
 from transport.flight_log import ALLOCATED, T, read_flight_log
 from transport.mavlink import Link, mavlink
 from transport.ports import Ports
@@ -88,17 +88,11 @@ def test_acceptance_checks_by_hand() -> None:
 
 
 # ---- the autopilot's --offboard-lockstep, through the real processes ---------------------------------------------
-def test_offboard_lockstep_holds_the_simulation_until_stamped_setpoints_cover_it(tmp_path) -> None:
-    plant_port, gcs = free_udp_port(), socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    gcs.bind(("127.0.0.1", 0))
-    gcs.settimeout(5.0)
-    links = replace(free_link_ports(), api_remote=gcs.getsockname()[1])
-    plant = subprocess.Popen(SimCommand(port=plant_port, spawn_alt=100.0, zenoh=Zenoh.off(),
-                                        lockstep_timeout_s=30.0).argv(), stderr=subprocess.DEVNULL)  # fmt: skip
-    autopilot = subprocess.Popen(AutopilotCommand(sim_port=plant_port, spawn_alt=100.0, controller="pid",
-                                                  offboard_lockstep=True, zenoh=Zenoh.off(), quiet=True,
-                                                  params=tmp_path / "params.json", links=links).argv(),
-                                 stderr=subprocess.DEVNULL)  # fmt: skip
+def test_offboard_lockstep_holds_the_simulation_until_stamped_setpoints_cover_it() -> None:
+    vehicle = Vehicle(controller="pid", spawn_alt=100.0, speed=None, truth=False, wait_ready=False,
+                      plant_args=("--lockstep-timeout", "30"),
+                      autopilot_args=("--offboard-lockstep", "--quiet")).start()  # fmt: skip
+    gcs = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     link = Link(255, 190)
 
     def hold_times(wall_s: float) -> list[int]:
@@ -114,6 +108,8 @@ def test_offboard_lockstep_holds_the_simulation_until_stamped_setpoints_cover_it
         return times
 
     try:
+        gcs.bind(("127.0.0.1", vehicle.api_port))  # where the API link sends (it says SYSTEM_TIME again each second)
+        gcs.settimeout(5.0)
         held = hold_times(2.5)
         assert held and set(held) == {0}, held  # held at t = 0, said again each second
         ignore = 0b110111000111
@@ -124,9 +120,8 @@ def test_offboard_lockstep_holds_the_simulation_until_stamped_setpoints_cover_it
         later = hold_times(2.5)
         assert later and max(later) == 502, later  # ran on to just past the newest stamp, and waits there
     finally:
-        for process in (autopilot, plant):
-            process.kill()
-            process.wait()
+        vehicle.process("vtol-sim").kill()  # it waits up to 30 s for a command: no use asking it to stop
+        vehicle.stop()
         gcs.close()
 
 
@@ -201,8 +196,9 @@ def _free_instance() -> int:
         try:
             for port, kind in ((ports.plant, socket.SOCK_DGRAM), (ports.gcs_bind, socket.SOCK_DGRAM),
                                (ports.api_bind, socket.SOCK_DGRAM), (ports.api_remote, socket.SOCK_DGRAM),
-                               (ports.gcs_remote, socket.SOCK_DGRAM), (7447 + instance, socket.SOCK_STREAM),
-                               (7547 + instance, socket.SOCK_STREAM)):  # fmt: skip
+                               (ports.gcs_remote, socket.SOCK_DGRAM),
+                               (int(ports.zenoh_plant.rsplit(":", 1)[1]), socket.SOCK_STREAM),
+                               (int(ports.zenoh_autopilot.rsplit(":", 1)[1]), socket.SOCK_STREAM)):  # fmt: skip
                 with socket.socket(socket.AF_INET, kind) as s:
                     s.bind(("127.0.0.1", port))
         except OSError:

@@ -3,54 +3,31 @@
 from __future__ import annotations
 
 import json
-import subprocess
 import time
 
 import zenoh
 
-from ground_tools.processes import (
-    AutopilotCommand,
-    Controller,
-    SimCommand,
-    Zenoh,
-    free_link_ports,
-    free_udp_port,
-    free_zenoh_endpoint,
-)
+from tiltrotor_sitl import Controller, Vehicle
 from transport.telemetry import control_key, decode_plant_state, mpc_key, plant_state_key
 from transport.zenoh_bus import session_config
 
 
 def fly_with_subscriber(controller: Controller, duration: str, *keys: str) -> dict[str, list]:
-    """Plant + autopilot (lockstep, accel profile) with zenoh on loopback; what a subscriber got per key."""
-    plant_endpoint, autopilot_endpoint = free_zenoh_endpoint(), free_zenoh_endpoint()
-    port = free_udp_port()
+    """Plant + autopilot (lockstep, accel profile) with zenoh on loopback; what a subscriber got per key. It
+    connects as the processes start (they take a second or more to begin stepping)."""
     received: dict[str, list] = {key: [] for key in keys}
-    session = zenoh.open(session_config(listen=[], connect=[plant_endpoint, autopilot_endpoint]))
-    for key in keys:
-        decode = decode_plant_state if key == plant_state_key(1) else json.loads
-        session.declare_subscriber(key, lambda s, k=key, d=decode: received[k].append(d(bytes(s.payload))))
-    plant = subprocess.Popen(
-        SimCommand(port=port, spawn_alt=100.0, duration_s=float(duration),
-                   zenoh=Zenoh.listening(plant_endpoint)).argv(),
-        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-    )  # fmt: skip
-    try:
-        time.sleep(1.0)  # let the subscriber's session reach the plant's endpoint before it steps
-        autopilot = subprocess.run(
-            AutopilotCommand(sim_port=port, spawn_alt=100.0, profile="accel", controller=controller,
-                             duration_s=float(duration), zenoh=Zenoh.listening(autopilot_endpoint),
-                             links=free_link_ports()).argv(),
-            capture_output=True, text=True, timeout=300,
-        )  # fmt: skip
-        assert autopilot.returncode == 0, autopilot.stderr
-        plant.wait(timeout=60)
-        time.sleep(0.5)
-    finally:
-        if plant.poll() is None:
-            plant.kill()
-            plant.wait()
-        session.close()
+    with Vehicle(controller=controller, spawn_alt=100.0, speed=None, duration_s=float(duration), wait_ready=False,
+                 autopilot_args=("--profile", "accel")) as vehicle:
+        endpoints = [vehicle.ports.zenoh_plant, vehicle.ports.zenoh_autopilot]
+        session = zenoh.open(session_config(listen=[], connect=endpoints))
+        try:
+            for key in keys:
+                decode = decode_plant_state if key == plant_state_key(1) else json.loads
+                session.declare_subscriber(key, lambda s, k=key, d=decode: received[k].append(d(bytes(s.payload))))
+            vehicle.wait_finished(timeout_s=300)  # (an autopilot that exits with an error fails the test here)
+            time.sleep(0.5)
+        finally:
+            session.close()
     return received
 
 

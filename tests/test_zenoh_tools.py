@@ -17,14 +17,7 @@ import numpy as np
 import pytest
 
 from ground_tools import cli
-from ground_tools.processes import (
-    AutopilotCommand,
-    SimCommand,
-    Zenoh,
-    free_link_ports,
-    free_udp_port,
-    free_zenoh_endpoint,
-)
+from ground_tools.processes import free_zenoh_endpoint
 from ground_tools.telemetry_record import (
     TelemetryRecorder,
     decode_payload,
@@ -47,6 +40,7 @@ from ground_tools.watch import (
     status_line,
     time_series,
 )
+from tiltrotor_sitl import Vehicle
 from transport.telemetry import PLANT_STATE_FIELDS, control_key, encode_control, mpc_key, plant_state_key
 
 VTOL = [sys.executable, "-m", "ground_tools"]
@@ -270,34 +264,13 @@ def test_recorder_writes_every_sample_received_before_stop(tmp_path):
 
 # ---- against a real plant and autopilot ----------------------------------------------------------------------------
 @pytest.fixture(scope="module")
-def vehicle(tmp_path_factory):
-    """vtol-sim (real time, hovering at 100 m) and vtol-autopilot (PID) with zenoh on free loopback ports;
-    yields their endpoints. Real time x1: on a loaded 2-core machine an autopilot that cannot keep up with a
-    faster real-time plant (x5 PID, x2 MPC were seen) lets the vehicle fall, and the tests check ~100 m."""
-    folder = tmp_path_factory.mktemp("vehicle")
-    port = free_udp_port()
-    plant_endpoint, autopilot_endpoint = free_zenoh_endpoint(), free_zenoh_endpoint()
-    processes = []
-    try:
-        with open(folder / "plant.err", "w") as plant_err, open(folder / "autopilot.err", "w") as autopilot_err:
-            processes.append(subprocess.Popen(
-                SimCommand(port=port, spawn_alt=100.0, realtime_speed=1.0, zenoh=Zenoh.listening(plant_endpoint),
-                           extra=("--sysid", "1")).argv(),
-                stdout=subprocess.DEVNULL, stderr=plant_err))  # fmt: skip
-            processes.append(subprocess.Popen(
-                AutopilotCommand(sim_port=port, spawn_alt=100.0, controller="pid",
-                                 zenoh=Zenoh.listening(autopilot_endpoint), params=folder / "params.json", quiet=True,
-                                 links=free_link_ports()).argv(),
-                stdout=subprocess.DEVNULL, stderr=autopilot_err))  # fmt: skip
-        time.sleep(1.0)
-        for process in processes:
-            assert process.poll() is None, (folder / "plant.err").read_text() + (folder / "autopilot.err").read_text()
-        yield [plant_endpoint, autopilot_endpoint]
-    finally:
-        for process in processes:
-            if process.poll() is None:
-                process.kill()
-            process.wait(timeout=20)
+def vehicle():
+    """A vehicle (tiltrotor_sitl.Vehicle: real time, hovering at 100 m, PID) with zenoh on free loopback ports;
+    yields its plant's and autopilot's endpoints. Real time x1: on a loaded 2-core machine an autopilot that cannot
+    keep up with a faster real-time plant (x5 PID, x2 MPC were seen) lets the vehicle fall, and the tests check
+    ~100 m."""
+    with Vehicle(controller="pid", spawn_alt=100.0, speed=1.0, autopilot_args=("--quiet",)) as started:
+        yield [started.ports.zenoh_plant, started.ports.zenoh_autopilot]
 
 
 def connect_args(endpoints: list[str]) -> list[str]:

@@ -23,6 +23,7 @@ The pytest plugin (fixtures `vehicle`, `fleet_factory`, `vehicle_factory`; optio
 from __future__ import annotations
 
 import subprocess
+import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
@@ -93,18 +94,20 @@ class VehicleHandle:
 
     @property
     def pids(self) -> list[int]:
-        """The PIDs of the vehicle's processes (plant, autopilot)."""
+        """The PIDs of the processes it started (plant, autopilot; one of them when started alone)."""
         return [child.pid for child in self._started.children]
 
     @property
     def truth(self) -> TruthFeed:
-        """The plant's truth on zenoh (raises VehicleError when started with truth=False)."""
-        if self._started.truth is None:
-            raise VehicleError(f"vehicle {self.sysid}: started with truth=False (no zenoh), or already stopped")
-        return self._started.truth
+        """The plant's truth on zenoh (raises VehicleError when started with truth=False or with plant_port)."""
+        truth = self._started.truth
+        if truth is None:
+            raise VehicleError(f"vehicle {self.sysid}: no truth: started with truth=False (no zenoh) or with "
+                               f"plant_port (no plant of its own), or already stopped")  # fmt: skip
+        return truth
 
     def running(self) -> bool:
-        """Both processes are running."""
+        """Every process it started is running."""
         return all(child.running() for child in self._started.children)
 
     def stderr(self, process: str = "vtol-autopilot") -> str:
@@ -127,11 +130,29 @@ class VehicleHandle:
         command line, ports and parameter file, as after a power cycle. Returns at once: wait for its HEARTBEAT."""
         self._child(process).restart()
 
+    def wait_finished(self, timeout_s: float = 600.0) -> None:
+        """With duration_s: wait until the processes have stopped by themselves (their summary() is then there to
+        read). VehicleError if one exits with an error (its last stderr lines) or one still runs after `timeout_s`
+        wall seconds (it is stopped with the vehicle)."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            for child in self._started.children:
+                if not child.running() and child.process.returncode != 0:
+                    raise VehicleError(f"vehicle {self.sysid}: {child.describe_exit('before the end')}")
+            running = [child for child in self._started.children if child.running()]
+            if not running:
+                return
+            if time.monotonic() > deadline:
+                names = ", ".join(f"{child.name} (pid {child.pid})" for child in running)
+                raise VehicleError(f"vehicle {self.sysid}: {names} still running after {timeout_s:g} s")
+            time.sleep(0.02)
+
     def _child(self, process: str) -> Child:
         for child in self._started.children:
             if child.name == process:
                 return child
-        raise ValueError(f"no process {process!r}: vtol-autopilot or vtol-sim")
+        started = " and ".join(child.name for child in self._started.children) or "nothing"
+        raise ValueError(f"no process {process!r}: this vehicle started {started}")
 
 
 class Fleet:
@@ -145,14 +166,18 @@ class Fleet:
                  params: Mapping[str, float] | None = None, instance: int | None = None, sysid: int | None = None,
                  gcs_port: int | None = None, truth: bool = True, ready_timeout_s: float = 60.0,
                  folder: str | Path | None = None, summary: bool = False, autopilot_args: Sequence[str] = (),
-                 wait_ready: bool = True, params_file: str | Path | None = None) -> None:  # fmt: skip
+                 wait_ready: bool = True, params_file: str | Path | None = None, duration_s: float | None = None,
+                 plant_args: Sequence[str] = (), autopilot: bool = True,
+                 plant_port: int | None = None) -> None:  # fmt: skip
         self.count = count
         self.options = Options(controller=controller, airframe=None if airframe is None else Path(airframe),
                                spawn_alt=float(spawn_alt), home=home, speed=speed, params=dict(params or {}),
                                instance=instance, sysid=sysid, gcs_port=gcs_port, truth=truth,
                                ready_timeout_s=ready_timeout_s, summary=summary,
                                autopilot_args=tuple(autopilot_args), wait_ready=wait_ready,
-                               params_file=None if params_file is None else Path(params_file))  # fmt: skip
+                               params_file=None if params_file is None else Path(params_file),
+                               duration_s=duration_s, plant_args=tuple(plant_args), autopilot=autopilot,
+                               plant_port=plant_port)  # fmt: skip
         self.options.check(count)
         self._folder = None if folder is None else Path(folder)
         self._started: list[Started] = []
@@ -213,18 +238,30 @@ class Vehicle(VehicleHandle):
     soon as both processes are started (to test start-up itself, e.g. a refused file). params_file: the parameter
     file the autopilot keeps (default: params.json in the vehicle's folder); an existing one is used as it is, with
     `params` set into it, and it stays after the stop, with the missions beside it: a later Vehicle given the same
-    file starts where this one stopped."""
+    file starts where this one stopped. duration_s: both processes stop by themselves after that many simulated
+    seconds (wait for it with wait_finished()). plant_args: further vtol-sim options, as they are (`vtol-sim
+    --help`, e.g. ["--wind", "0,3,0"]).
+
+    Which processes: both (default); autopilot=False starts the plant alone, for a flight controller of your own or
+    a test that plays one on `ports.plant` (ready when the plant says it listens; `truth` works); plant_port=P starts
+    the autopilot alone, flying the plant already running on UDP port P (yours, or a plant started with
+    autopilot=False), ready to arm once that plant steps it (with a plant that a test steps by hand, pass
+    wait_ready=False); `truth` then only turns the autopilot's zenoh telemetry on."""
 
     def __init__(self, *, controller: Controller = "mpc", airframe: str | Path | None = None, spawn_alt: float = 0.0,
                  home: Home | None = None, speed: float | None = 1.0, params: Mapping[str, float] | None = None,
                  instance: int | None = None, sysid: int | None = None, gcs_port: int | None = None,
                  truth: bool = True, ready_timeout_s: float = 60.0, folder: str | Path | None = None,
                  summary: bool = False, autopilot_args: Sequence[str] = (), wait_ready: bool = True,
-                 params_file: str | Path | None = None) -> None:  # fmt: skip
+                 params_file: str | Path | None = None, duration_s: float | None = None,
+                 plant_args: Sequence[str] = (), autopilot: bool = True,
+                 plant_port: int | None = None) -> None:  # fmt: skip
         self._fleet = Fleet(1, controller=controller, airframe=airframe, spawn_alt=spawn_alt, home=home, speed=speed,
                             params=params, instance=instance, sysid=sysid, gcs_port=gcs_port, truth=truth,
                             ready_timeout_s=ready_timeout_s, folder=folder, summary=summary,
-                            autopilot_args=autopilot_args, wait_ready=wait_ready, params_file=params_file)  # fmt: skip
+                            autopilot_args=autopilot_args, wait_ready=wait_ready, params_file=params_file,
+                            duration_s=duration_s, plant_args=plant_args, autopilot=autopilot,
+                            plant_port=plant_port)  # fmt: skip
 
     def start(self) -> Vehicle:
         self._fleet.start()

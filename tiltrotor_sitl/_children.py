@@ -2,8 +2,10 @@
 reaches only the test, which then stops them in order), with PR_SET_PDEATHSIG = SIGKILL on Linux (the kernel kills
 them when the process that started them dies, even by SIGKILL), and stopped by PID: SIGTERM, then SIGKILL.
 
-Their stdout and stderr go to files in the vehicle's folder (<name>.stdout, <name>.stderr), so a process that dies
-during start-up can be quoted and a --summary line read back; a restart appends to the same files.
+They run with PYTHONHASHSEED fixed (and, as their callers build the command lines, address-space randomisation
+off), so two lockstep runs of the same vehicle repeat bit for bit. Their stdout and stderr go to files in the
+vehicle's folder (<name>.stdout, <name>.stderr), so a process that dies during start-up can be quoted and a
+--summary line read back; a restart appends to the same files.
 """
 
 from __future__ import annotations
@@ -19,6 +21,8 @@ import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+
+from ground_tools.processes import deterministic_environment
 
 PR_SET_PDEATHSIG = 1
 STOP_TIMEOUT_S = 5.0
@@ -65,10 +69,10 @@ class Child:
             return ""
         return "\n".join(text.strip().splitlines()[-lines:])
 
-    def describe_exit(self) -> str:
+    def describe_exit(self, when: str) -> str:
         tail = self.stderr_tail()
         said = f"; its last stderr lines:\n{tail}" if tail else " (nothing on stderr)"
-        return f"{self.name} (pid {self.pid}) exited with code {self.process.returncode} during start-up{said}"
+        return f"{self.name} (pid {self.pid}) exited with code {self.process.returncode} {when}{said}"
 
     def summary(self) -> dict:
         """The last JSON line on its stdout (the --summary counters printed at its stop), or {} if none yet."""
@@ -86,7 +90,7 @@ class Child:
 
 
 def _spawn(argv: list[str], stdout_path: Path, stderr_path: Path, mode: str) -> subprocess.Popen:
-    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    env = {**deterministic_environment(), "PYTHONUNBUFFERED": "1"}
     with open(stdout_path, mode) as output, open(stderr_path, mode) as errors:
         process = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=output, stderr=errors, env=env,
                                    start_new_session=True, preexec_fn=_die_with_parent(os.getpid()))  # fmt: skip

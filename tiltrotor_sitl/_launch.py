@@ -9,12 +9,14 @@ import shutil
 import socket
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
 from autopilot.parameters import ParameterRejected, ParameterStore
-from ground_tools.processes import AutopilotCommand, LinkPorts, SimCommand, VehiclePorts, Zenoh, fleet_home
+from ground_tools.processes import (AutopilotCommand, LinkPorts, SimCommand, VehiclePorts, Zenoh,
+                                    deterministic_argv, fleet_home)  # fmt: skip
 from tiltrotor_sitl import _children
 from tiltrotor_sitl._children import Child
 from tiltrotor_sitl._readiness import ReadinessWatch
@@ -23,6 +25,7 @@ from transport.geodesy import Home, home_from
 from transport.ports import LOOPBACK, Ports
 
 Controller = Literal["mpc", "pid"]
+PLANT_LISTENING = "listening on udp"  # what vtol-sim says on stderr once its port is bound (sim_bridge/cli.py)
 
 
 class VehicleError(RuntimeError):
@@ -48,6 +51,10 @@ class Options:
     summary: bool = False
     autopilot_args: tuple[str, ...] = ()
     wait_ready: bool = True
+    duration_s: float | None = None
+    plant_args: tuple[str, ...] = ()
+    autopilot: bool = True
+    plant_port: int | None = None
 
     def check(self, count: int) -> None:
         """Raise ValueError naming the first bad argument."""
@@ -74,8 +81,13 @@ class Options:
             raise ValueError(f"params_file is for one vehicle, not a fleet of {count} (each keeps its own file)")
         if self.params_file is not None and Path(self.params_file).is_dir():
             raise ValueError(f"params_file is a folder, not a file: {self.params_file}")
-        if not all(isinstance(arg, str) for arg in self.autopilot_args):
-            raise ValueError(f"autopilot_args must be strings (command-line words), not {self.autopilot_args!r}")
+        for name, args in (("autopilot_args", self.autopilot_args), ("plant_args", self.plant_args)):
+            if not all(isinstance(arg, str) for arg in args):
+                raise ValueError(f"{name} must be strings (command-line words), not {args!r}")
+        if self.duration_s is not None and not (math.isfinite(self.duration_s) and self.duration_s > 0):
+            raise ValueError(f"duration_s must be a positive number of simulated seconds (or None), not "
+                             f"{self.duration_s!r}")  # fmt: skip
+        self._check_which(count)
         if not self.ready_timeout_s > 0:
             raise ValueError(f"ready_timeout_s must be positive, not {self.ready_timeout_s}")
         store = ParameterStore(None)
@@ -84,6 +96,25 @@ class Options:
                 store.check(name, float(value))
             except ParameterRejected as refusal:
                 raise ValueError(f"params: {refusal}") from None
+
+    def _check_which(self, count: int) -> None:
+        """The arguments that choose which processes start (both, the plant alone, the autopilot alone)."""
+        if self.plant_port is None:
+            if not self.autopilot and self.autopilot_args:
+                raise ValueError("autopilot_args with autopilot=False: no autopilot is started")
+            return
+        if not self.autopilot:
+            raise ValueError("plant_port starts the autopilot alone and autopilot=False the plant alone: not both")
+        if not 1 <= self.plant_port <= 65535:
+            raise ValueError(f"plant_port must be a UDP port 1..65535, not {self.plant_port}")
+        if count > 1:
+            raise ValueError(f"plant_port is one plant for one autopilot, not a fleet of {count}")
+        if self.plant_args:
+            raise ValueError("plant_args with plant_port: no plant is started (the plant on plant_port is yours)")
+
+    @property
+    def starts_plant(self) -> bool:
+        return self.plant_port is None
 
     def first_sysid(self) -> int:
         """The first vehicle's system id: sysid, else MAV_SYS_ID in params, else the instance's (I + 1), else 1."""
@@ -113,14 +144,20 @@ def _vehicle_ports(options: Options, index: int, gcs_remote: int) -> VehiclePort
     else:
         ports = VehiclePorts.of_instance(options.instance + index)
     links = ports.links
-    return VehiclePorts(ports.plant, LinkPorts(links.gcs_bind, gcs_remote, links.api_bind, links.api_remote),
+    plant = ports.plant if options.plant_port is None else options.plant_port
+    return VehiclePorts(plant, LinkPorts(links.gcs_bind, gcs_remote, links.api_bind, links.api_remote),
                         ports.zenoh_plant, ports.zenoh_autopilot)  # fmt: skip
 
 
-def _check_free(ports: VehiclePorts, sysid: int) -> None:
+def _check_free(options: Options, ports: VehiclePorts, sysid: int) -> None:
     """VehicleError if a port a process of this vehicle binds is taken."""
-    udp = (("the plant link", ports.plant), ("the GCS link", ports.links.gcs_bind), ("the API link", ports.links.api_bind))
-    tcp = (("the plant's zenoh", ports.zenoh_plant), ("the autopilot's zenoh", ports.zenoh_autopilot))
+    udp, tcp = [], []
+    if options.starts_plant:
+        udp.append(("the plant link", ports.plant))
+        tcp.append(("the plant's zenoh", ports.zenoh_plant))
+    if options.autopilot:
+        udp += [("the GCS link", ports.links.gcs_bind), ("the API link", ports.links.api_bind)]
+        tcp.append(("the autopilot's zenoh", ports.zenoh_autopilot))
     checks = [(name, port, socket.SOCK_DGRAM) for name, port in udp]
     checks += [(name, int(endpoint.rsplit(":", 1)[1]), socket.SOCK_STREAM) for name, endpoint in tcp]
     for name, port, kind in checks:
@@ -158,21 +195,38 @@ def _start_one(options: Options, index: int, sysid: int, ports: VehiclePorts, ro
     plant_zenoh = Zenoh.listening(ports.zenoh_plant) if options.truth else Zenoh.off()
     autopilot_zenoh = Zenoh.listening(ports.zenoh_autopilot) if options.truth else Zenoh.off()
     plant = SimCommand(port=ports.plant, spawn_alt=options.spawn_alt, realtime_speed=options.speed,
-                       zenoh=plant_zenoh, airframe=options.airframe, sysid=sysid, home=home,
-                       summary=options.summary)  # fmt: skip
+                       duration_s=options.duration_s, zenoh=plant_zenoh, airframe=options.airframe, sysid=sysid,
+                       home=home, summary=options.summary, extra=options.plant_args)  # fmt: skip
     autopilot = AutopilotCommand(sim_port=ports.plant, links=ports.links, spawn_alt=options.spawn_alt,
                                  controller=options.controller, params=params_path, airframe=options.airframe,
-                                 zenoh=autopilot_zenoh, sysid=sysid, home=home, summary=options.summary,
-                                 extra=options.autopilot_args)  # fmt: skip
+                                 duration_s=options.duration_s, zenoh=autopilot_zenoh, sysid=sysid, home=home,
+                                 summary=options.summary, extra=options.autopilot_args)  # fmt: skip
     started = Started(sysid, ports, home, [], folder, params_path)
-    started.children.append(_children.start("vtol-sim", plant.argv(), folder))
-    started.children.append(_children.start("vtol-autopilot", autopilot.argv(), folder))
+    if options.starts_plant:
+        started.children.append(_children.start("vtol-sim", deterministic_argv(plant.argv()), folder))
+    if options.autopilot:
+        started.children.append(_children.start("vtol-autopilot", deterministic_argv(autopilot.argv()), folder))
     return started
 
 
-def _watch(options: Options, vehicles: list[Started]) -> ReadinessWatch:
+def _wait_listening(plants: list[Started], timeout_s: float, keep_going: Callable[[], None]) -> bool:
+    """Wait until every plant has said on stderr that it listens on its port (the plant alone: nobody steps it, so
+    there is no readiness to arm to wait for)."""
+    deadline = time.monotonic() + timeout_s
+    while not all(PLANT_LISTENING in child.stderr_path.read_text(errors="replace")
+                  for vehicle in plants for child in vehicle.children):  # fmt: skip
+        keep_going()
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.02)
+    return True
+
+
+def _watch(options: Options, vehicles: list[Started]) -> ReadinessWatch | None:
     """A watch on the GCS port the vehicles send to; if it is taken (a ground station already there), on their
     API ports instead."""
+    if not options.autopilot:
+        return None
     sysids = [vehicle.sysid for vehicle in vehicles]
     gcs = vehicles[0].ports.links.gcs_remote
     try:
@@ -197,7 +251,7 @@ def launch(options: Options, count: int, folder: Path | None = None) -> tuple[li
     gcs_remote = options.gcs_port or default_gcs or _free_udp_port()
     plan = [(first + i, _vehicle_ports(options, i, gcs_remote)) for i in range(count)]
     for sysid, ports in plan:
-        _check_free(ports, sysid)
+        _check_free(options, ports, sysid)
     root = Path(tempfile.mkdtemp(prefix="tiltrotor-sitl-")) if folder is None else Path(folder)
     root.mkdir(parents=True, exist_ok=True)
     vehicles: list[Started] = []
@@ -212,14 +266,20 @@ def launch(options: Options, count: int, folder: Path | None = None) -> tuple[li
             for vehicle in vehicles:
                 for child in vehicle.children:
                     if not child.running():
-                        raise VehicleError(f"vehicle {vehicle.sysid}: {child.describe_exit()}")
+                        raise VehicleError(f"vehicle {vehicle.sysid}: {child.describe_exit('during start-up')}")
 
-        if options.wait_ready and not watch.wait(options.ready_timeout_s, keep_going):
-            tails = "\n".join(f"--- vehicle {v.sysid} {c.name} (pid {c.pid}) stderr:\n{c.stderr_tail()}"
-                              for v in vehicles for c in v.children)  # fmt: skip
-            raise VehicleError(f"not ready to arm within {options.ready_timeout_s:g} s ({watch.missing()})\n{tails}")
+        if options.wait_ready:
+            if watch is not None:
+                ready, missing = watch.wait(options.ready_timeout_s, keep_going), watch.missing
+            else:
+                ready, missing = _wait_listening(vehicles, options.ready_timeout_s, keep_going), _not_listening
+            if not ready:
+                tails = "\n".join(f"--- vehicle {v.sysid} {c.name} (pid {c.pid}) stderr:\n{c.stderr_tail()}"
+                                  for v in vehicles for c in v.children)  # fmt: skip
+                what = "ready to arm" if watch is not None else "listening"
+                raise VehicleError(f"not {what} within {options.ready_timeout_s:g} s ({missing()})\n{tails}")
         ready_s = time.monotonic() - began
-        if options.truth:
+        if options.truth and options.starts_plant:
             for vehicle in vehicles:
                 vehicle.truth = TruthFeed(vehicle.ports.zenoh_plant, vehicle.sysid)
     except BaseException:
@@ -229,6 +289,10 @@ def launch(options: Options, count: int, folder: Path | None = None) -> tuple[li
         if watch is not None:
             watch.close()
     return vehicles, root, ready_s
+
+
+def _not_listening() -> str:
+    return f"no plant said {PLANT_LISTENING!r} on stderr"
 
 
 def _free_udp_port() -> int:

@@ -1,4 +1,9 @@
-"""Default ports and how `--instance I` shifts them (docs/plant-link.md, docs/mavlink.md, docs/telemetry.md). All on 127.0.0.1."""
+"""Default ports and how `--instance I` shifts them (docs/plant-link.md, docs/mavlink.md, docs/telemetry.md). All on 127.0.0.1.
+
+Every instance 0 .. MAX_INSTANCE has its own ports, disjoint from every other instance's (except the GCS remote
+port 14550, shared on purpose): instances 0 .. 9 and 0 .. 99 keep PX4's offsets, the API remote port from instance
+10 on and the zenoh endpoints from instance 100 on move to ranges of their own.
+"""
 
 from __future__ import annotations
 
@@ -6,6 +11,9 @@ from dataclasses import dataclass
 
 LOOPBACK = "127.0.0.1"
 MAX_SYSID = 250  # MAV_SYS_ID's range is 1 .. 250
+MAX_INSTANCE = 999
+API_REMOTE_SHARED_FROM = 10  # 14540 + 10 would be the GCS remote port 14550
+ZENOH_SHARED_FROM = 100  # 7447 + 100 would be instance 0's autopilot endpoint
 
 
 @dataclass(frozen=True)
@@ -43,15 +51,16 @@ class Ports:
 
     @property
     def api_remote(self) -> int:
-        """API link: where MAVSDK listens."""
-        return 14540 + self.instance
+        """API link: where MAVSDK listens: 14540 + I for I < 10, as in PX4; 15570 + I from 10 on (PX4 sends every
+        instance from 10 on to 14549, so two of them could not each have a ground station listening)."""
+        return 14540 + self.instance if self.instance < API_REMOTE_SHARED_FROM else 15570 + self.instance
 
     @property
     def zenoh_plant(self) -> str:
-        """zenoh endpoint the plant listens on."""
-        return f"tcp/{LOOPBACK}:{7447 + self.instance}"
+        """zenoh endpoint the plant listens on: 7447 + I for I < 100, 7547 + I from 100 on."""
+        return f"tcp/{LOOPBACK}:{(7447 if self.instance < ZENOH_SHARED_FROM else 7547) + self.instance}"
 
     @property
     def zenoh_autopilot(self) -> str:
-        """zenoh endpoint the autopilot listens on."""
-        return f"tcp/{LOOPBACK}:{7547 + self.instance}"
+        """zenoh endpoint the autopilot listens on: 7547 + I for I < 100, 8447 + I from 100 on."""
+        return f"tcp/{LOOPBACK}:{(7547 if self.instance < ZENOH_SHARED_FROM else 8447) + self.instance}"
