@@ -31,7 +31,7 @@ from autopilot.manual_modes import ALTITUDE, POSITION, ManualControl, StickMode
 from autopilot.mission_flight import MissionFlight
 from autopilot.mission_store import MissionStore
 from autopilot.navigator import LandDetector, Navigator
-from autopilot.offboard_setpoint import AttitudeTarget, OffboardSetpoint
+from autopilot.offboard_setpoint import SETPOINT_LIMITS, AttitudeTarget, OffboardSetpoint
 from autopilot.parameters import ParameterStore
 from autopilot.requests import (ManualControlInput, OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit,
                                 Reply, Reposition)
@@ -55,6 +55,7 @@ LANDING = mavlink.MAV_LANDED_STATE_LANDING
 MAX_LEVEL_TILT = math.radians(30.0)  # arming on the ground: roll and pitch within this
 
 
+MAX_CRUISE_SPEED = float(SETPOINT_LIMITS[0])  # m/s: DO_CHANGE_SPEED within the velocity envelope
 NO_MAVLINK_MANUAL_CONTROL = (0, 4)  # COM_RC_IN_MODE: RC only (there is no RC here), manual control disabled
 
 
@@ -80,7 +81,7 @@ class Commander:
         self.params = params
         missions = missions if missions is not None else MissionStore()
         navigator = Navigator(params)
-        auto = AutoFlight(params)
+        self.auto = auto = AutoFlight(params)
         mission = MissionFlight(params, missions, home, auto, landed=lambda: self.on_ground)
         self.failsafe = Failsafe(params, missions, home, say)
         self.offboard = OffboardSetpoint(stamped=stamped_setpoints)
@@ -367,6 +368,18 @@ class Commander:
         down = float(state.position_ned[2]) if request.down is None else request.down
         self._set_mode(ORBIT, state, f"Orbit: radius {request.radius:g} m at {request.speed:g} m/s")
         self.orbit.start(state, Circle(center, down, request.radius, request.speed, request.clockwise))
+        return ACCEPTED, None
+
+    def change_speed(self, speed: float | None) -> Reply:
+        """DO_CHANGE_SPEED: the cruise speed of the legs of Mission, Return and Go-to (None: the defaults), within
+        the velocity controllers' envelope."""
+        if (refusal := self._refusal()) is not None:
+            return refusal
+        if speed is not None and speed > MAX_CRUISE_SPEED:
+            self.say(mavlink.MAV_SEVERITY_WARNING, f"Speed {speed:g} m/s clamped to {MAX_CRUISE_SPEED:g} m/s")
+            speed = MAX_CRUISE_SPEED
+        self.auto.mission_speed = speed
+        self.say(mavlink.MAV_SEVERITY_INFO, "Speed: defaults" if speed is None else f"Speed: {speed:g} m/s")
         return ACCEPTED, None
 
     def offboard_setpoint(self, velocity_ned: np.ndarray, stamp_ms: int | None = None) -> None:

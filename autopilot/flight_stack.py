@@ -10,7 +10,7 @@ from autopilot.commander import MISSION, RETURN, Commander
 from autopilot.failure_injection import FailureInjection
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
-from autopilot.requests import (Arm, ClearMission, Disarm, GcsHeartbeat, InjectFailure, Land, ManualControlInput,
+from autopilot.requests import (Arm, ChangeSpeed, ClearMission, Disarm, GcsHeartbeat, InjectFailure, Land, ManualControlInput,
                                 OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit, Reply, Reposition,
                                 Request, ReturnToLaunch, SetMissionCurrent, SetMode, StartMission, StoreMission,
                                 Takeoff, Transition)  # fmt: skip
@@ -63,6 +63,8 @@ class FlightStack:
                 return commander.set_mode(MISSION, state)
             case ReturnToLaunch():
                 return commander.set_mode(RETURN, state)
+            case ChangeSpeed(speed=speed):
+                return commander.change_speed(speed)
             case Reposition() | Orbit():
                 return commander.route(request, state)
             case OffboardVelocity() | OffboardPosition() | OffboardAttitude():

@@ -137,6 +137,13 @@ class Reposition:
 
 
 @dataclass(frozen=True)
+class ChangeSpeed:
+    """MAV_CMD_DO_CHANGE_SPEED: the cruise speed (m/s, finite, > 0) of the legs flown from now; None: the defaults."""
+
+    speed: float | None
+
+
+@dataclass(frozen=True)
 class Orbit:
     """MAV_CMD_DO_ORBIT: circle `center` (NE; None: here) at `down` (None: the current altitude)."""
 
@@ -154,7 +161,7 @@ class GcsHeartbeat:
 
 Request = (Arm | Disarm | Takeoff | Land | SetMode | Transition | OffboardVelocity | OffboardPosition
            | OffboardAttitude | ManualControlInput | InjectFailure
-           | StoreMission | ClearMission | SetMissionCurrent | StartMission | ReturnToLaunch | Reposition
+           | StoreMission | ClearMission | SetMissionCurrent | StartMission | ReturnToLaunch | Reposition | ChangeSpeed
            | Orbit | GcsHeartbeat)  # fmt: skip
 
 
