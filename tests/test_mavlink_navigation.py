@@ -66,16 +66,25 @@ def fly(sitl, until, timeout_s: float, sample) -> None:
     gs.wait(done, "the flight to end", timeout_s)
 
 
+def vehicle_with_mission(tmp_path, rows: list[tuple]):
+    """A lockstep vehicle on the ground (MPC) with `rows` uploaded as its mission, its ground station connected."""
+    sitl = start_sitl(tmp_path / "params.json", speed=None)
+    try:
+        sitl.gs.connect()
+        assert Client(sitl.gs).upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
+    except BaseException:
+        sitl.kill()
+        raise
+    return sitl
+
+
 def test_a_mission_with_forward_flight_legs_and_no_transition_item_lands_at_home(tmp_path):
     legs = [(400.0, 0.0, 30.0)]  # out in forward flight, and back to land at home (800 m: two cruises, two brakings)
     rows = [waypoint(0, 0, 20.0, M.MAV_CMD_NAV_VTOL_TAKEOFF)] + [waypoint(*leg) for leg in legs] + [
         waypoint(0.0, 0.0, 0.0, M.MAV_CMD_NAV_VTOL_LAND)]  # fmt: skip
-    sitl = start_sitl(tmp_path / "params.json", speed=None)
+    sitl = vehicle_with_mission(tmp_path, rows)
     try:
         gs = sitl.gs
-        gs.connect()
-        client = Client(gs)
-        assert client.upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
         gs.pump(0.2)
         assert gs.set_mode(MISSION_MODE).result == M.MAV_RESULT_ACCEPTED
         assert gs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == M.MAV_RESULT_ACCEPTED
@@ -108,12 +117,9 @@ def test_a_mission_with_forward_flight_legs_and_no_transition_item_lands_at_home
 
 def test_a_mission_without_takeoff_item_started_on_the_ground_climbs_over_home_then_flies_it(tmp_path):
     rows = [waypoint(12.0, 0.0, 6.0), waypoint(12.0, 0.0, 0.0, M.MAV_CMD_NAV_LAND)]
-    sitl = start_sitl(tmp_path / "params.json", speed=None)
+    sitl = vehicle_with_mission(tmp_path, rows)
     try:
         gs = sitl.gs
-        gs.connect()
-        client = Client(gs)
-        assert client.upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
         assert gs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == M.MAV_RESULT_ACCEPTED
         assert gs.set_mode(MISSION_MODE).result == M.MAV_RESULT_ACCEPTED  # as MAVSDK: arm, then start_mission
         climb_offset = [0.0]
