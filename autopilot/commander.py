@@ -56,7 +56,6 @@ MAX_LEVEL_TILT = math.radians(30.0)  # arming on the ground: roll and pitch with
 
 
 MAX_CRUISE_SPEED = float(SETPOINT_LIMITS[0])  # m/s: DO_CHANGE_SPEED within the velocity envelope
-NO_MAVLINK_MANUAL_CONTROL = (0, 4)  # COM_RC_IN_MODE: RC only (there is no RC here), manual control disabled
 
 
 @dataclass(frozen=True)
@@ -85,7 +84,7 @@ class Commander:
         mission = MissionFlight(params, missions, home, auto, landed=lambda: self.on_ground)
         self.failsafe = Failsafe(params, missions, home, say)
         self.offboard = OffboardSetpoint(stamped=stamped_setpoints)
-        self.manual = ManualControl()
+        self.manual = ManualControl(params)
         self.hold = HoldMode(navigator, auto)
         self.takeoff_mode = TakeoffMode(navigator)
         self.land_mode = LandMode(navigator)
@@ -264,7 +263,7 @@ class Commander:
         if mode == OFFBOARD and not self._offboard_fresh():
             return TEMPORARILY_REJECTED, (f"Offboard denied: no set-point in the last "
                                           f"{self.params['COM_OF_LOSS_T']:g} s")  # fmt: skip
-        if mode in (POSITION, ALTITUDE) and (refusal := self._manual_refusal(mode)) is not None:
+        if mode in (POSITION, ALTITUDE) and (refusal := self.manual.refusal(mode, self.now_usec)) is not None:
             return refusal
         if mode == TAKEOFF:
             return self.takeoff(state, None)
@@ -277,25 +276,9 @@ class Commander:
         self._set_mode(mode, state)
         return ACCEPTED, None
 
-    def _manual_fresh(self) -> bool:
-        return self.manual.fresh(self.now_usec, self.params["COM_RC_LOSS_T"])
-
-    def _manual_refusal(self, mode: str) -> Reply | None:
-        """Position and Altitude need manual control: MANUAL_CONTROL allowed by COM_RC_IN_MODE and recent."""
-        if self.params.get_int("COM_RC_IN_MODE") in NO_MAVLINK_MANUAL_CONTROL:
-            return DENIED, f"{mode} denied: COM_RC_IN_MODE {self.params.get_int('COM_RC_IN_MODE')} takes no " \
-                "MANUAL_CONTROL"
-        if not self._manual_fresh():
-            return TEMPORARILY_REJECTED, (f"{mode} denied: no manual control (MANUAL_CONTROL) in the last "
-                                          f"{self.params['COM_RC_LOSS_T']:g} s")  # fmt: skip
-        return None
-
     def manual_control(self, sticks: ManualControlInput) -> Reply:
         """MANUAL_CONTROL as a virtual RC, when COM_RC_IN_MODE takes it."""
-        if self.params.get_int("COM_RC_IN_MODE") in NO_MAVLINK_MANUAL_CONTROL:
-            return DENIED, f"MANUAL_CONTROL ignored: COM_RC_IN_MODE {self.params.get_int('COM_RC_IN_MODE')}"
-        self.manual.receive(sticks, self.now_usec)
-        return ACCEPTED, None
+        return self.manual.receive(sticks, self.now_usec)
 
     def takeoff(self, state: VehicleState, altitude_above_home: float | None) -> Reply:
         """Climb to `altitude_above_home` (None: MIS_TAKEOFF_ALT) over the current position, then Hold."""
@@ -405,7 +388,7 @@ class Commander:
         self.offboard.take_due(time_usec)
         if self.profile is not None:
             return self.profile((time_usec - self._start_usec) / 1e6) if self.flying else None
-        manual_lost = self.mode in (POSITION, ALTITUDE) and not self._manual_fresh()
+        manual_lost = self.mode in (POSITION, ALTITUDE) and not self.manual.fresh(time_usec)
         decision = self.failsafe.check(FailsafeInputs(time_usec, self.flying, self.mode, state.position_ned,
                                                       self.mode == OFFBOARD and not self._offboard_fresh(),
                                                       manual_lost))  # fmt: skip

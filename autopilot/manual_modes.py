@@ -21,12 +21,14 @@ import numpy as np
 from autopilot.flight_modes import OFFBOARD_TAKEOFF_CLIMB, FlightMode
 from autopilot.guidance import limit_norm, ramp, vertical_velocity
 from autopilot.parameters import ParameterStore
-from autopilot.requests import ManualControlInput as Sticks
+from autopilot.requests import ManualControlInput, Reply
 from autopilot.vehicle_state import VehicleState
+from transport.mavlink import mavlink
 
 POSITION, ALTITUDE = "Position", "Altitude"
 TICK_S = 0.01
 BRAKED_SPEED = 1.0  # m/s: a centred stick locks the position (or altitude) once slower than this
+NO_MAVLINK_MANUAL_CONTROL = (0, 4)  # COM_RC_IN_MODE: RC only (there is no RC here), manual control disabled
 
 
 def deadzone(stick: float, zone: float) -> float:
@@ -42,18 +44,37 @@ def climb_stick(throttle: float) -> float:
 
 
 class ManualControl:
-    """The latest sticks from MANUAL_CONTROL and when they arrived (for COM_RC_LOSS_T)."""
+    """The latest sticks from MANUAL_CONTROL and when they arrived (for COM_RC_LOSS_T), taken when COM_RC_IN_MODE
+    allows MAVLink."""
 
-    def __init__(self) -> None:
-        self.sticks = Sticks()
+    def __init__(self, params: ParameterStore) -> None:
+        self.params = params
+        self.sticks = ManualControlInput()
         self.received_usec: int | None = None
 
-    def receive(self, sticks: Sticks, now_usec: int) -> None:
+    def _not_taken(self) -> str | None:
+        mode = self.params.get_int("COM_RC_IN_MODE")
+        return f"COM_RC_IN_MODE {mode} takes no MANUAL_CONTROL" if mode in NO_MAVLINK_MANUAL_CONTROL else None
+
+    def receive(self, sticks: ManualControlInput, now_usec: int) -> Reply:
+        if (why := self._not_taken()) is not None:
+            return mavlink.MAV_RESULT_DENIED, f"MANUAL_CONTROL ignored: {why}"
         self.sticks = sticks
         self.received_usec = now_usec
+        return mavlink.MAV_RESULT_ACCEPTED, None
 
-    def fresh(self, now_usec: int, loss_timeout_s: float) -> bool:
-        return self.received_usec is not None and now_usec - self.received_usec <= loss_timeout_s * 1e6
+    def fresh(self, now_usec: int) -> bool:
+        timeout_usec = self.params["COM_RC_LOSS_T"] * 1e6
+        return self.received_usec is not None and now_usec - self.received_usec <= timeout_usec
+
+    def refusal(self, mode: str, now_usec: int) -> Reply | None:
+        """Why Position or Altitude cannot be entered now (None: it can)."""
+        if (why := self._not_taken()) is not None:
+            return mavlink.MAV_RESULT_DENIED, f"{mode} denied: {why}"
+        if not self.fresh(now_usec):
+            return mavlink.MAV_RESULT_TEMPORARILY_REJECTED, (f"{mode} denied: no manual control (MANUAL_CONTROL) in "
+                                                            f"the last {self.params['COM_RC_LOSS_T']:g} s")  # fmt: skip
+        return None
 
     def restart(self) -> None:
         self.received_usec = None
