@@ -9,9 +9,9 @@ checked from the vehicle's status, and when one starts to hold, the action PX4's
     loss               COM_RC_LOSS_T
 
 A condition acts when it starts (PX4: the action is cleared by a mode change, so a user can fly out of it); its
-cause is said as a STATUSTEXT, and the commander switches modes and says "Failsafe activated". Manual control modes
-(PX4's Position, Altitude, Stabilized fallbacks) do not exist here: with no RC they fall back to Hold, as PX4's
-failsafe falls back when a mode cannot run.
+cause is said as a STATUSTEXT, and the commander switches modes and says "Failsafe activated". The offboard loss's
+manual fallbacks (PX4's Position, Altitude, Stabilized) fall back to Hold: there is no RC, and a script that lost
+its Offboard stream seldom sends MANUAL_CONTROL.
 """
 
 from __future__ import annotations

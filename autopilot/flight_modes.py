@@ -32,13 +32,6 @@ MISSION, RETURN, ORBIT = "Mission", "Return", "Orbit"
 MODES = (HOLD, TAKEOFF, LAND, OFFBOARD, MISSION, RETURN, ORBIT)
 REPOSITION_ACCEPTANCE = 1.0  # m: a DO_REPOSITION flies the leg to within this, then holds there
 OFFBOARD_TAKEOFF_CLIMB = 0.3  # m/s: an Offboard set-point climbing faster than this lifts off from the ground
-ATTITUDE_CLIMB = 1.0  # m/s: the climb (or descent) an Offboard thrust above (below) hover stands for
-
-
-def attitude_climb(thrust: float, hover_fraction: float) -> float:
-    """The vertical velocity (NED down) an Offboard attitude set-point's thrust stands for: a lift-off above hover
-    thrust, a descent (which the land detector watches) below it."""
-    return -ATTITUDE_CLIMB if thrust > hover_fraction else ATTITUDE_CLIMB
 VTOL_FW, VTOL_MC = mavlink.MAV_VTOL_STATE_FW, mavlink.MAV_VTOL_STATE_MC  # 4, 3
 
 
@@ -178,8 +171,8 @@ class OffboardMode(FlightMode):
         self.navigator.start_tracking(state)
 
     def setpoint(self, state: VehicleState) -> np.ndarray:
-        if (attitude := self.offboard.attitude) is not None:  # flown by the attitude loop: this is what it asks of
-            return np.array([0.0, 0.0, attitude_climb(attitude.thrust, self.hover_fraction)])  # the land detector
+        if self.offboard.attitude is not None:  # flown by the attitude loop: what it asks of the land detector
+            return self.offboard.attitude.climb(self.hover_fraction)
         if self.offboard.position is None:
             return self.offboard.velocity
         return self.navigator.track(state, self.offboard.position, self.offboard.velocity)

@@ -10,6 +10,7 @@ from aircraft.airframe import load_airframe
 from aircraft.frames import quaternion_from_euler
 from tests.ground_station import HOLD, OFFBOARD
 from tests.mavlink_sitl import start_sitl
+from tests.test_mavlink_failsafes import set_param
 from transport.mavlink import mavlink as M
 
 AIRFRAME = load_airframe()
@@ -31,6 +32,7 @@ def test_offboard_attitude_lifts_off_rolls_turns_and_hands_back_to_the_mpc(tmp_p
             mav.set_attitude_target_send(gs.time_boot_ms, 1, 1, target["mask"], target["q"], *target["rates"],
                                          target["thrust"])  # fmt: skip
 
+        set_param(gs, "COM_OF_LOSS_T", 5.0)  # lockstep runs faster than the wall clock the set-points are sent on
         assert gs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == M.MAV_RESULT_ACCEPTED
         send()
         gs.pump(0.1)
