@@ -11,9 +11,9 @@ from autopilot.failure_injection import FailureInjection
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
 from autopilot.requests import (Arm, ChangeSpeed, ClearMission, Disarm, GcsHeartbeat, InjectFailure, Land,
-                                ManualControlInput, OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit, Reply, Reposition,
-                                Request, ReturnToLaunch, SetMissionCurrent, SetMode, StartMission, StoreMission,
-                                Takeoff, Transition)  # fmt: skip
+                                ManualControlInput, OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit,
+                                Reply, Reposition, Request, ReturnToLaunch, SetMissionCurrent, SetMode,
+                                StartMission, StoreMission, Takeoff, Transition)  # fmt: skip
 from transport.mavlink import mavlink
 
 
