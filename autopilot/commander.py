@@ -27,12 +27,14 @@ from autopilot.failsafe import DESCEND, TERMINATE, WARN, Decision, Failsafe, Fai
 from autopilot.flight_modes import (HOLD, LAND, MISSION, OFFBOARD, ORBIT, RETURN, TAKEOFF, VTOL_FW, VTOL_MC,
                                     FlightMode, HoldMode, LandMode, MissionMode, OffboardMode, OrbitMode, ReturnMode,
                                     TakeoffMode)  # fmt: skip
+from autopilot.manual_modes import ALTITUDE, POSITION, ManualControl, StickMode
 from autopilot.mission_flight import MissionFlight
 from autopilot.mission_store import MissionStore
 from autopilot.navigator import LandDetector, Navigator
-from autopilot.offboard_setpoint import OffboardSetpoint
+from autopilot.offboard_setpoint import SETPOINT_LIMITS, AttitudeTarget, OffboardSetpoint
 from autopilot.parameters import ParameterStore
-from autopilot.requests import OffboardPosition, OffboardVelocity, Orbit, Reply, Reposition
+from autopilot.requests import (ManualControlInput, OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit,
+                                Reply, Reposition)
 from autopilot.vehicle_state import VehicleState
 from transport.geodesy import Home
 from transport.mavlink import mavlink
@@ -51,6 +53,9 @@ TAKING_OFF = mavlink.MAV_LANDED_STATE_TAKEOFF
 LANDING = mavlink.MAV_LANDED_STATE_LANDING
 
 MAX_LEVEL_TILT = math.radians(30.0)  # arming on the ground: roll and pitch within this
+
+
+MAX_CRUISE_SPEED = float(SETPOINT_LIMITS[0])  # m/s: DO_CHANGE_SPEED within the velocity envelope
 
 
 @dataclass(frozen=True)
@@ -75,18 +80,21 @@ class Commander:
         self.params = params
         missions = missions if missions is not None else MissionStore()
         navigator = Navigator(params)
-        auto = AutoFlight(params)
-        mission = MissionFlight(params, missions, home, auto)
+        self.auto = auto = AutoFlight(params)
+        mission = MissionFlight(params, missions, home, auto, landed=lambda: self.on_ground)
         self.failsafe = Failsafe(params, missions, home, say)
         self.offboard = OffboardSetpoint(stamped=stamped_setpoints)
+        self.manual = ManualControl(params)
         self.hold = HoldMode(navigator, auto)
         self.takeoff_mode = TakeoffMode(navigator)
         self.land_mode = LandMode(navigator)
         self.orbit = OrbitMode(auto)
         self.mission_mode = MissionMode(mission)
         self.modes: dict[str, FlightMode] = {mode.name: mode for mode in (
-            self.hold, self.takeoff_mode, self.land_mode, OffboardMode(navigator, self.offboard), self.mission_mode,
-            ReturnMode(params, auto, mission), self.orbit)}  # fmt: skip
+            self.hold, self.takeoff_mode, self.land_mode, OffboardMode(navigator, self.offboard, hover_fraction),
+            self.mission_mode,
+            ReturnMode(params, auto, mission), self.orbit, StickMode(POSITION, params, self.manual),
+            StickMode(ALTITUDE, params, self.manual))}  # fmt: skip
         self.land_detector = LandDetector(hover_fraction)
         self.say = say
         self.profile = profile
@@ -149,6 +157,11 @@ class Commander:
         return IN_AIR
 
     @property
+    def attitude_setpoint(self) -> AttitudeTarget | None:
+        """Offboard attitude flying: the set-point for the attitude loop (the velocity controller out of the loop)."""
+        return self.offboard.attitude if self.mode == OFFBOARD and self.flying else None
+
+    @property
     def active(self) -> FlightMode:
         return self.modes[self.mode]
 
@@ -187,6 +200,7 @@ class Commander:
         """The plant's clock went back (a new plant run): time-stamped things start afresh."""
         self.now_usec = self._start_usec = state.time_usec
         self.offboard.restart()
+        self.manual.restart()
         self.failsafe.restart()
         self._landed_usec = None
         if self.armed:
@@ -244,11 +258,13 @@ class Commander:
             return refusal
         if mode == self.mode:
             return ACCEPTED, None
-        if (refusal := self._refusal(mode, positional=mode != LAND)) is not None:
+        if (refusal := self._refusal(mode, positional=mode not in (LAND, ALTITUDE))) is not None:
             return refusal
         if mode == OFFBOARD and not self._offboard_fresh():
             return TEMPORARILY_REJECTED, (f"Offboard denied: no set-point in the last "
                                           f"{self.params['COM_OF_LOSS_T']:g} s")  # fmt: skip
+        if mode in (POSITION, ALTITUDE) and (refusal := self.manual.refusal(mode, self.now_usec)) is not None:
+            return refusal
         if mode == TAKEOFF:
             return self.takeoff(state, None)
         if mode == MISSION and not self.mission_mode.stored:
@@ -259,6 +275,10 @@ class Commander:
             return TEMPORARILY_REJECTED, "Return denied: not flying"
         self._set_mode(mode, state)
         return ACCEPTED, None
+
+    def manual_control(self, sticks: ManualControlInput) -> Reply:
+        """MANUAL_CONTROL as a virtual RC, when COM_RC_IN_MODE takes it."""
+        return self.manual.receive(sticks, self.now_usec)
 
     def takeoff(self, state: VehicleState, altitude_above_home: float | None) -> Reply:
         """Climb to `altitude_above_home` (None: MIS_TAKEOFF_ALT) over the current position, then Hold."""
@@ -303,8 +323,14 @@ class Commander:
         return ACCEPTED, None
 
     # ---- typed requests from the ground stations ------------------------------------------------------------
-    def offboard_request(self, request: OffboardVelocity | OffboardPosition) -> Reply:
+    def offboard_request(self, request: OffboardVelocity | OffboardPosition | OffboardAttitude) -> Reply:
         """A client's Offboard set-point, judged against the current step's state (observe())."""
+        if isinstance(request, OffboardAttitude):
+            if self.offboard.accept(request, self.state, self.now_usec):
+                self.setpoints_clamped += 1
+                self.say(mavlink.MAV_SEVERITY_WARNING, "Attitude set-point clamped (tilt <= 45 deg, rates <= 180 "
+                         "deg/s, thrust 0..1)", key="attitude clamped")  # fmt: skip
+            return ACCEPTED, None
         if self.offboard.accept(request, self.state, self.now_usec):
             self.setpoints_clamped += 1
             self.say(mavlink.MAV_SEVERITY_WARNING, "Set-point clamped to |v| <= (30, 30, 10) m/s", key="clamped")
@@ -325,6 +351,18 @@ class Commander:
         down = float(state.position_ned[2]) if request.down is None else request.down
         self._set_mode(ORBIT, state, f"Orbit: radius {request.radius:g} m at {request.speed:g} m/s")
         self.orbit.start(state, Circle(center, down, request.radius, request.speed, request.clockwise))
+        return ACCEPTED, None
+
+    def change_speed(self, speed: float | None) -> Reply:
+        """DO_CHANGE_SPEED: the cruise speed of the legs of Mission, Return and Go-to (None: the defaults), within
+        the velocity controllers' envelope."""
+        if (refusal := self._refusal()) is not None:
+            return refusal
+        if speed is not None and speed > MAX_CRUISE_SPEED:
+            self.say(mavlink.MAV_SEVERITY_WARNING, f"Speed {speed:g} m/s clamped to {MAX_CRUISE_SPEED:g} m/s")
+            speed = MAX_CRUISE_SPEED
+        self.auto.mission_speed = speed
+        self.say(mavlink.MAV_SEVERITY_INFO, "Speed: defaults" if speed is None else f"Speed: {speed:g} m/s")
         return ACCEPTED, None
 
     def offboard_setpoint(self, velocity_ned: np.ndarray, stamp_ms: int | None = None) -> None:
@@ -350,8 +388,10 @@ class Commander:
         self.offboard.take_due(time_usec)
         if self.profile is not None:
             return self.profile((time_usec - self._start_usec) / 1e6) if self.flying else None
+        manual_lost = self.mode in (POSITION, ALTITUDE) and not self.manual.fresh(time_usec)
         decision = self.failsafe.check(FailsafeInputs(time_usec, self.flying, self.mode, state.position_ned,
-                                                      self.mode == OFFBOARD and not self._offboard_fresh()))  # fmt: skip
+                                                      self.mode == OFFBOARD and not self._offboard_fresh(),
+                                                      manual_lost))  # fmt: skip
         if decision is not None:
             self._failsafe(decision, state)
         if not self.armed:

@@ -5,11 +5,13 @@ checked from the vehicle's status, and when one starts to hold, the action PX4's
     position loss      the GPS OFF (injected) for COM_POS_FS_DELAY          Descend (PX4's mode fallback)
     data-link loss     no GCS HEARTBEAT for COM_DL_LOSS_T (after a first)   NAV_DLL_ACT (ignored in Land)
     geofence breach    GF_MAX_HOR_DIST, GF_MAX_VER_DIST, the fence items    GF_ACTION
+    manual control     Position/Altitude with no MANUAL_CONTROL for          NAV_RCL_ACT
+    loss               COM_RC_LOSS_T
 
 A condition acts when it starts (PX4: the action is cleared by a mode change, so a user can fly out of it); its
-cause is said as a STATUSTEXT, and the commander switches modes and says "Failsafe activated". Manual control modes
-(PX4's Position, Altitude, Stabilized fallbacks) do not exist here: with no RC they fall back to Hold, as PX4's
-failsafe falls back when a mode cannot run.
+cause is said as a STATUSTEXT, and the commander switches modes and says "Failsafe activated". The offboard loss's
+manual fallbacks (PX4's Position, Altitude, Stabilized) fall back to Hold: there is no RC, and a script that lost
+its Offboard stream seldom sends MANUAL_CONTROL.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ DESCEND = "Descend"  # Land with no horizontal position control (PX4 reports it 
 OFFBOARD_LOSS_ACTIONS = {0: HOLD, 1: HOLD, 2: HOLD, 3: RETURN, 4: LAND, 5: HOLD}  # COM_OBL_RC_ACT
 DATALINK_LOSS_ACTIONS = {0: NONE, 1: HOLD, 2: RETURN, 3: LAND}  # NAV_DLL_ACT
 GEOFENCE_ACTIONS = {0: NONE, 1: WARN, 2: HOLD, 3: RETURN, 4: TERMINATE, 5: LAND}  # GF_ACTION
+MANUAL_LOSS_ACTIONS = {0: NONE, 1: HOLD, 2: RETURN, 3: LAND, 4: HOLD, 5: TERMINATE, 6: TERMINATE}  # NAV_RCL_ACT
 
 
 @dataclass(frozen=True)
@@ -51,6 +54,7 @@ class FailsafeInputs:
     mode: str
     position_ned: np.ndarray
     offboard_lost: bool  # in Offboard with no set-point for COM_OF_LOSS_T
+    manual_lost: bool = False  # in Position or Altitude with no MANUAL_CONTROL for COM_RC_LOSS_T
 
 
 class Failsafe:
@@ -100,6 +104,10 @@ class Failsafe:
         if status.offboard_lost:
             action = OFFBOARD_LOSS_ACTIONS[self.params.get_int("COM_OBL_RC_ACT")] if status.flying else HOLD
             return Decision(action, f"Offboard lost: no set-point for {self.params['COM_OF_LOSS_T']:g} s")
+        if status.manual_lost:  # PX4 with NAV_RCL_ACT 0 still leaves a manual mode it cannot fly: Hold
+            action = MANUAL_LOSS_ACTIONS[self.params.get_int("NAV_RCL_ACT")] if status.flying else HOLD
+            cause = f"Manual control lost: no MANUAL_CONTROL for {self.params['COM_RC_LOSS_T']:g} s"
+            return Decision(HOLD if action == NONE else action, cause)
         return self._position(status) or self._geofence(status) or self._datalink(status)
 
     def _position(self, status: FailsafeInputs) -> Decision | None:

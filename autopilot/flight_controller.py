@@ -27,8 +27,10 @@ from aircraft.rotors import rotor_wrench
 from autopilot.actuator_health import ActuatorHealth, ServoEstimate
 from autopilot.allocation import ControlAllocator
 from autopilot.attitude import AttitudeController
+from autopilot.attitude_setpoint import attitude_command
 from autopilot.mpc import MpcSolution
 from autopilot.mpc_controller import MpcVelocityController
+from autopilot.offboard_setpoint import AttitudeTarget
 from autopilot.pid_baseline import PidVelocityController
 from autopilot.vehicle_state import VehicleState
 from autopilot.velocity_command import VelocityCommand
@@ -112,6 +114,7 @@ class FlightController:
         self.velocity_command = VelocityCommand()
         self.velocity_estimate = VelocityEstimate(airframe.gravity)
         self.velocity_setpoint = np.zeros(3)
+        self.attitude_setpoint: AttitudeTarget | None = None  # Offboard attitude: the velocity controller idles
         self.command = np.zeros(CHANNELS)
         set_allocated(self.command, allocator.u)  # rotors and surfaces where the allocator starts
         self.torque_sp = np.zeros(3)
@@ -149,6 +152,10 @@ class FlightController:
             return False
         self.velocity_setpoint[:] = velocity_ned
         return True
+
+    def set_attitude_setpoint(self, target: AttitudeTarget | None) -> None:
+        """Offboard attitude: fly `target` with the attitude loop alone (None: the velocity controller flies)."""
+        self.attitude_setpoint = target
 
     def set_transition_airspeeds(self, blend: float, trans: float) -> None:
         """VT_ARSP_BLEND and VT_ARSP_TRANS (m/s) for the PID baseline (flying, or the MPC's back-up)."""
@@ -190,7 +197,12 @@ class FlightController:
             state = dataclasses.replace(state, velocity_ned=velocity.copy())  # the controllers fly on the estimate
         if t >= self._next_velocity_usec:
             self._next_velocity_usec += VELOCITY_PERIOD_USEC
-            self.velocity_command = self.velocity_controller.update(state, self.velocity_setpoint, self.servos.tilt)
+            if self.attitude_setpoint is None:
+                self.velocity_command = self.velocity_controller.update(state, self.velocity_setpoint, self.servos.tilt)
+            else:  # the velocity controller tracks the vehicle's own velocity, warm for when it flies again
+                self.velocity_controller.update(state, state.velocity_ned, self.servos.tilt)
+                self.velocity_command = attitude_command(self.attitude_setpoint, state.euler,
+                                                         self.airframe.thrust_max * len(self.airframe.rotor_positions))
             if self.mpc is not None and self.mpc.fallback_requested and not self.fell_back_to_pid:
                 self._fall_back_to_pid(state, self.mpc)
         if t < self._next_attitude_usec:

@@ -162,14 +162,17 @@ class OffboardMode(FlightMode):
     def detects_landing(self) -> bool:  # a client may land the vehicle with its set-points
         return True
 
-    def __init__(self, navigator: Navigator, offboard: OffboardSetpoint) -> None:
+    def __init__(self, navigator: Navigator, offboard: OffboardSetpoint, hover_fraction: float) -> None:
         self.navigator = navigator
         self.offboard = offboard
+        self.hover_fraction = hover_fraction
 
     def activate(self, state: VehicleState) -> None:
         self.navigator.start_tracking(state)
 
     def setpoint(self, state: VehicleState) -> np.ndarray:
+        if self.offboard.attitude is not None:  # flown by the attitude loop: what it asks of the land detector
+            return self.offboard.attitude.climb(self.hover_fraction)
         if self.offboard.position is None:
             return self.offboard.velocity
         return self.navigator.track(state, self.offboard.position, self.offboard.velocity)

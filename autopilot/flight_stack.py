@@ -10,9 +10,10 @@ from autopilot.commander import MISSION, RETURN, Commander
 from autopilot.failure_injection import FailureInjection
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
-from autopilot.requests import (Arm, ClearMission, Disarm, GcsHeartbeat, InjectFailure, Land, OffboardPosition,
-                                OffboardVelocity, Orbit, Reply, Reposition, Request, ReturnToLaunch, SetMissionCurrent,
-                                SetMode, StartMission, StoreMission, Takeoff, Transition)  # fmt: skip
+from autopilot.requests import (Arm, ChangeSpeed, ClearMission, Disarm, GcsHeartbeat, InjectFailure, Land,
+                                ManualControlInput, OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit,
+                                Reply, Reposition, Request, ReturnToLaunch, SetMissionCurrent, SetMode,
+                                StartMission, StoreMission, Takeoff, Transition)  # fmt: skip
 from transport.mavlink import mavlink
 
 
@@ -62,10 +63,14 @@ class FlightStack:
                 return commander.set_mode(MISSION, state)
             case ReturnToLaunch():
                 return commander.set_mode(RETURN, state)
+            case ChangeSpeed(speed=speed):
+                return commander.change_speed(speed)
             case Reposition() | Orbit():
                 return commander.route(request, state)
-            case OffboardVelocity() | OffboardPosition():
+            case OffboardVelocity() | OffboardPosition() | OffboardAttitude():
                 return commander.offboard_request(request)
+            case ManualControlInput():
+                return commander.manual_control(request)
             case GcsHeartbeat():
                 commander.failsafe.gcs_heartbeat(commander.now_usec)
                 return mavlink.MAV_RESULT_ACCEPTED, None

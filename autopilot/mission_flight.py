@@ -12,12 +12,16 @@ progress reported to the mission store (MISSION_CURRENT, MISSION_ITEM_REACHED).
     DO_JUMP                       to item param1, param2 times
     DO_VTOL_TRANSITION, DO_SET_HOME accepted and passed (the legs' speeds choose the phase)
 
-When the mission ends it holds at the last position (PX4: loiter at the last waypoint), MISSION_STATE_COMPLETE.
+A mission started on the ground whose first navigation item is a waypoint or loiter (no takeoff item) takes off
+first, as PX4's mission does: a climb over the current position to the higher of the item's altitude and
+MIS_TAKEOFF_ALT above the ground, then the item. When the mission ends it holds at the last position (PX4: loiter at
+the last waypoint), MISSION_STATE_COMPLETE.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -32,6 +36,13 @@ from transport.mavlink import mavlink as M
 LANDING_APPROACH_RADIUS = 1.0  # m: the FlyTo before a landing stops within this of the landing point
 LANDS = (M.MAV_CMD_NAV_LAND, M.MAV_CMD_NAV_VTOL_LAND)
 TAKEOFFS = (M.MAV_CMD_NAV_TAKEOFF, M.MAV_CMD_NAV_VTOL_TAKEOFF)
+TAKEOFF_BEFORE = (M.MAV_CMD_NAV_WAYPOINT, M.MAV_CMD_NAV_LOITER_TIME, M.MAV_CMD_NAV_LOITER_UNLIM)
+
+
+def takeoff_down(item_down: float, ground_down: float, takeoff_alt: float) -> float:
+    """The altitude (NED down) of the takeoff a mission started on the ground flies before its first item: the
+    item's, but at least `takeoff_alt` (MIS_TAKEOFF_ALT) above the ground (PX4's calculate_takeoff_altitude)."""
+    return min(item_down, ground_down - takeoff_alt)
 
 
 def closest_safe_point(position_ned: np.ndarray, rally_points: list[np.ndarray]) -> np.ndarray:
@@ -52,8 +63,10 @@ def return_route(params: ParameterStore, state: VehicleState, rally_points: list
 class MissionFlight:
     """Steps through the stored mission from its current item, handing AutoFlight its targets."""
 
-    def __init__(self, params: ParameterStore, store: MissionStore, home: Home, auto: AutoFlight) -> None:
+    def __init__(self, params: ParameterStore, store: MissionStore, home: Home, auto: AutoFlight,
+                 landed: Callable[[], bool]) -> None:  # fmt: skip
         self.params = params
+        self.landed_now = landed
         self.store = store
         self.home = home
         self.auto = auto
@@ -61,6 +74,7 @@ class MissionFlight:
         self.complete = False
         self._jumps: dict[int, int] = {}  # DO_JUMP item -> jumps done
         self._version = -1
+        self._takeoff_first = False  # started on the ground: climb before the first navigation item
 
     @property
     def items(self) -> tuple[MissionItem, ...]:
@@ -74,6 +88,7 @@ class MissionFlight:
         if self.store.snapshot.state == M.MISSION_STATE_COMPLETE or seq >= len(self.items):
             seq = 0
         self._jumps = {}
+        self._takeoff_first = self.landed_now()
         self.auto.mission_speed = None
         self.auto.start(state, [])
         self._begin(state, seq)
@@ -125,6 +140,12 @@ class MissionFlight:
             if item.command == M.MAV_CMD_DO_CHANGE_SPEED:
                 self.auto.mission_speed = item.param2 if item.param2 > 0 else None
             targets = self._targets(state, item)
+            if targets and self._takeoff_first:
+                self._takeoff_first = False
+                if item.command in TAKEOFF_BEFORE:
+                    item_down = float(self._position(state.position_ned, item)[2])
+                    down = takeoff_down(item_down, float(state.position_ned[2]), self.params["MIS_TAKEOFF_ALT"])
+                    targets.insert(0, Climb(state.position_ned[0:2].copy(), down, self.params["MPC_TKO_SPEED"]))
             if targets:
                 self.seq = seq
                 self.complete = False

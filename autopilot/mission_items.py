@@ -152,8 +152,8 @@ def check_item(mission_type: int, item: MissionItem) -> int:
 def _check_command_params(item: MissionItem) -> int:
     if item.command in FENCE_POLYGONS and not (math.isfinite(item.param1) and item.param1 >= 2.5):
         return M.MAV_MISSION_ERROR  # PX4: "Fence: too few vertices"
-    if item.command in FENCE_CIRCLES and not (math.isfinite(item.param1) and item.param1 > 0):
-        return M.MAV_MISSION_INVALID_PARAM1
+    if item.command in FENCE_CIRCLES and not (math.isfinite(item.param1) and item.param1 >= 0):
+        return M.MAV_MISSION_INVALID_PARAM1  # PX4 takes a radius of 0 (MAVSDK's geofence example uploads one)
     if item.command == M.MAV_CMD_DO_JUMP and not (math.isfinite(item.param1) and item.param1 >= 0
                                                   and item.param1 == int(item.param1)):  # fmt: skip
         return M.MAV_MISSION_INVALID_PARAM1

@@ -1,19 +1,53 @@
-"""The Offboard set-point as the commander keeps it: the latest velocity, or position with a velocity
-feed-forward, when it arrived (for the COM_OF_LOSS_T failsafe), and, with `--offboard-lockstep`, the stamped
-velocity set-points waiting for their simulation time.
+"""The Offboard set-point as the commander keeps it: the latest velocity, position with a velocity
+feed-forward, or attitude (or body rates) with thrust, when it arrived (for the COM_OF_LOSS_T failsafe), and, with
+`--offboard-lockstep`, the stamped velocity set-points waiting for their simulation time.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
-from autopilot.requests import OffboardPosition, OffboardVelocity
+from autopilot.requests import OffboardAttitude, OffboardPosition, OffboardVelocity
 from autopilot.stamped_setpoints import StampedSetpoints
 from autopilot.vehicle_state import VehicleState
 
 SETPOINT_LIMITS = np.array([30.0, 30.0, 10.0])  # m/s: the MPC's velocity envelope; set-points are clamped to it
+TILT_LIMIT = math.radians(45.0)  # rad: Offboard roll and pitch set-points are clamped to this
+RATE_LIMIT = math.pi  # rad/s: the attitude loop's rate limit; body-rate set-points are clamped to it
+ATTITUDE_CLIMB = 1.0  # m/s: the climb (or descent) an Offboard thrust above (below) hover stands for
+
+
+@dataclass(frozen=True)
+class AttitudeTarget:
+    """An Offboard attitude set-point within its limits: Euler angles (rad) or body rates (rad/s), thrust 0..1."""
+
+    euler: np.ndarray | None
+    body_rates: np.ndarray | None
+    thrust: float
+
+    def climb(self, hover_fraction: float) -> np.ndarray:
+        """The velocity set-point (NED) the thrust stands for: a lift-off above hover thrust, a descent (which the
+        land detector watches) below it; the velocity controller does not fly it."""
+        return np.array([0.0, 0.0, -ATTITUDE_CLIMB if self.thrust > hover_fraction else ATTITUDE_CLIMB])
+
+
+def attitude_in_limits(request: OffboardAttitude, last_thrust: float) -> tuple[AttitudeTarget, bool]:
+    """The request clamped to TILT_LIMIT, RATE_LIMIT and thrust 0..1 (None: `last_thrust`); True when clamped."""
+    thrust = last_thrust if request.thrust is None else request.thrust
+    clamped_thrust = min(max(thrust, 0.0), 1.0)
+    euler = rates = None
+    clamped = clamped_thrust != thrust
+    if request.euler is not None:
+        euler = request.euler.copy()
+        euler[0:2] = np.clip(euler[0:2], -TILT_LIMIT, TILT_LIMIT)
+        clamped |= not np.array_equal(euler, request.euler)
+    if request.body_rates is not None:
+        rates = np.clip(request.body_rates, -RATE_LIMIT, RATE_LIMIT)
+        clamped |= not np.array_equal(rates, request.body_rates)
+    return AttitudeTarget(euler, rates, clamped_thrust), clamped
 
 
 def to_ned(vector: np.ndarray, yaw: float) -> np.ndarray:
@@ -35,12 +69,21 @@ class OffboardSetpoint:
     def __init__(self, stamped: bool) -> None:
         self.velocity = np.zeros(3)  # NED, m/s (with a position: its feed-forward)
         self.position: np.ndarray | None = None  # NED from home, m; None: a velocity set-point
+        self.attitude: AttitudeTarget | None = None  # SET_ATTITUDE_TARGET's (the velocity is then unused)
         self.received_usec: int | None = None
         self.stamped = StampedSetpoints() if stamped else None
 
-    def accept(self, request: OffboardVelocity | OffboardPosition, state: VehicleState, now_usec: int) -> bool:
+    def accept(self, request: OffboardVelocity | OffboardPosition | OffboardAttitude, state: VehicleState,
+               now_usec: int) -> bool:  # fmt: skip
         """A client's set-point in NED (body frames rotated by the yaw, offsets from where the vehicle is), its
-        velocity clamped to the envelope; True when it had to be clamped."""
+        velocity clamped to the envelope, an attitude to its limits; True when it had to be clamped."""
+        if isinstance(request, OffboardAttitude):
+            last_thrust = 0.0 if self.attitude is None else self.attitude.thrust
+            self.attitude, clamped = attitude_in_limits(request, last_thrust)
+            self.velocity = np.zeros(3)
+            self.position = None
+            self.received_usec = now_usec
+            return clamped
         yaw = float(state.euler[2])
         velocity, clamped = in_envelope(request.velocity, request.body, yaw)
         if isinstance(request, OffboardVelocity):
@@ -57,12 +100,14 @@ class OffboardSetpoint:
             return
         self.velocity = velocity_ned
         self.position = None
+        self.attitude = None
         self.received_usec = now_usec
 
     def receive_position(self, position_ned: np.ndarray, velocity_ned: np.ndarray, now_usec: int) -> None:
         """A position set-point (NED from home) with its velocity feed-forward, received now."""
         self.position = position_ned
         self.velocity = velocity_ned
+        self.attitude = None
         self.received_usec = now_usec
 
     def take_due(self, time_usec: int) -> None:
@@ -70,6 +115,7 @@ class OffboardSetpoint:
         if self.stamped is not None and (due := self.stamped.due(time_usec)) is not None:
             self.velocity = due
             self.position = None
+            self.attitude = None
             self.received_usec = time_usec
 
     def covers(self, time_usec: int) -> bool:

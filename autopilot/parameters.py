@@ -62,6 +62,14 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
     P("COM_DL_LOSS_T", INT32, 10, 5, 300, "s", "data-link loss: no ground-station HEARTBEAT for this long"),
     P("NAV_DLL_ACT", INT32, 0, 0, 3, "", "data-link loss failsafe: 0 disabled, 1 Hold, 2 Return, 3 Land (PX4's 5 "
       "Terminate and 6 Disarm are refused)"),
+    P("COM_RC_IN_MODE", INT32, 3, 0, 8, "", "manual control source: 0 RC only (no RC here: MANUAL_CONTROL ignored), "
+      "1 MAVLink only, 2 RC or MAVLink with fallback, 3 RC or MAVLink keep first, 4 disabled, 5-8 priorities"),
+    P("COM_RC_LOSS_T", REAL32, 0.5, 0.0, 35.0, "s", "manual control loss: no MANUAL_CONTROL for this long"),
+    P("NAV_RCL_ACT", INT32, 2, 0, 6, "", "manual control loss failsafe (Position, Altitude): 0 disabled, 1 Hold, "
+      "2 Return, 3 Land, 5 Terminate, 6 Disarm (motors off)"),
+    P("MPC_VEL_MANUAL", REAL32, 10.0, 3.0, 20.0, "m/s", "Position: horizontal speed at full stick"),
+    P("MPC_HOLD_DZ", REAL32, 0.1, 0.0, 1.0, "", "stick deadzone of Position and Altitude (centred: hold)"),
+    P("MPC_MAN_Y_MAX", REAL32, 150.0, 0.0, 400.0, "deg/s", "yaw stick: rate of the sticks' heading at full stick"),
     P("COM_POS_FS_DELAY", INT32, 1, 1, 100, "s", "position loss failsafe (GPS OFF): Descend after this long"),
     P("GF_ACTION", INT32, 2, 0, 5, "", "geofence breach action: 0 none, 1 warning, 2 Hold, 3 Return, 4 terminate "
       "(motors off), 5 Land"),

@@ -70,6 +70,27 @@ class OffboardPosition:
 
 
 @dataclass(frozen=True)
+class OffboardAttitude:
+    """SET_ATTITUDE_TARGET: a finite attitude (roll, pitch, yaw rad) or, when the attitude is ignored, body rates
+    (rad/s), and a collective thrust (0..1 of the rotors' full thrust; None: the last one). Checked for range by
+    the commander (clamped and reported)."""
+
+    euler: np.ndarray | None
+    body_rates: np.ndarray | None
+    thrust: float | None
+
+
+@dataclass(frozen=True)
+class ManualControlInput:
+    """MANUAL_CONTROL (a virtual RC) normalised: pitch, roll, yaw -1..1, throttle 0..1 (0.5 centre)."""
+
+    pitch: float = 0.0
+    roll: float = 0.0
+    throttle: float = 0.5
+    yaw: float = 0.0
+
+
+@dataclass(frozen=True)
 class InjectFailure:
     """MAV_CMD_INJECT_FAILURE, checked against the failure vocabulary; `ticket` names it in the outcome."""
 
@@ -116,6 +137,13 @@ class Reposition:
 
 
 @dataclass(frozen=True)
+class ChangeSpeed:
+    """MAV_CMD_DO_CHANGE_SPEED: the cruise speed (m/s, finite, > 0) of the legs flown from now; None: the defaults."""
+
+    speed: float | None
+
+
+@dataclass(frozen=True)
 class Orbit:
     """MAV_CMD_DO_ORBIT: circle `center` (NE; None: here) at `down` (None: the current altitude)."""
 
@@ -131,8 +159,9 @@ class GcsHeartbeat:
     """A HEARTBEAT from a ground station (MAV_TYPE_GCS) arrived now: the data link is alive (NAV_DLL_ACT)."""
 
 
-Request = (Arm | Disarm | Takeoff | Land | SetMode | Transition | OffboardVelocity | OffboardPosition | InjectFailure
-           | StoreMission | ClearMission | SetMissionCurrent | StartMission | ReturnToLaunch | Reposition
+Request = (Arm | Disarm | Takeoff | Land | SetMode | Transition | OffboardVelocity | OffboardPosition
+           | OffboardAttitude | ManualControlInput | InjectFailure
+           | StoreMission | ClearMission | SetMissionCurrent | StartMission | ReturnToLaunch | Reposition | ChangeSpeed
            | Orbit | GcsHeartbeat)  # fmt: skip
 
 

@@ -49,7 +49,8 @@ def test_px4_custom_modes_round_trip():
     for mode in (HOLD, TAKEOFF, LAND, OFFBOARD):
         value = custom_mode(mode)
         assert mode_from_px4((value >> 16) & 0xFF, (value >> 24) & 0xFF) == mode
-    assert mode_from_px4(3, 0) is None and mode_from_px4(4, 4) == "Mission"  # POSCTL, MISSION
+    assert mode_from_px4(3, 0) == "Position" and mode_from_px4(2, 0) == "Altitude" and mode_from_px4(4, 4) == "Mission"
+    assert mode_from_px4(1, 0) is None  # MANUAL (no RC, no stabilised modes)
 
 
 def test_arming_checks_and_disarming_in_the_air():

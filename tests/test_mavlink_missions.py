@@ -74,6 +74,10 @@ def test_supported_items_pass_and_fence_polygons_need_three_vertices():
     two = item((REL, M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION, 2, 0, 0, 0, LAT, LON, 0.0))
     assert check_item(M.MAV_MISSION_TYPE_FENCE, two) == M.MAV_MISSION_ERROR
     assert check_item(M.MAV_MISSION_TYPE_RALLY, item(SURVEY[1])) == M.MAV_MISSION_ERROR
+    zero = item((REL, M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, 0, 0, 0, 0, 0, 0, 0.0))  # MAVSDK's geofence example
+    assert check_item(M.MAV_MISSION_TYPE_FENCE, zero) == M.MAV_MISSION_ACCEPTED
+    negative = item((REL, M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, -5, 0, 0, 0, LAT, LON, 0.0))
+    assert check_item(M.MAV_MISSION_TYPE_FENCE, negative) == M.MAV_MISSION_INVALID_PARAM1
 
 
 def test_the_mission_file_round_trips_and_broken_ones_are_refused(tmp_path):

@@ -10,6 +10,7 @@ import numpy as np
 import pymap3d
 
 from autopilot.guidance import circle_velocity, leg_cruise_speed, leg_velocity
+from autopilot.mission_flight import takeoff_down
 from tests.ground_station import HOLD
 from tests.mavlink_sitl import start_sitl
 from tests.test_mavlink_missions import Client
@@ -48,6 +49,11 @@ def test_leg_velocity_cruises_along_the_leg_converges_to_it_and_brakes_into_its_
     assert np.allclose(circle_velocity(np.array([20.0, 0.0]), np.zeros(2), 20.0, 5.0, False, 5.0), [0.0, -5.0])
 
 
+def test_a_mission_started_landed_takes_off_to_its_first_item_or_mis_takeoff_alt():
+    assert takeoff_down(-25.0, 0.0, 2.5) == -25.0  # the first waypoint's altitude
+    assert takeoff_down(-1.0, 0.0, 2.5) == -2.5  # at least MIS_TAKEOFF_ALT above the ground
+
+
 # ---- through the real processes ---------------------------------------------------------------------------------------
 def fly(sitl, until, timeout_s: float, sample) -> None:
     gs = sitl.gs
@@ -60,18 +66,27 @@ def fly(sitl, until, timeout_s: float, sample) -> None:
     gs.wait(done, "the flight to end", timeout_s)
 
 
+def vehicle_with_mission(tmp_path, rows: list[tuple]):
+    """A lockstep vehicle on the ground (MPC) with `rows` uploaded as its mission, its ground station connected."""
+    sitl = start_sitl(tmp_path / "params.json", speed=None)
+    try:
+        sitl.gs.connect()
+        assert Client(sitl.gs).upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
+    except BaseException:
+        sitl.kill()
+        raise
+    return sitl
+
+
 def test_a_mission_with_forward_flight_legs_and_no_transition_item_lands_at_home(tmp_path):
     # Out in forward flight and back to land at home (800 m: two cruises, two brakings), low, so the climb and the
     # landing are short.
     legs = [(400.0, 0.0, 12.0)]
     rows = [waypoint(0, 0, 8.0, M.MAV_CMD_NAV_VTOL_TAKEOFF)] + [waypoint(*leg) for leg in legs] + [
         waypoint(0.0, 0.0, 0.0, M.MAV_CMD_NAV_VTOL_LAND)]  # fmt: skip
-    sitl = start_sitl(tmp_path / "params.json", speed=None)
+    sitl = vehicle_with_mission(tmp_path, rows)
     try:
         gs = sitl.gs
-        gs.connect()
-        client = Client(gs)
-        assert client.upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
         gs.pump(0.2)
         assert gs.set_mode(MISSION_MODE).result == M.MAV_RESULT_ACCEPTED
         assert gs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == M.MAV_RESULT_ACCEPTED
@@ -98,6 +113,35 @@ def test_a_mission_with_forward_flight_legs_and_no_transition_item_lands_at_home
         assert 1 in reached
         gs.wait(lambda: gs.latest["MISSION_CURRENT"].mission_state == M.MISSION_STATE_COMPLETE, "mission complete", 30)
         assert gs.latest["HEARTBEAT"].custom_mode == MISSION_MODE
+    finally:
+        sitl.kill()
+
+
+def test_a_mission_without_takeoff_item_started_on_the_ground_climbs_over_home_then_flies_it(tmp_path):
+    rows = [waypoint(12.0, 0.0, 6.0), waypoint(12.0, 0.0, 0.0, M.MAV_CMD_NAV_LAND)]
+    sitl = vehicle_with_mission(tmp_path, rows)
+    try:
+        gs = sitl.gs
+        assert gs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == M.MAV_RESULT_ACCEPTED
+        assert gs.set_mode(MISSION_MODE).result == M.MAV_RESULT_ACCEPTED  # as MAVSDK: arm, then start_mission
+        climb_offset = [0.0]
+        highest = [0.0]
+        reached: set[int] = set()
+
+        def sample(position) -> None:
+            if highest[0] < 5.0:  # climbing, before the leg to the waypoint
+                climb_offset[0] = max(climb_offset[0], math.hypot(position.x, position.y))
+            highest[0] = max(highest[0], -position.z)
+            if "MISSION_ITEM_REACHED" in gs.latest:
+                reached.add(gs.latest["MISSION_ITEM_REACHED"].seq)
+
+        gs.wait(lambda: gs.altitude > 1.0, "the takeoff before the first waypoint", 60)
+        fly(sitl, lambda: not gs.armed, 180, sample)
+        final = gs.latest["LOCAL_POSITION_NED"]
+        print(f"climbed to {highest[0]:.1f} m within {climb_offset[0]:.2f} m of home, landed at "
+              f"({final.x:.1f}, {final.y:.1f})")  # fmt: skip
+        assert climb_offset[0] < 2.0 and highest[0] >= 5.0
+        assert 0 in reached and math.hypot(final.x - 12.0, final.y) <= 2.0
     finally:
         sitl.kill()
 

@@ -24,6 +24,7 @@ from autopilot.mavlink.streams import DEFAULT_RATES_HZ, MIN_INTERVAL_USEC, defau
 from autopilot.mavlink.view import StatusView
 from autopilot.requests import (
     Arm,
+    ChangeSpeed,
     Disarm,
     InjectFailure,
     Land,
@@ -92,6 +93,7 @@ class CommandService:
             M.MAV_CMD_NAV_RETURN_TO_LAUNCH: lambda origin, p, frame: self.flight_stack.handle(ReturnToLaunch()),
             M.MAV_CMD_DO_REPOSITION: self._reposition,
             M.MAV_CMD_DO_ORBIT: self._orbit,
+            M.MAV_CMD_DO_CHANGE_SPEED: self._change_speed,
             M.MAV_CMD_INJECT_FAILURE: self._inject_failure,
             M.MAV_CMD_REQUEST_MESSAGE: self._request_message,
             M.MAV_CMD_SET_MESSAGE_INTERVAL: self._set_interval,
@@ -185,7 +187,7 @@ class CommandService:
         mode = mode_from_px4(main, sub)
         if mode is None:
             return M.MAV_RESULT_DENIED, (f"Mode {px4_mode_name(main, sub)} not supported: Hold Takeoff Land Offboard "
-                                         "Mission Return Orbit")  # fmt: skip
+                                         "Mission Return Orbit Position Altitude")  # fmt: skip
         return self.flight_stack.handle(SetMode(mode))
 
     def _transition(self, origin: Origin, p: Params, frame: int | None) -> Reply:
@@ -234,6 +236,13 @@ class CommandService:
         speed = p[0] if math.isfinite(p[0]) and p[0] > 0 else None
         position = np.array([north, east, here[2] if down is None else down])
         return self.flight_stack.handle(Reposition(position, speed))
+
+    def _change_speed(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
+        """MAV_CMD_DO_CHANGE_SPEED: param2 the speed (> 0; -1, -2 or 0: back to the defaults, as PX4's navigator);
+        param1 (airspeed or ground speed) is not told apart, as PX4 does not."""
+        if math.isnan(p[1]) or math.isinf(p[1]):
+            return M.MAV_RESULT_DENIED, "Change speed denied: param2 (speed) not finite"
+        return self.flight_stack.handle(ChangeSpeed(p[1] if p[1] > 0 else None))
 
     def _orbit(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
         """MAV_CMD_DO_ORBIT: param1 radius (sign: direction, positive clockwise), param2 velocity (NaN: default),

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 from autopilot.commander import HOLD, LAND, MISSION, OFFBOARD, ORBIT, RETURN, TAKEOFF
+from autopilot.manual_modes import ALTITUDE, POSITION
 
-PX4_MAIN_POSCTL, PX4_MAIN_AUTO, PX4_MAIN_OFFBOARD = 3, 4, 6
+PX4_MAIN_ALTCTL, PX4_MAIN_POSCTL, PX4_MAIN_AUTO, PX4_MAIN_OFFBOARD = 2, 3, 4, 6
 PX4_AUTO_TAKEOFF, PX4_AUTO_LOITER, PX4_AUTO_MISSION, PX4_AUTO_RTL, PX4_AUTO_LAND = 2, 3, 4, 5, 6
 PX4_POSCTL_ORBIT = 1  # PX4 reports its Orbit navigation state as POSCTL / ORBIT (px4_custom_mode.h)
 PX4_MODES = {  # mode -> (main mode, sub mode)
@@ -15,6 +16,8 @@ PX4_MODES = {  # mode -> (main mode, sub mode)
     MISSION: (PX4_MAIN_AUTO, PX4_AUTO_MISSION),
     RETURN: (PX4_MAIN_AUTO, PX4_AUTO_RTL),
     ORBIT: (PX4_MAIN_POSCTL, PX4_POSCTL_ORBIT),
+    POSITION: (PX4_MAIN_POSCTL, 0),
+    ALTITUDE: (PX4_MAIN_ALTCTL, 0),
 }
 PX4_MAIN_NAMES = {1: "MANUAL", 2: "ALTCTL", 3: "POSCTL", 4: "AUTO", 5: "ACRO", 6: "OFFBOARD", 7: "STABILIZED",
                   8: "RATTITUDE"}  # fmt: skip

@@ -19,8 +19,10 @@ from typing import Any
 
 from autopilot.mavlink import messages
 from autopilot.mavlink.commands import CommandService
+from autopilot.mavlink.manual_control import ManualControlService
 from autopilot.mavlink.missions import MissionService
 from autopilot.mavlink.offboard import OffboardService
+from autopilot.mavlink.offboard_attitude import OffboardAttitudeService
 from autopilot.mavlink.parameters import ParameterService
 from autopilot.mavlink.router import GroundLink, Router
 from autopilot.mavlink.signing import SigningService
@@ -49,6 +51,8 @@ class MavlinkServices:
         self.announcer = Announcer(router, self.view.clock, events_publisher, quiet)
         self.commands = CommandService(flight_stack, self.view, self.announcer, system_id=system_id, home=home)
         self.offboard = OffboardService(flight_stack, self.announcer, system_id=system_id, home=home)
+        self.offboard_attitude = OffboardAttitudeService(flight_stack, self.announcer, system_id=system_id)
+        self.manual_control = ManualControlService(flight_stack, self.announcer, system_id=system_id)
         self.parameters = ParameterService(params, router, self.announcer, system_id=system_id)
         self.missions = MissionService(flight_stack, self.view, router, self.announcer, system_id=system_id)
         self.signing = SigningService(params, router, self.announcer, system_id=system_id)
@@ -62,6 +66,8 @@ class MavlinkServices:
             "SET_MODE": self.commands.on_set_mode,
             "SET_POSITION_TARGET_LOCAL_NED": self.offboard.on_position_target_local,
             "SET_POSITION_TARGET_GLOBAL_INT": self.offboard.on_position_target_global,
+            "SET_ATTITUDE_TARGET": self.offboard_attitude.on_attitude_target,
+            "MANUAL_CONTROL": self.manual_control.on_manual_control,
             "PARAM_REQUEST_LIST": self.parameters.on_request_list,
             "PARAM_REQUEST_READ": self.parameters.on_request_read,
             "PARAM_SET": self.parameters.on_set,
@@ -182,7 +188,7 @@ class MavlinkServices:
     # ---- the end ------------------------------------------------------------------------------------------------
     def summary(self) -> dict[str, Any]:
         return {link.name.lower(): link.summary() for link in self.router.links} | {
-            "setpoints_dropped": self.offboard.dropped,
+            "setpoints_dropped": self.offboard.dropped + self.offboard_attitude.dropped,
             "notices_suppressed": self.announcer.suppressed,
             "lockstep_holds": self.holds,
             "lockstep_hold_wall_s": round(self.hold_wall_s, 3),
