@@ -79,6 +79,7 @@ class AutoFlight:
         self.leg_start = np.zeros(3)
         self.descending = False
         self.mission_speed: float | None = None  # DO_CHANGE_SPEED (None: the default cruise speeds)
+        self.forward_flight: bool | None = None  # the phase DO_VTOL_TRANSITION asked for (None: by leg length)
         self._target_since_usec = 0
 
     # ---- routes ------------------------------------------------------------------------------------------------
@@ -155,7 +156,8 @@ class AutoFlight:
                     return None
                 length = float(np.hypot(*(end[0:2] - start[0:2])))
                 cruise = speed if speed is not None else leg_cruise_speed(
-                    length, self.mission_speed, p["MPC_XY_CRUISE"], p["FW_AIRSPD_TRIM"], p["MPC_ACC_HOR"])
+                    length, self.mission_speed, p["MPC_XY_CRUISE"], p["FW_AIRSPD_TRIM"], p["MPC_ACC_HOR"],
+                    self.forward_flight)
                 horizontal = leg_velocity(position[0:2], start[0:2], end[0:2], cruise, p["MPC_ACC_HOR"], p["MPC_XY_P"])
                 return np.array([*horizontal, self._vertical(state, float(end[2]))])
             case HoldAt(position=point, seconds=seconds):

@@ -5,8 +5,9 @@
     circle_velocity   a vector field onto a circle (the fixed-wing Hold and Orbit)
     vertical_velocity P on the altitude error, bounded by the climb and descent limits
     ramp              a set-point changed by at most `accel` per second (the velocity controller gets a ramp)
-    leg_cruise_speed  the speed a leg is flown at: the forward-flight cruise speed when the leg is long enough to
-                      reach it and stop again, the multicopter cruise speed otherwise (or the mission's own)
+    leg_cruise_speed  the speed a leg is flown at: the mission's own (DO_CHANGE_SPEED); else, after a
+                      DO_VTOL_TRANSITION item, the cruise speed of the phase it asked for; else the forward-flight
+                      cruise speed when the leg is long enough to reach it and stop again, the multicopter one otherwise
 """
 
 from __future__ import annotations
@@ -75,9 +76,13 @@ def ramp(previous: np.ndarray, wanted: np.ndarray, accel: float, dt: float) -> n
 
 
 def leg_cruise_speed(length: float, mission_speed: float | None, mc_cruise: float, fw_cruise: float,
-                     accel: float) -> float:  # fmt: skip
-    """`mission_speed` (DO_CHANGE_SPEED) when set; else `fw_cruise` when the leg is long enough to accelerate to it
-    and brake from it at `accel` (the unified MPC transitions by itself), `mc_cruise` otherwise."""
+                     accel: float, forward_flight: bool | None = None) -> float:  # fmt: skip
+    """`mission_speed` (DO_CHANGE_SPEED) when set; else the phase a DO_VTOL_TRANSITION asked for
+    (`forward_flight` True: `fw_cruise`, False: `mc_cruise`); with no such item (None), `fw_cruise` when the leg
+    is long enough to accelerate to it and brake from it at `accel` (the unified MPC transitions by itself),
+    `mc_cruise` otherwise."""
     if mission_speed is not None:
         return mission_speed
+    if forward_flight is not None:
+        return fw_cruise if forward_flight else mc_cruise
     return fw_cruise if length >= fw_cruise**2 / accel else mc_cruise

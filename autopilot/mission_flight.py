@@ -10,7 +10,14 @@ progress reported to the mission store (MISSION_CURRENT, MISSION_ITEM_REACHED).
     NAV_RETURN_TO_LAUNCH          the Return route (to the closest of home and the rally points)
     DO_CHANGE_SPEED               param2 > 0: the cruise speed of the following legs (-1: back to the defaults)
     DO_JUMP                       to item param1, param2 times
-    DO_VTOL_TRANSITION, DO_SET_HOME accepted and passed (the legs' speeds choose the phase)
+    DO_VTOL_TRANSITION            param1 MAV_VTOL_STATE_FW: the following legs at FW_AIRSPD_TRIM, _MC: at
+                                  MPC_XY_CRUISE (the set-point's speed is what switches the PID's phases);
+                                  it cancels a DO_CHANGE_SPEED
+    DO_SET_HOME                   accepted and passed
+
+A mission with a DO_VTOL_TRANSITION item flies as PX4 flies it: in multicopter until the item to fixed wing,
+back to multicopter at the item to MC (so the PID back-transitions before its landing). A mission without one
+chooses each leg's speed by its length: the unified MPC transitions by itself (docs/mavlink.md, "Mission").
 
 When the mission ends it holds at the last position (PX4: loiter at the last waypoint), MISSION_STATE_COMPLETE.
 """
@@ -32,6 +39,7 @@ from transport.mavlink import mavlink as M
 LANDING_APPROACH_RADIUS = 1.0  # m: the FlyTo before a landing stops within this of the landing point
 LANDS = (M.MAV_CMD_NAV_LAND, M.MAV_CMD_NAV_VTOL_LAND)
 TAKEOFFS = (M.MAV_CMD_NAV_TAKEOFF, M.MAV_CMD_NAV_VTOL_TAKEOFF)
+VTOL_FW, VTOL_MC = M.MAV_VTOL_STATE_FW, M.MAV_VTOL_STATE_MC
 
 
 def closest_safe_point(position_ned: np.ndarray, rally_points: list[np.ndarray]) -> np.ndarray:
@@ -75,6 +83,8 @@ class MissionFlight:
             seq = 0
         self._jumps = {}
         self.auto.mission_speed = None
+        transitions = any(item.command == M.MAV_CMD_DO_VTOL_TRANSITION for item in self.items)
+        self.auto.forward_flight = False if transitions else None
         self.auto.start(state, [])
         self._begin(state, seq)
         return None
@@ -124,6 +134,9 @@ class MissionFlight:
                 continue
             if item.command == M.MAV_CMD_DO_CHANGE_SPEED:
                 self.auto.mission_speed = item.param2 if item.param2 > 0 else None
+            if item.command == M.MAV_CMD_DO_VTOL_TRANSITION and int(item.param1) in (VTOL_FW, VTOL_MC):
+                self.auto.forward_flight = int(item.param1) == VTOL_FW
+                self.auto.mission_speed = None  # as PX4's navigator, a new phase flies its own default cruise
             targets = self._targets(state, item)
             if targets:
                 self.seq = seq
@@ -171,4 +184,4 @@ class MissionFlight:
             return [HoldAt(state.position_ned.copy(), max(item.param1, 0.0))]
         if command == M.MAV_CMD_NAV_RETURN_TO_LAUNCH:
             return return_route(p, state, self.rally_points())
-        return []  # DO_CHANGE_SPEED (done above), DO_VTOL_TRANSITION, DO_SET_HOME: nothing to fly
+        return []  # DO_CHANGE_SPEED, DO_VTOL_TRANSITION (done above), DO_SET_HOME: nothing to fly
