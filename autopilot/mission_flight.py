@@ -83,9 +83,9 @@ class MissionFlight:
             seq = 0
         self._jumps = {}
         self.auto.mission_speed = None
+        self.auto.start(state, [])
         transitions = any(item.command == M.MAV_CMD_DO_VTOL_TRANSITION for item in self.items)
         self.auto.forward_flight = False if transitions else None
-        self.auto.start(state, [])
         self._begin(state, seq)
         return None
 

@@ -4,13 +4,14 @@ MAVLink mission protocol by a pymavlink ground station, Mission mode, arm, flown
 the ground; the autopilot's 100 Hz log kept. Then the per-waypoint closest approach and the landing error.
 
 The run folder `<out>/<mission>/<controller>/` gets flight.csv (the autopilot's log), result.json, and the
-processes' files under vehicle/.
+processes' files under vehicle/ (replaced at each run).
 """
 
 from __future__ import annotations
 
 import json
 import math
+import shutil
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -150,6 +151,8 @@ def fly_mission(rows: list[MissionRow], name: str, controller: Controller, out: 
     run_dir.mkdir(parents=True, exist_ok=True)
     log_path = run_dir / "flight.csv"
     log_path.unlink(missing_ok=True)
+    if (run_dir / "vehicle").is_dir():
+        shutil.rmtree(run_dir / "vehicle")  # a fresh vehicle each run: no parameters or mission from the last
     started = time.perf_counter()
     vehicle = Vehicle(controller=controller, speed=None, truth=False, params=params, folder=run_dir / "vehicle",
                       autopilot_args=("--log", str(log_path), "--quiet"))  # fmt: skip
