@@ -8,9 +8,13 @@ figures written. Bad files are refused in one line."""
 from __future__ import annotations
 
 import json
+import math
 from pathlib import Path
 
+import numpy as np
 import pytest
+
+from autopilot.guidance import leg_cruise_speed, leg_velocity, turn_ramp
 
 from ground_tools.cli import main
 from ground_tools.mission_command import FIGURE_FILES
@@ -71,3 +75,15 @@ def test_a_waypoints_file_reads_as_the_same_mission_as_its_plan():
                                    else row.x, row.longitude_deg if row.global_position else row.y, row.z, 1))
         for seq, row in enumerate(rows, start=1)]  # fmt: skip
     assert repr(read_waypoints("\n".join(lines))) == repr(rows)  # repr: NaN parameters compare equal
+
+
+def test_forward_flight_legs_are_flown_through_and_turn_at_speed():
+    start, end = np.zeros(2), np.array([400.0, 0.0])
+    near_end = np.array([395.0, 0.0])
+    assert leg_velocity(near_end, start, end, 25.0, 2.0, 0.95)[0] < 10.0  # braked into
+    assert leg_velocity(near_end, start, end, 25.0, 2.0, 0.95, brake=False)[0] == 25.0  # flown through
+    turned = turn_ramp(np.array([25.0, 0.0, 0.0]), np.array([0.0, 25.0, 0.0]), 2.0, 0.01)
+    assert np.allclose(turned, [0.0, 25.0, 0.0])  # the direction at once, the speed kept
+    assert math.isclose(turn_ramp(np.zeros(3), np.array([0.0, 25.0, 0.0]), 2.0, 0.01)[1], 0.02)  # speed ramped
+    assert leg_cruise_speed(100.0, None, 5.0, 26.0, 2.0, forward_flight=True) == 26.0
+    assert leg_cruise_speed(1000.0, None, 5.0, 26.0, 2.0, forward_flight=False) == 5.0
