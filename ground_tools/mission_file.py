@@ -1,51 +1,23 @@
 """Mission files as users have them (docs/mavlink.md, "Mission"): QGroundControl's .plan (JSON, its SimpleItems)
 and the QGC WPL 110 text format (.waypoints, as QGroundControl, Mission Planner and MAVProxy write it), read into
-the rows a MISSION_ITEM_INT upload sends. Pure functions; a file that cannot be flown is a MissionFileError.
+the items a MISSION_ITEM_INT upload sends (autopilot/mission_items.py's MissionItem). Pure functions; a file that cannot be flown is a MissionFileError.
 """
 
 from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
 from pathlib import Path
 
-from transport.mavlink import mavlink as M
+from autopilot.mission_items import FLOAT_FRAME_OF, GLOBAL_FRAMES, MissionItem
 
 # MISSION_ITEM_INT carries latitude and longitude as integers (deg * 1e7): the float frames map to their _INT twins.
-INT_FRAMES = {M.MAV_FRAME_GLOBAL: M.MAV_FRAME_GLOBAL_INT,
-              M.MAV_FRAME_GLOBAL_RELATIVE_ALT: M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
-              M.MAV_FRAME_GLOBAL_TERRAIN_ALT: M.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT}  # fmt: skip
-GLOBAL_FRAMES = frozenset(INT_FRAMES.values())
+INT_FRAME_OF = {float_frame: int_frame for int_frame, float_frame in FLOAT_FRAME_OF.items()}
 WPL_HEADER = "QGC WPL 110"
 
 
 class MissionFileError(ValueError):
     """The file is not a mission this tool can fly, with the reason."""
-
-
-@dataclass(frozen=True)
-class MissionRow:
-    """One MISSION_ITEM_INT's content: frame, command, param1-4, x and y (deg * 1e7 in global frames), z (m)."""
-
-    frame: int
-    command: int
-    params: tuple[float, float, float, float]
-    x: int
-    y: int
-    z: float
-
-    @property
-    def global_position(self) -> bool:
-        return self.frame in GLOBAL_FRAMES
-
-    @property
-    def latitude_deg(self) -> float:
-        return self.x * 1e-7
-
-    @property
-    def longitude_deg(self) -> float:
-        return self.y * 1e-7
 
 
 def _number(value: object, where: str) -> float:
@@ -57,11 +29,12 @@ def _number(value: object, where: str) -> float:
     return float(value)
 
 
-def mission_row(frame: int, command: int, values: list[float], where: str) -> MissionRow:
-    """A row from a frame, a command and the seven parameters (param5/6 latitude/longitude in degrees)."""
+def mission_row(frame: int, command: int, values: list[float], where: str) -> MissionItem:
+    """An item from a frame, a command and the seven parameters (param5/6 latitude/longitude in degrees); the
+    autopilot checks the rest when it is uploaded."""
     if len(values) != 7:
         raise MissionFileError(f"{where}: {len(values)} parameters, not 7")
-    frame = INT_FRAMES.get(frame, frame)
+    frame = INT_FRAME_OF.get(frame, frame)
     p1, p2, p3, p4, lat, lon, alt = values
     if frame in GLOBAL_FRAMES:
         if not (math.isfinite(lat) and math.isfinite(lon) and abs(lat) <= 90.0 and abs(lon) <= 180.0):
@@ -69,10 +42,10 @@ def mission_row(frame: int, command: int, values: list[float], where: str) -> Mi
         x, y = int(round(lat * 1e7)), int(round(lon * 1e7))
     else:
         x, y = (int(v) if math.isfinite(v) else 0 for v in (lat, lon))
-    return MissionRow(frame, command, (p1, p2, p3, p4), x, y, alt if math.isfinite(alt) else 0.0)
+    return MissionItem(frame, command, 1, p1, p2, p3, p4, x, y, alt if math.isfinite(alt) else 0.0)
 
 
-def read_plan(text: str) -> list[MissionRow]:
+def read_plan(text: str) -> list[MissionItem]:
     """QGroundControl's .plan JSON: the mission's SimpleItems (a ComplexItem, e.g. a QGC survey pattern, is
     refused: QGroundControl itself expands it into waypoints only when it uploads)."""
     try:
@@ -100,7 +73,7 @@ def read_plan(text: str) -> list[MissionRow]:
     return rows
 
 
-def read_waypoints(text: str) -> list[MissionRow]:
+def read_waypoints(text: str) -> list[MissionItem]:
     """QGC WPL 110: a header line, then tab-separated rows (index, current, frame, command, param1-7,
     autocontinue); row 0 is the home position, not a mission item."""
     lines = [line for line in text.splitlines() if line.strip()]
@@ -124,7 +97,7 @@ def read_waypoints(text: str) -> list[MissionRow]:
     return rows
 
 
-def read_mission_file(path: Path) -> list[MissionRow]:
+def read_mission_file(path: Path) -> list[MissionItem]:
     """A .plan or .waypoints file's mission rows."""
     try:
         text = path.read_text()

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from pymavlink import mavutil
 
-from ground_tools.mission_file import MissionRow
+from autopilot.mission_items import MissionItem
 from ground_tools.processes import Controller
 from tiltrotor_sitl import Vehicle
 from transport import flight_log
@@ -107,7 +107,7 @@ class MissionGroundStation:
         if ack.result != M.MAV_RESULT_ACCEPTED:
             raise MissionRunFailed(f"command {command} refused ({ack.result}); last STATUSTEXT {self.statustexts[-3:]}")
 
-    def upload(self, rows: list[MissionRow]) -> None:
+    def upload(self, rows: list[MissionItem]) -> None:
         """The mission protocol's upload: MISSION_COUNT, each MISSION_REQUEST_INT answered, the MISSION_ACK."""
         kind = M.MAV_MISSION_TYPE_MISSION
         self.conn.mav.mission_count_send(1, 1, len(rows), kind)
@@ -119,8 +119,9 @@ class MissionGroundStation:
                                            f"{self.statustexts[-3:]}")  # fmt: skip
                 return
             row = rows[message.seq]
-            self.conn.mav.mission_item_int_send(1, 1, message.seq, row.frame, row.command, int(message.seq == 0), 1,
-                                                *row.params, row.x, row.y, row.z, kind)  # fmt: skip
+            self.conn.mav.mission_item_int_send(1, 1, message.seq, row.frame, row.command, int(message.seq == 0),
+                                                row.autocontinue, row.param1, row.param2, row.param3, row.param4,
+                                                row.x, row.y, row.z, kind)  # fmt: skip
 
     def parameter(self, name: str) -> float:
         self.conn.mav.param_request_read_send(1, 1, name.encode(), -1)
@@ -129,22 +130,22 @@ class MissionGroundStation:
         return float(value.param_value)
 
 
-def waypoint_results(rows: list[MissionRow], home: Home, log: flight_log.FlightLog,
+def waypoint_results(rows: list[MissionItem], home: Home, log: flight_log.FlightLog,
                      default_acceptance: float) -> list[WaypointResult]:  # fmt: skip
     """Each NAV_WAYPOINT's closest horizontal approach in the log, with its acceptance radius (param2, else
     NAV_ACC_RAD)."""
     results = []
     for seq, row in enumerate(rows):
-        if row.command != M.MAV_CMD_NAV_WAYPOINT or not row.global_position:
+        if row.command != M.MAV_CMD_NAV_WAYPOINT or not row.positional:
             continue
         north, east, _ = ned_from_geodetic(home, row.latitude_deg, row.longitude_deg, home.alt)
         distance = np.hypot(log[flight_log.NORTH] - north, log[flight_log.EAST] - east)
-        radius = row.params[1] if math.isfinite(row.params[1]) and row.params[1] > 0 else default_acceptance
+        radius = row.param2 if math.isfinite(row.param2) and row.param2 > 0 else default_acceptance
         results.append(WaypointResult(seq, round(north, 2), round(east, 2), radius, round(float(distance.min()), 3)))
     return results
 
 
-def fly_mission(rows: list[MissionRow], name: str, controller: Controller, out: Path,
+def fly_mission(rows: list[MissionItem], name: str, controller: Controller, out: Path,
                 params: dict[str, float] | None = None) -> MissionResult:  # fmt: skip
     """Fly `rows` with `controller` in lockstep from the ground at home; raises MissionRunFailed."""
     run_dir = out / name / controller

@@ -71,8 +71,9 @@ def test_a_waypoints_file_reads_as_the_same_mission_as_its_plan():
     rows = read_mission_file(MISSIONS / "survey.plan")
     home = "0\t1\t0\t16\t0\t0\t0\t0\t47.397742\t8.545594\t488\t1"
     lines = [WPL_HEADER, home] + [
-        "\t".join(str(v) for v in (seq, 0, row.frame, row.command, *row.params, row.latitude_deg if row.global_position
-                                   else row.x, row.longitude_deg if row.global_position else row.y, row.z, 1))
+        "\t".join(str(v) for v in (seq, 0, row.frame, row.command, row.param1, row.param2, row.param3, row.param4,
+                                   row.latitude_deg if row.positional else row.x,
+                                   row.longitude_deg if row.positional else row.y, row.z, 1))
         for seq, row in enumerate(rows, start=1)]  # fmt: skip
     assert repr(read_waypoints("\n".join(lines))) == repr(rows)  # repr: NaN parameters compare equal
 
