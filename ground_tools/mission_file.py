@@ -102,9 +102,9 @@ def read_mission_file(path: Path) -> list[MissionItem]:
     try:
         text = path.read_text()
     except (OSError, UnicodeDecodeError) as exc:
-        raise MissionFileError(f"cannot read {path}: {exc}") from None
+        raise MissionFileError(f"cannot read it: {exc.strerror if isinstance(exc, OSError) else exc}") from None
     if path.suffix == ".plan":
         return read_plan(text)
     if path.suffix in (".waypoints", ".txt"):
         return read_waypoints(text)
-    raise MissionFileError(f"{path.name}: not a .plan or .waypoints file")
+    raise MissionFileError("not a .plan or .waypoints file")

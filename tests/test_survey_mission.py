@@ -88,3 +88,10 @@ def test_forward_flight_legs_are_flown_through_and_turn_at_speed():
     assert math.isclose(turn_ramp(np.zeros(3), np.array([0.0, 25.0, 0.0]), 2.0, 0.01)[1], 0.02)  # speed ramped
     assert leg_cruise_speed(100.0, None, 5.0, 26.0, 2.0, forward_flight=True) == 26.0
     assert leg_cruise_speed(1000.0, None, 5.0, 26.0, 2.0, forward_flight=False) == 5.0
+
+
+def test_a_missing_or_unknown_file_is_refused_with_the_reason(tmp_path, capsys):
+    for path, reason in ((tmp_path / "none.plan", "cannot read it"), (tmp_path / "notes.txt~", "not a .plan")):
+        with pytest.raises(SystemExit) as exit_info:
+            main(["mission", str(path), "--out", str(tmp_path)])
+        assert exit_info.value.code == 2 and reason in capsys.readouterr().err
