@@ -98,13 +98,12 @@ def read_waypoints(text: str) -> list[MissionItem]:
 
 
 def read_mission_file(path: Path) -> list[MissionItem]:
-    """A .plan or .waypoints file's mission rows."""
+    """A .plan or .waypoints (.txt) file's mission items."""
+    readers = {".plan": read_plan, ".waypoints": read_waypoints, ".txt": read_waypoints}
+    if path.suffix not in readers:
+        raise MissionFileError("not a .plan or .waypoints file")
     try:
         text = path.read_text()
     except (OSError, UnicodeDecodeError) as exc:
         raise MissionFileError(f"cannot read it: {exc.strerror if isinstance(exc, OSError) else exc}") from None
-    if path.suffix == ".plan":
-        return read_plan(text)
-    if path.suffix in (".waypoints", ".txt"):
-        return read_waypoints(text)
-    raise MissionFileError("not a .plan or .waypoints file")
+    return readers[path.suffix](text)
