@@ -12,7 +12,8 @@ progress reported to the mission store (MISSION_CURRENT, MISSION_ITEM_REACHED).
     DO_JUMP                       to item param1, param2 times
     DO_VTOL_TRANSITION            param1 MAV_VTOL_STATE_FW: the following legs at FW_AIRSPD_TRIM, _MC: at
                                   MPC_XY_CRUISE (the set-point's speed is what switches the PID's phases);
-                                  it cancels a DO_CHANGE_SPEED
+                                  it cancels a DO_CHANGE_SPEED; a land or return item in the FW phase is
+                                  flown as Return flies (braked into), as PX4 back-transitions for it
     DO_SET_HOME                   accepted and passed
 
 A mission with a DO_VTOL_TRANSITION item flies as PX4 flies it: in multicopter until the item to fixed wing,
@@ -137,6 +138,8 @@ class MissionFlight:
             if item.command == M.MAV_CMD_DO_VTOL_TRANSITION and int(item.param1) in (VTOL_FW, VTOL_MC):
                 self.auto.forward_flight = int(item.param1) == VTOL_FW
                 self.auto.mission_speed = None  # as PX4's navigator, a new phase flies its own default cruise
+            if (item.command in LANDS or item.command == M.MAV_CMD_NAV_RETURN_TO_LAUNCH) and self.auto.forward_flight:
+                self.auto.forward_flight = None  # braked into, as Return flies (PX4 back-transitions for these)
             targets = self._targets(state, item)
             if targets:
                 self.seq = seq
