@@ -4,7 +4,8 @@ A route is a list of targets flown one after the other:
 
     Climb    climb over a point to an altitude (a takeoff, or Return's climb to RTL_RETURN_ALT)
     FlyTo    the leg from where the previous target ended to a position, at the leg's cruise speed, braking
-             into it; done within its acceptance radius (and 3 m of its altitude)
+             into it (in a mission's fixed-wing phase, after DO_VTOL_TRANSITION to FW: through it, and the
+             set-point turns at speed); done within its acceptance radius (and 3 m of its altitude)
     HoldAt   hold a position for some seconds (None: for ever)
     LandAt   fly to a point, stop over it, descend (MPC_Z_VEL_MAX_DN, MPC_LAND_SPEED below MPC_LAND_ALT2) until
              the commander's land detector sees the touchdown
@@ -20,7 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from autopilot.guidance import circle_velocity, leg_cruise_speed, leg_velocity, limit_norm, ramp, vertical_velocity
+from autopilot.guidance import (circle_velocity, leg_cruise_speed, leg_velocity, limit_norm, ramp, turn_ramp,
+                                vertical_velocity)  # fmt: skip
 from autopilot.parameters import ParameterStore
 from autopilot.vehicle_state import VehicleState
 
@@ -79,12 +81,14 @@ class AutoFlight:
         self.leg_start = np.zeros(3)
         self.descending = False
         self.mission_speed: float | None = None  # DO_CHANGE_SPEED (None: the default cruise speeds)
+        self.forward_flight: bool | None = None  # the phase DO_VTOL_TRANSITION asked for (None: by leg length)
         self._target_since_usec = 0
 
     # ---- routes ------------------------------------------------------------------------------------------------
     def start(self, state: VehicleState, route: list[Target]) -> None:
-        """A new route from here (the set-point starts from the vehicle's velocity)."""
+        """A new route from here (the set-point starts from the vehicle's velocity), in no fixed-wing phase."""
         self.velocity = state.velocity_ned.copy()
+        self.forward_flight = None
         self.follow(state, route)
 
     def follow(self, state: VehicleState, route: list[Target]) -> None:
@@ -122,7 +126,8 @@ class AutoFlight:
         while not self.finished:
             wanted = self._wanted(state, self.route[self.index])
             if wanted is not None:
-                self.velocity = ramp(self.velocity, wanted, self.params["MPC_ACC_HOR"], TICK_S)
+                turn = turn_ramp if self.forward_flight else ramp
+                self.velocity = turn(self.velocity, wanted, self.params["MPC_ACC_HOR"], TICK_S)
                 return self.velocity.copy()
             self._next(state)
         p = self.params
@@ -155,8 +160,10 @@ class AutoFlight:
                     return None
                 length = float(np.hypot(*(end[0:2] - start[0:2])))
                 cruise = speed if speed is not None else leg_cruise_speed(
-                    length, self.mission_speed, p["MPC_XY_CRUISE"], p["FW_AIRSPD_TRIM"], p["MPC_ACC_HOR"])
-                horizontal = leg_velocity(position[0:2], start[0:2], end[0:2], cruise, p["MPC_ACC_HOR"], p["MPC_XY_P"])
+                    length, self.mission_speed, p["MPC_XY_CRUISE"], p["FW_AIRSPD_TRIM"], p["MPC_ACC_HOR"],
+                    self.forward_flight)
+                horizontal = leg_velocity(position[0:2], start[0:2], end[0:2], cruise, p["MPC_ACC_HOR"], p["MPC_XY_P"],
+                                          brake=not self.forward_flight)
                 return np.array([*horizontal, self._vertical(state, float(end[2]))])
             case HoldAt(position=point, seconds=seconds):
                 if seconds is not None and state.time_usec - self._target_since_usec >= seconds * 1e6:

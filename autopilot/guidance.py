@@ -5,8 +5,10 @@
     circle_velocity   a vector field onto a circle (the fixed-wing Hold and Orbit)
     vertical_velocity P on the altitude error, bounded by the climb and descent limits
     ramp              a set-point changed by at most `accel` per second (the velocity controller gets a ramp)
-    leg_cruise_speed  the speed a leg is flown at: the forward-flight cruise speed when the leg is long enough to
-                      reach it and stop again, the multicopter cruise speed otherwise (or the mission's own)
+    turn_ramp         in forward flight: the speed ramped, its direction not (the course loop turns)
+    leg_cruise_speed  the speed a leg is flown at: the mission's own (DO_CHANGE_SPEED); else, after a
+                      DO_VTOL_TRANSITION item, the cruise speed of the phase it asked for; else the forward-flight
+                      cruise speed when the leg is long enough to reach it and stop again, the multicopter one otherwise
 """
 
 from __future__ import annotations
@@ -29,9 +31,10 @@ def stopping_speed(distance: float, accel: float, gain: float) -> float:
 
 
 def leg_velocity(position: np.ndarray, start: np.ndarray, end: np.ndarray, speed: float, accel: float,
-                 gain: float) -> np.ndarray:  # fmt: skip
-    """Horizontal velocity (2) flying the leg start -> end (2-vectors): along it at `speed`, braking into `end`,
-    and back to the line at `gain` times the cross-track error (at most CROSS_TRACK_LIMIT of `speed`)."""
+                 gain: float, brake: bool = True) -> np.ndarray:  # fmt: skip
+    """Horizontal velocity (2) flying the leg start -> end (2-vectors): along it at `speed`, braking into `end`
+    (brake False: through it at `speed`, as a fixed wing flies a waypoint), and back to the line at `gain` times
+    the cross-track error (at most CROSS_TRACK_LIMIT of `speed`)."""
     leg = end - start
     length = float(np.hypot(*leg))
     to_end = end - position
@@ -44,7 +47,10 @@ def leg_velocity(position: np.ndarray, start: np.ndarray, end: np.ndarray, speed
     normal = np.array([-along_unit[1], along_unit[0]])
     to_go = float(to_end @ along_unit)
     cross = float((position - start) @ normal)
-    along = min(speed, stopping_speed(to_go, accel, gain)) if to_go > 0 else -stopping_speed(-to_go, accel, gain)
+    if to_go > 0:
+        along = min(speed, stopping_speed(to_go, accel, gain)) if brake else speed
+    else:
+        along = -stopping_speed(-to_go, accel, gain)
     correction = -gain * cross
     limit = CROSS_TRACK_LIMIT * max(speed, 1.0)
     correction = min(max(correction, -limit), limit)
@@ -74,10 +80,27 @@ def ramp(previous: np.ndarray, wanted: np.ndarray, accel: float, dt: float) -> n
     return previous + (step * (limit / norm) if norm > limit else step)
 
 
+def turn_ramp(previous: np.ndarray, wanted: np.ndarray, accel: float, dt: float) -> np.ndarray:
+    """In forward flight: the horizontal speed ramped at `accel`, its direction the wanted one at once (the
+    fixed-wing course loop turns as fast as its bank limit allows, instead of cutting the corner through slower
+    speeds); the vertical ramped as `ramp` does."""
+    wanted_speed = float(np.hypot(wanted[0], wanted[1]))
+    if wanted_speed < 1e-6:
+        return ramp(previous, wanted, accel, dt)
+    speed = float(np.hypot(previous[0], previous[1]))
+    speed += min(max(wanted_speed - speed, -accel * dt), accel * dt)
+    vertical = ramp(previous[2:3], wanted[2:3], accel, dt)
+    return np.array([*(wanted[0:2] * (speed / wanted_speed)), vertical[0]])
+
+
 def leg_cruise_speed(length: float, mission_speed: float | None, mc_cruise: float, fw_cruise: float,
-                     accel: float) -> float:  # fmt: skip
-    """`mission_speed` (DO_CHANGE_SPEED) when set; else `fw_cruise` when the leg is long enough to accelerate to it
-    and brake from it at `accel` (the unified MPC transitions by itself), `mc_cruise` otherwise."""
+                     accel: float, forward_flight: bool | None = None) -> float:  # fmt: skip
+    """`mission_speed` (DO_CHANGE_SPEED) when set; else the phase a DO_VTOL_TRANSITION asked for
+    (`forward_flight` True: `fw_cruise`, False: `mc_cruise`); with no such item (None), `fw_cruise` when the leg
+    is long enough to accelerate to it and brake from it at `accel` (the unified MPC transitions by itself),
+    `mc_cruise` otherwise."""
     if mission_speed is not None:
         return mission_speed
+    if forward_flight is not None:
+        return fw_cruise if forward_flight else mc_cruise
     return fw_cruise if length >= fw_cruise**2 / accel else mc_cruise

@@ -10,7 +10,15 @@ progress reported to the mission store (MISSION_CURRENT, MISSION_ITEM_REACHED).
     NAV_RETURN_TO_LAUNCH          the Return route (to the closest of home and the rally points)
     DO_CHANGE_SPEED               param2 > 0: the cruise speed of the following legs (-1: back to the defaults)
     DO_JUMP                       to item param1, param2 times
-    DO_VTOL_TRANSITION, DO_SET_HOME accepted and passed (the legs' speeds choose the phase)
+    DO_VTOL_TRANSITION            param1 MAV_VTOL_STATE_FW: the following legs at FW_AIRSPD_TRIM, _MC: at
+                                  MPC_XY_CRUISE (the set-point's speed is what switches the PID's phases);
+                                  it cancels a DO_CHANGE_SPEED; a land or return item in the FW phase is
+                                  flown as Return flies (braked into), as PX4 back-transitions for it
+    DO_SET_HOME                   accepted and passed
+
+A mission with a DO_VTOL_TRANSITION item flies as PX4 flies it: in multicopter until the item to fixed wing,
+back to multicopter at the item to MC (so the PID back-transitions before its landing). A mission without one
+chooses each leg's speed by its length: the unified MPC transitions by itself (docs/mavlink.md, "Mission").
 
 A mission started on the ground whose first navigation item is a waypoint or loiter (no takeoff item) takes off
 first, as PX4's mission does: a climb over the current position to the higher of the item's altitude and
@@ -43,6 +51,7 @@ def takeoff_down(item_down: float, ground_down: float, takeoff_alt: float) -> fl
     """The altitude (NED down) of the takeoff a mission started on the ground flies before its first item: the
     item's, but at least `takeoff_alt` (MIS_TAKEOFF_ALT) above the ground (PX4's calculate_takeoff_altitude)."""
     return min(item_down, ground_down - takeoff_alt)
+VTOL_FW, VTOL_MC = M.MAV_VTOL_STATE_FW, M.MAV_VTOL_STATE_MC
 
 
 def closest_safe_point(position_ned: np.ndarray, rally_points: list[np.ndarray]) -> np.ndarray:
@@ -91,6 +100,8 @@ class MissionFlight:
         self._takeoff_first = self.landed_now()
         self.auto.mission_speed = None
         self.auto.start(state, [])
+        transitions = any(item.command == M.MAV_CMD_DO_VTOL_TRANSITION for item in self.items)
+        self.auto.forward_flight = False if transitions else None
         self._begin(state, seq)
         return None
 
@@ -139,6 +150,11 @@ class MissionFlight:
                 continue
             if item.command == M.MAV_CMD_DO_CHANGE_SPEED:
                 self.auto.mission_speed = item.param2 if item.param2 > 0 else None
+            if item.command == M.MAV_CMD_DO_VTOL_TRANSITION and int(item.param1) in (VTOL_FW, VTOL_MC):
+                self.auto.forward_flight = int(item.param1) == VTOL_FW
+                self.auto.mission_speed = None  # as PX4's navigator, a new phase flies its own default cruise
+            if (item.command in LANDS or item.command == M.MAV_CMD_NAV_RETURN_TO_LAUNCH) and self.auto.forward_flight:
+                self.auto.forward_flight = None  # braked into, as Return flies (PX4 back-transitions for these)
             targets = self._targets(state, item)
             if targets and self._takeoff_first:
                 self._takeoff_first = False
@@ -192,4 +208,4 @@ class MissionFlight:
             return [HoldAt(state.position_ned.copy(), max(item.param1, 0.0))]
         if command == M.MAV_CMD_NAV_RETURN_TO_LAUNCH:
             return return_route(p, state, self.rally_points())
-        return []  # DO_CHANGE_SPEED (done above), DO_VTOL_TRANSITION, DO_SET_HOME: nothing to fly
+        return []  # DO_CHANGE_SPEED, DO_VTOL_TRANSITION (done above), DO_SET_HOME: nothing to fly

@@ -2,6 +2,7 @@
 
     vtol fly PROFILE [--controller pid|mpc] [--out DIR]
     vtol scenario NAME|all [--controller mpc|pid|both] [--out DIR] [--instance I] [--no-record] [--no-progress]
+    vtol mission FILE.plan|FILE.waypoints [--controller mpc|pid|both] [--out DIR]
     vtol campaign FILE [--out DIR] [--workers N | --address ADDR] [--report] [--no-progress]
     vtol up [--instance I] [--count N] [--controller mpc|pid] [--spawn-alt M] [--speed F] [--params FILE] [--no-zenoh]
     vtol record --out FILE.jsonl [--instance I | --connect ENDPOINT ...] [--sysid N|all] [--duration S]
@@ -11,6 +12,8 @@
 with the autopilot's internal set-point source, and writes the flight log and figures to DIR/PROFILE/.
 `scenario` flies the paper's experiments through MAVLink in lockstep and writes run folders, figures and a
 report (ground_tools/scenario_command.py).
+`mission` flies a mission file in lockstep, uploaded through the MAVLink mission protocol, with figures and each
+waypoint's closest approach (ground_tools/mission_command.py).
 `campaign` flies many scenario variants on a Dask cluster into a DuckDB store, with envelope maps (ground_tools/campaign/).
 `up` starts the plant in real time and the autopilot for a ground station (ground_tools/up.py).
 `record` and `watch` record / show a running vehicle's zenoh telemetry (ground_tools/telemetry_record.py, watch.py).
@@ -25,6 +28,7 @@ from pathlib import Path
 from ground_tools.campaign.command import add_campaign_arguments, campaign
 from ground_tools.figures import plot_flight
 from ground_tools.lockstep_flight import FlightFailed, fly_lockstep
+from ground_tools.mission_command import add_mission_arguments, mission
 from ground_tools.processes import Controller
 from ground_tools.scenario_command import add_scenario_arguments, scenario
 from ground_tools.telemetry_record import add_record_arguments, record
@@ -67,6 +71,8 @@ def main(argv: list[str] | None = None) -> int:
     fly_parser.add_argument("--spawn-alt", type=positive_float, default=100.0, metavar="M")
     add_scenario_arguments(commands.add_parser("scenario", help="fly a paper experiment through MAVLink, with "
                                                "metrics, figures and recordings"))
+    add_mission_arguments(commands.add_parser("mission", help="fly a mission file (.plan, .waypoints) in lockstep "
+                                              "through MAVLink, with figures and waypoint errors"))
     add_campaign_arguments(commands.add_parser("campaign", help="fly a campaign of scenario variants on a Dask "
                                                "cluster, into a DuckDB store, with envelope maps"))
     up_parser = commands.add_parser("up", help="start the plant (real time) and the autopilot for a ground station")
@@ -89,6 +95,8 @@ def main(argv: list[str] | None = None) -> int:
         return up(args)
     if args.command == "scenario":
         return scenario(args)
+    if args.command == "mission":
+        return mission(args)
     if args.command == "campaign":
         return campaign(args)
     if args.command == "record":
