@@ -31,6 +31,24 @@ class Strays:
     commands: int = 0
 
 
+def hellos_answered(port: int, count: int) -> int:
+    """Send `count` HELLOs (an impostor autopilot's, from a port of its own) to the plant; how many it answered."""
+    impostor = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
+    hello = b"".join(m.pack(impostor) for m in hello_messages(impostor, 99))
+    answers = 0
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as other:
+        other.bind((LOOPBACK, 0))
+        other.settimeout(0.2)
+        for _ in range(count):
+            other.sendto(hello, (LOOPBACK, port))
+            try:
+                other.recvfrom(4096)
+                answers += 1
+            except TimeoutError:
+                pass
+    return answers
+
+
 def stray_datagrams(k: int) -> list[tuple[str, bytes]]:
     """Every kind of stray: an autopilot's HELLO (a second autopilot), a ground station's HEARTBEAT, rotors-off
     SERVO_OUTPUT_RAW stamped for the steps around k, all-motors-off MAV_CMD_INJECT_FAILURE."""
@@ -159,20 +177,7 @@ def test_a_named_autopilot_alone_gets_the_plant(tmp_path):
     with Vehicle(autopilot=False, spawn_alt=50.0, speed=None, duration_s=1.0, summary=True, truth=False,
                  plant_args=("--autopilot-port", str(bind))) as plant:  # started once it listens: the port is bound
         port = plant.ports.plant
-        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as other:
-            other.bind((LOOPBACK, 0))
-            other.settimeout(0.2)
-            impostor = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
-            hello = b"".join(m.pack(impostor) for m in hello_messages(impostor, 7))
-            answers = 0
-            for _ in range(10):
-                other.sendto(hello, (LOOPBACK, port))
-                try:
-                    other.recvfrom(4096)
-                    answers += 1
-                except TimeoutError:
-                    pass
-        assert answers == 0
+        assert hellos_answered(port, 10) == 0
         with Vehicle(plant_port=port, spawn_alt=50.0, duration_s=1.0, truth=False, wait_ready=False,
                      autopilot_args=("--sim-bind-port", str(bind), "--profile", "hover", "--quiet")) as autopilot:
             autopilot.wait_finished(timeout_s=300)  # exit code 0, or VehicleError with its stderr

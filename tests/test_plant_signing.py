@@ -6,7 +6,6 @@ from __future__ import annotations
 import json
 import secrets
 import signal
-import socket
 import subprocess
 import time
 from pathlib import Path
@@ -14,34 +13,14 @@ from pathlib import Path
 import pytest
 
 from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, free_link_ports, free_udp_port
+from tests.test_plant_ownership import hellos_answered
 from transport.link_signing import KeyFileRefused, parse_key
-from transport.mavlink import mavlink
-from transport.plant_handshake import hello_messages
-from transport.ports import LOOPBACK
 
 
 def key_file(folder: Path, name: str) -> Path:
     path = folder / name
     path.write_text(secrets.token_hex(32) + "\n")
     return path
-
-
-def unsigned_hellos_get_no_challenge(port: int, count: int = 5) -> int:
-    """Send `count` unsigned HELLOs to the plant; how many were answered."""
-    impostor = mavlink.MAVLink(None, srcSystem=1, srcComponent=1)
-    hello = b"".join(m.pack(impostor) for m in hello_messages(impostor, 99))
-    answers = 0
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as other:
-        other.bind((LOOPBACK, 0))
-        other.settimeout(0.2)
-        for _ in range(count):
-            other.sendto(hello, (LOOPBACK, port))
-            try:
-                other.recvfrom(4096)
-                answers += 1
-            except TimeoutError:
-                pass
-    return answers
 
 
 def start_plant(port: int, key: Path) -> subprocess.Popen:
@@ -65,7 +44,7 @@ def test_the_keyed_autopilot_flies_and_unsigned_senders_never_get_the_plant(tmp_
     port, key = free_udp_port(), key_file(tmp_path, "plant.key")
     plant = start_plant(port, key)
     try:
-        assert unsigned_hellos_get_no_challenge(port) == 0  # before the autopilot: no candidate at all
+        assert hellos_answered(port, 5) == 0  # before the autopilot: no candidate at all
         pilot = subprocess.run(autopilot_command(port, key), capture_output=True, text=True, timeout=300)
         out, _ = plant.communicate(timeout=60)
     finally:

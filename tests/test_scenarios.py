@@ -190,13 +190,13 @@ def test_mpc_scenario_run_folder_tlog_recording_and_report(tmp_path) -> None:
 
 
 def _free_instance() -> int:
-    """An instance whose ports (docs/plant-link.md) are all free right now."""
+    """An instance whose ports (docs/plant-link.md) are all free right now; not 14550, where every instance's GCS
+    link sends and which another test may be listening on (the scenario's ground station uses the API link)."""
     for instance in range(300, 999, 7):
         ports = Ports(instance)
         try:
             for port, kind in ((ports.plant, socket.SOCK_DGRAM), (ports.gcs_bind, socket.SOCK_DGRAM),
                                (ports.api_bind, socket.SOCK_DGRAM), (ports.api_remote, socket.SOCK_DGRAM),
-                               (ports.gcs_remote, socket.SOCK_DGRAM),
                                (int(ports.zenoh_plant.rsplit(":", 1)[1]), socket.SOCK_STREAM),
                                (int(ports.zenoh_autopilot.rsplit(":", 1)[1]), socket.SOCK_STREAM)):  # fmt: skip
                 with socket.socket(socket.AF_INET, kind) as s:
