@@ -27,6 +27,7 @@ HOVER_TOLERANCE_M = 2.0  # distance from the spawn point (0, 0, -20 m in the veh
 FALLEN_BELOW_M = 10.0
 REAL_TIME = 0.9  # simulated seconds per wall second over the run, to count as real time
 SATURATED = 0.5  # slower than this: no larger fleet is tried
+TOO_SLOW = "did not reach"  # a fleet stopped for slowness, not for a vehicle's failure
 POLL_S = 0.2
 
 
@@ -69,7 +70,9 @@ class HoverRun:
 
     def describe(self) -> str:
         figures = f"worst {self.worst_m:.2f} m from the hover point, x{self.real_time:.2f} of real time"
-        return f"held ({figures})" if self.held else f"failed: {self.why} ({figures})"
+        if self.held:
+            return f"held ({figures})"
+        return f"{'stopped' if self.why.startswith(TOO_SLOW) else 'failed'}: {self.why} ({figures})"
 
 
 def fleet_hovers(count: int, controller: Controller, seconds: float) -> HoverRun:
@@ -86,7 +89,7 @@ def fleet_hovers(count: int, controller: Controller, seconds: float) -> HoverRun
                 if all(sample.t - start.t >= seconds for sample, start in zip(samples, first)):
                     break
                 if time.monotonic() > deadline:
-                    why = f"did not reach {seconds:g} simulated seconds within {deadline - began:.0f} wall seconds"
+                    why = f"{TOO_SLOW} {seconds:g} simulated seconds within {deadline - began:.0f} wall seconds"
                     samples = [vehicle.truth.latest() for vehicle in fleet.vehicles]
                 time.sleep(POLL_S)
             wall = time.monotonic() - began
