@@ -93,6 +93,14 @@ def test_bad_campaign_files_are_refused_in_one_line(tmp_path: Path, capsys, text
     assert exit_.value.code == 2 and message in error and error.count("\n") == 1, error
 
 
+def test_a_cluster_address_dask_cannot_read_is_refused_in_one_line(tmp_path: Path, capsys) -> None:
+    with pytest.raises(SystemExit) as exit_:
+        main(["campaign", str(_campaign(tmp_path, 'scenario = "accel"')), "--out", str(tmp_path / "out"),
+              "--address", "nonsense"])
+    error = capsys.readouterr().err
+    assert exit_.value.code == 2 and "cannot start or reach the cluster at nonsense" in error, error
+
+
 def test_the_paper_experiments_are_the_variants_at_the_paper_values() -> None:
     for name in SCENARIOS:
         assert build_scenario(name, {}) is SCENARIOS[name]
