@@ -9,6 +9,7 @@ import signal
 import subprocess
 import sys
 import time
+from importlib import resources
 from pathlib import Path
 
 import duckdb
@@ -20,6 +21,7 @@ from ground_tools.campaign.points import campaign_points
 from ground_tools.campaign.spec import CampaignError, flight_count, load_campaign
 from ground_tools.campaign.store import ResultStore
 from ground_tools.cli import main
+from ground_tools.processes import SimCommand
 from scenarios.experiments import SCENARIOS
 from scenarios.profiles import CircleProfile, circle, circle_duration
 from scenarios.variants import VariantError, build_scenario
@@ -31,6 +33,8 @@ scenario = "servo-failure"
 controllers = ["mpc", "pid"]
 [fixed]
 duration_s = 0.6
+wind_e_mps = 0.5
+plant_airframe = "paper.toml"
 [axes]
 jam_deg = [0, 60]
 jam_speed_mps = [0.1, 0.3]
@@ -89,6 +93,14 @@ def test_bad_campaign_files_are_refused_in_one_line(tmp_path: Path, capsys, text
     assert exit_.value.code == 2 and message in error and error.count("\n") == 1, error
 
 
+def test_a_cluster_address_dask_cannot_read_is_refused_in_one_line(tmp_path: Path, capsys) -> None:
+    with pytest.raises(SystemExit) as exit_:
+        main(["campaign", str(_campaign(tmp_path, 'scenario = "accel"')), "--out", str(tmp_path / "out"),
+              "--address", "nonsense"])
+    error = capsys.readouterr().err
+    assert exit_.value.code == 2 and "cannot start or reach the cluster at nonsense" in error, error
+
+
 def test_the_paper_experiments_are_the_variants_at_the_paper_values() -> None:
     for name in SCENARIOS:
         assert build_scenario(name, {}) is SCENARIOS[name]
@@ -103,6 +115,12 @@ def test_the_paper_experiments_are_the_variants_at_the_paper_values() -> None:
     assert jam.failure.injection.value == 5.0 and jam.failure.trigger == "ground speed reaches 12 m/s"
     with pytest.raises(VariantError, match="rotor must be a whole number"):
         build_scenario("motor-failure", {"rotor": 1.5})
+
+
+def test_wind_and_airframe_reach_the_plants_command_line() -> None:
+    argv = SimCommand(wind_ned=(0.0, 0.5, -1.0), airframe=Path("other.toml")).argv()
+    assert argv[argv.index("--wind") + 1] == "0.0,0.5,-1.0" and argv[argv.index("--airframe") + 1] == "other.toml"
+    assert "--wind" not in SimCommand().argv()
 
 
 def test_the_same_key_twice_is_one_row(tmp_path: Path) -> None:
@@ -136,6 +154,8 @@ def _vtol_campaign(*args: str) -> subprocess.CompletedProcess:
 
 def test_a_campaign_on_two_workers_is_killed_resumed_and_reported(tmp_path: Path) -> None:
     file, out = _campaign(tmp_path, SMALL), tmp_path / "out"
+    paper = resources.files("aircraft.airframes").joinpath("chen2024_tiltrotor.toml").read_text()
+    (tmp_path / "paper.toml").write_text(paper)  # the plant's own copy: an airframe file given to the plant alone
     args = [str(file), "--out", str(out), "--workers", "2", "--no-progress"]
     first = subprocess.Popen([sys.executable, "-m", "ground_tools", "campaign", *args], stderr=subprocess.PIPE,
                              stdout=subprocess.DEVNULL, text=True, start_new_session=True)  # fmt: skip
@@ -172,7 +192,10 @@ def test_a_campaign_on_two_workers_is_killed_resumed_and_reported(tmp_path: Path
         assert row["failure_t_s"] is not None and 0.0 < row["failure_t_s"] < 0.6
         metrics = json.loads((Path(row["run_dir"]) / "metrics.json").read_text())
         assert metrics["vx_rmse"] == row["vx_rmse"] and metrics["survived"] == row["survived"]
-        assert f"STUCK at {row['jam_deg']:.1f} deg" in (Path(row["run_dir"]) / "run.json").read_text()
+        run = json.loads((Path(row["run_dir"]) / "run.json").read_text())
+        assert f"STUCK at {row['jam_deg']:.1f} deg" in json.dumps(run["statustexts"])
+        assert run["plant"]["wind_ned"] == [0.0, 0.5, 0.0] and row["wind_e_mps"] == 0.5
+        assert Path(run["plant"]["airframe"]).resolve() == (tmp_path / "paper.toml").resolve()
     survival = out / "figures" / "survival.png"
     assert survival.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and (out / "figures" / "error.png").is_file()
     report = (out / "report.md").read_text()

@@ -24,6 +24,7 @@ from ground_tools.campaign.store import ResultStore, StoreError, open_store
 from transport.cli import bounded_int, fail, writable_folder
 
 PROG = "vtol campaign"
+INTERRUPTED = 130  # the shell's status for a command stopped by SIGINT
 
 
 def add_campaign_arguments(parser: argparse.ArgumentParser) -> None:
@@ -116,6 +117,10 @@ def campaign(args: argparse.Namespace) -> int:
                     flown, failed = fly_campaign(spec, out, store, engine, not args.no_progress)
             except EngineError as exc:
                 fail(PROG, str(exc))
+            except KeyboardInterrupt:
+                print(f"{PROG}: interrupted; {len(store.finished_keys())} flight(s) in the store: run the same command "
+                      "again to fly the rest", file=sys.stderr)  # fmt: skip
+                return INTERRUPTED
             minutes = (time.perf_counter() - started) / 60.0
             rate = f", {flown / minutes:.1f} flights/min" if flown and minutes > 0 else ""
             print(f"{PROG}: {flown} flight(s) flown in {minutes:.1f} min{rate}; {failed} failed", file=sys.stderr)

@@ -34,7 +34,7 @@ class DaskEngine:
                 self.client = Client(self.cluster)
             else:
                 self.client = Client(self.address, timeout=30)
-        except (OSError, TimeoutError) as exc:
+        except (OSError, TimeoutError, ValueError) as exc:  # ValueError: an address Dask cannot read
             self.__exit__(None, None, None)
             where = "a local cluster" if self.address is None else f"the cluster at {self.address}"
             raise EngineError(f"cannot start or reach {where}: {exc}") from None
