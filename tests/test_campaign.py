@@ -25,6 +25,7 @@ from ground_tools.processes import SimCommand
 from scenarios.experiments import SCENARIOS
 from scenarios.profiles import CircleProfile, circle, circle_duration
 from scenarios.variants import VariantError, build_scenario
+from sim_bridge.cli import build_parser as build_sim_parser
 
 pytestmark = pytest.mark.timeout(600)
 
@@ -118,9 +119,10 @@ def test_the_paper_experiments_are_the_variants_at_the_paper_values() -> None:
 
 
 def test_wind_and_airframe_reach_the_plants_command_line() -> None:
-    argv = SimCommand(wind_ned=(0.0, 0.5, -1.0), airframe=Path("other.toml")).argv()
-    assert argv[argv.index("--wind") + 1] == "0.0,0.5,-1.0" and argv[argv.index("--airframe") + 1] == "other.toml"
-    assert "--wind" not in SimCommand().argv()
+    argv = SimCommand(wind_ned=(-2.0, 0.5, -1.0), airframe=Path("other.toml")).argv()
+    options = build_sim_parser().parse_args(argv[argv.index("sim_bridge") + 1:])  # (a leading minus is no option)
+    assert options.wind == (-2.0, 0.5, -1.0) and options.airframe == "other.toml"
+    assert not any(arg.startswith("--wind") for arg in SimCommand().argv())
 
 
 def test_the_same_key_twice_is_one_row(tmp_path: Path) -> None:
