@@ -15,10 +15,11 @@ LOSSY = Faults(loss=0.3, duplicate=0.1, reorder=0.1, jitter_s=0.01)
 
 def test_commands_and_offboard_through_a_lossy_link_then_the_link_lost(tmp_path):
     nobody = free_udp_port()  # the vehicle's GCS link sends here until our HEARTBEAT reaches it through the proxy
-    # COM_OF_LOSS_T 2 s and real time: a test process starved of the CPU for a second on a busy machine is not a
-    # lost link (what this test is about is the proxy's faults)
+    # COM_OF_LOSS_T 5 s and real time: a test process starved of the CPU for seconds on a busy machine (CI runs two
+    # tests at once) is not a lost link; what this test is about is the proxy's faults, and 30 % loss at 50 Hz never
+    # leaves a 5 s gap
     with Vehicle(spawn_alt=30.0, speed=1.0, truth=False, gcs_port=nobody, folder=tmp_path,
-                 params={"COM_OF_LOSS_T": 2.0}) as vehicle:
+                 params={"COM_OF_LOSS_T": 5.0}) as vehicle:
         with FaultProxy(vehicle.ports.links.gcs_bind, upstream=LOSSY, downstream=LOSSY, seed=7) as proxy:
             gs = GroundStation(proxy.port, speaks_first=True)
             try:
@@ -44,7 +45,7 @@ def test_commands_and_offboard_through_a_lossy_link_then_the_link_lost(tmp_path)
                 lost_at = gs.sim_time
                 gs.wait(lambda: gs.mode != OFFBOARD, "the Offboard-loss failsafe", 60.0, every=stream)
                 assert gs.mode == HOLD and gs.armed
-                assert 1.8 < gs.sim_time - lost_at < 3.5
+                assert 4.8 < gs.sim_time - lost_at < 6.5
                 print(f"retries {gs.retries}, proxy {proxy.summary()}")
             finally:
                 gs.close()

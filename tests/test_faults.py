@@ -18,9 +18,10 @@ def test_the_accel_profile_flies_over_a_plant_link_with_loss_and_jitter(tmp_path
     lost = up["lost"] + down["lost"]
     print(f"clean {clean.figures}\nfaulty {faulty.figures}\nproxy {faulty.proxy}\nplant {faulty.plant}")
     assert lost > 0.05 * 2400  # ~5 % each way of ~2 400 steps
-    # Each lost state or command is one step that times out and holds the previous command (lockstep); nothing else.
+    # Each lost state or command is one step that times out and holds the previous command (lockstep); a command
+    # that arrives after the step's timeout on a loaded machine (jitter on top of a busy autopilot) counts too.
     assert faulty.plant["steps"] == clean.plant["steps"] == FLIGHT_S * 400
-    assert 0.8 * lost <= faulty.plant["missed_commands"] <= lost
+    assert 0.8 * lost <= faulty.plant["missed_commands"] <= 1.15 * lost
     assert faulty.plant["handshakes"] == 1 and faulty.plant["peer_lost"] == 0
     assert clean.plant["missed_commands"] == 0
     # The flight: tracking within 20 % (+ 0.05 m/s) of the clean run, altitude and attitude as clean.
