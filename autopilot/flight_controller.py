@@ -197,10 +197,11 @@ class FlightController:
             state = dataclasses.replace(state, velocity_ned=velocity.copy())  # the controllers fly on the estimate
         if t >= self._next_velocity_usec:
             self._next_velocity_usec += VELOCITY_PERIOD_USEC
+            tilts = self._velocity_controller_tilts()
             if self.attitude_setpoint is None:
-                self.velocity_command = self.velocity_controller.update(state, self.velocity_setpoint, self.servos.tilt)
+                self.velocity_command = self.velocity_controller.update(state, self.velocity_setpoint, tilts)
             else:  # the velocity controller tracks the vehicle's own velocity, warm for when it flies again
-                self.velocity_controller.update(state, state.velocity_ned, self.servos.tilt)
+                self.velocity_controller.update(state, state.velocity_ned, tilts)
                 self.velocity_command = attitude_command(self.attitude_setpoint, state.euler,
                                                          self.airframe.thrust_max * len(self.airframe.rotor_positions))
             if self.mpc is not None and self.mpc.fallback_requested and not self.fell_back_to_pid:
@@ -214,6 +215,24 @@ class FlightController:
         self._attitude_and_allocation(state)
         self.command[TILTS] = self.velocity_command.tilt_sp + self.yaw_tilt.offsets
         return True
+
+    def _velocity_controller_tilts(self) -> np.ndarray:
+        """The tilts as the flying velocity controller sees them. The MPC plans from the tilts it commanded: the
+        servo estimate without the yaw-by-tilt offsets (a stuck servo's as it is), else the next plan would start
+        from the offsets and command them again on top; within the tilt range, as its plans are (a start outside
+        it made every QP infeasible). The PID's phase logic reads the estimate as it is."""
+        if self.velocity_controller is self.pid:
+            return self.servos.tilt
+        own = self.servos.tilt - np.where(np.isnan(self.servos.stuck), self.yaw_tilt.offsets, 0.0)
+        return np.clip(own, self.airframe.tilt_min, self.airframe.tilt_max)
+
+    def _yaw_by_tilt(self, command: VelocityCommand) -> bool:
+        """Whether differential tilt takes the yaw the allocator cannot make: when the velocity controller asks
+        (the PID's hover), and under the MPC when a servo is stuck. The MPC plans the tilts for force alone; a
+        rotor stuck tilted forward at low speed makes a yaw moment the rotors' reaction torque cannot hold, and the
+        aircraft spun up and fell (servo-jam campaign: 60-95 deg jams at 1-9 m/s)."""
+        return command.yaw_by_tilt or (self.velocity_controller is not self.pid
+                                       and not bool(np.all(np.isnan(self.servos.stuck))))
 
     def _fall_back_to_pid(self, state: VehicleState, mpc: MpcVelocityController) -> None:
         """Paper: the PID is the MPC's back-up after repeated failed solves; it flies from this tick on."""
@@ -234,5 +253,5 @@ class FlightController:
         if result.fallback:
             self.allocation_fallbacks += 1
         self.residual = result.residual
-        self.yaw_tilt.update(command.yaw_by_tilt, result.residual[YAW_MOMENT_ROW], result.u[ALLOCATED_ROTORS])
+        self.yaw_tilt.update(self._yaw_by_tilt(command), result.residual[YAW_MOMENT_ROW], result.u[ALLOCATED_ROTORS])
         set_allocated(self.command, result.u)

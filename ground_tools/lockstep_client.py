@@ -69,6 +69,15 @@ def setpoint_for(scenario: Scenario, stamp_ms: int) -> np.ndarray:
     return scenario.profile((stamp_ms - START_MS) / 1000.0)
 
 
+def yaw_turns(previous_deg: float, yaw_deg: float) -> int:
+    """+1 when the yaw wrapped from +180 to -180 deg between two samples (a right turn), -1 the other way, else 0."""
+    if yaw_deg - previous_deg < -180.0:
+        return 1
+    if yaw_deg - previous_deg > 180.0:
+        return -1
+    return 0
+
+
 def tilt_commands_deg(airframe: Airframe, message: Any) -> tuple[float, float, float, float]:
     """Tilt servo commands (deg) from SERVO_OUTPUT_RAW channels 5-8."""
     pwm = [getattr(message, f"servo{i}_raw") for i in range(1, CHANNELS + 1)]
@@ -99,6 +108,7 @@ class LockstepClient:
         self.on_first_hold = on_first_hold
         self.link = Link(GCS_SYSTEM, GCS_COMPONENT)
         self.telemetry = Telemetry()
+        self._yaw_turns = 0  # turns to the right since the start (the yaw wraps at +-180 deg)
         self.events = FlightEvents()
         self.vehicle: tuple[str, int] | None = None
         self.covered_ms = -1
@@ -135,8 +145,11 @@ class LockstepClient:
         kind = message.get_type()
         if kind == "ATTITUDE":
             self._now_ms = max(self._now_ms, message.time_boot_ms)
+            yaw_deg = math.degrees(message.yaw)
+            self._yaw_turns += yaw_turns(self.telemetry.yaw_deg, yaw_deg)
             self.telemetry = replace(self.telemetry, roll_deg=math.degrees(message.roll),
-                                     pitch_deg=math.degrees(message.pitch), yaw_deg=math.degrees(message.yaw))
+                                     pitch_deg=math.degrees(message.pitch), yaw_deg=yaw_deg,
+                                     yaw_unwrapped_deg=yaw_deg + 360.0 * self._yaw_turns)  # fmt: skip
         elif kind == "LOCAL_POSITION_NED":
             self.telemetry = replace(self.telemetry, ground_speed=math.hypot(message.vx, message.vy))
         elif kind == "SERVO_OUTPUT_RAW":

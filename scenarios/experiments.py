@@ -34,6 +34,7 @@ class Telemetry:
     roll_deg: float = 0.0
     pitch_deg: float = 0.0
     yaw_deg: float = 0.0
+    yaw_unwrapped_deg: float = 0.0  # the yaw plus 360 deg for each turn to the right since the start (- to the left)
     tilt_cmd_deg: tuple[float, float, float, float] = (0.0, 0.0, 0.0, 0.0)  # from SERVO_OUTPUT_RAW
     ground_speed: float = 0.0  # m/s, horizontal, from LOCAL_POSITION_NED
 
@@ -67,8 +68,9 @@ def ground_speed_reaches(speed: float) -> Callable[[Telemetry], bool]:
 
 
 def yaw_reaches(angle_deg: float) -> Callable[[Telemetry], bool]:
-    """Yaw at or past `angle_deg` (within the half turn after it, as yaw wraps at 180 deg)."""
-    return lambda telemetry: 0.0 <= (telemetry.yaw_deg - angle_deg) % 360.0 < 180.0
+    """The yaw has turned right to `angle_deg` (0 ... 360) from north: the unwrapped yaw, so 240 deg is reached
+    two thirds of the way round a right-hand circle, not at once (-120 deg wrapped)."""
+    return lambda telemetry: telemetry.yaw_unwrapped_deg >= angle_deg
 
 
 CIRCLE = Circle(circle_start(0.0), CIRCLE_RADIUS)

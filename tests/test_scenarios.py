@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from autopilot.stamped_setpoints import StampedSetpoints
-from ground_tools.lockstep_client import PERIOD_MS, START_MS, grid_stamp, setpoint_for, tilt_commands_deg
+from ground_tools.lockstep_client import PERIOD_MS, START_MS, grid_stamp, setpoint_for, tilt_commands_deg, yaw_turns
 from ground_tools.processes import AutopilotCommand
 from ground_tools.scenario_report import acceptance, velocity_rmse, write_report
 from ground_tools.scenario_run import WALL_CLOCK_KEYS
@@ -63,8 +63,15 @@ def test_triggers() -> None:
     assert not servo(Telemetry(tilt_cmd_deg=(59.9, 80.0, 80.0, 80.0)))
     assert servo(Telemetry(tilt_cmd_deg=(60.0, 0.0, 0.0, 0.0)))
     yaw = yaw_reaches(90.0)
-    assert [yaw(Telemetry(yaw_deg=y)) for y in (0.0, 89.9, 90.0, 179.0, -170.0, -89.0)] == \
+    assert [yaw(Telemetry(yaw_unwrapped_deg=y)) for y in (0.0, 89.9, 90.0, 179.0, 190.0, -89.0)] == \
         [False, False, True, True, True, False]  # fmt: skip
+    late = yaw_reaches(240.0)  # two thirds of a right-hand turn: not at the start, where the wrapped yaw is 0
+    assert [late(Telemetry(yaw_unwrapped_deg=y)) for y in (0.0, 120.0, 239.9, 240.0)] == [False, False, False, True]
+    turns = 0
+    for previous, now in ((0.0, 90.0), (90.0, 179.0), (179.0, -179.0), (-179.0, -120.0), (-120.0, 178.0)):
+        turns += yaw_turns(previous, now)
+    assert turns == 0  # round to the right past 180 deg, then back to the left across it
+    assert yaw_turns(179.0, -179.0) == 1 and yaw_turns(-179.0, 179.0) == -1
 
 
 def test_servo_output_raw_to_tilt(airframe) -> None:
