@@ -27,6 +27,7 @@ from autopilot.failsafe import DESCEND, TERMINATE, WARN, Decision, Failsafe, Fai
 from autopilot.flight_modes import (HOLD, LAND, MISSION, OFFBOARD, ORBIT, RETURN, TAKEOFF, VTOL_FW, VTOL_MC,
                                     FlightMode, HoldMode, LandMode, MissionMode, OffboardMode, OrbitMode, ReturnMode,
                                     TakeoffMode)  # fmt: skip
+from autopilot.home_position import HomeKeeper
 from autopilot.manual_modes import ALTITUDE, POSITION, ManualControl, StickMode
 from autopilot.mission_flight import MissionFlight
 from autopilot.mission_store import MissionStore
@@ -34,7 +35,7 @@ from autopilot.navigator import LandDetector, Navigator
 from autopilot.offboard_setpoint import SETPOINT_LIMITS, AttitudeTarget, OffboardSetpoint
 from autopilot.parameters import ParameterStore
 from autopilot.requests import (ManualControlInput, OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit,
-                                Reply, Reposition)
+                                Reply, Reposition, SetHome)
 from autopilot.vehicle_state import VehicleState
 from transport.geodesy import Home
 from transport.mavlink import mavlink
@@ -80,9 +81,10 @@ class Commander:
         self.params = params
         missions = missions if missions is not None else MissionStore()
         navigator = Navigator(params)
+        self.homes = HomeKeeper(home)
         self.auto = auto = AutoFlight(params)
-        mission = MissionFlight(params, missions, home, auto, landed=lambda: self.on_ground)
-        self.failsafe = Failsafe(params, missions, home, say)
+        mission = MissionFlight(params, missions, self.homes, auto, landed=lambda: self.on_ground)
+        self.failsafe = Failsafe(params, missions, self.homes, say)
         self.offboard = OffboardSetpoint(stamped=stamped_setpoints)
         self.manual = ManualControl(params)
         self.hold = HoldMode(navigator, auto)
@@ -288,7 +290,7 @@ class Commander:
             altitude_above_home = self.params["MIS_TAKEOFF_ALT"]
         elif not 1.0 <= altitude_above_home <= 1000.0:
             return DENIED, f"Takeoff denied: altitude {altitude_above_home:.1f} m above home not in 1..1000 m"
-        self.takeoff_mode.start(state, -altitude_above_home)
+        self.takeoff_mode.start(state, self.homes.position.down - altitude_above_home)
         if self.mode != TAKEOFF:
             self.mode = TAKEOFF
             self.state_version += 1
@@ -304,6 +306,15 @@ class Commander:
         if (refusal := self._refusal("Land")) is not None:
             return refusal
         self._set_mode(LAND, state, "Landing")
+        return ACCEPTED, None
+
+    def set_home(self, request: SetHome) -> Reply:
+        """MAV_CMD_DO_SET_HOME: Return and the geofence's distances use the new home from now (PX4: refused,
+        TEMPORARILY_REJECTED, without a position estimate)."""
+        if (refusal := self._refusal("Set home", positional=request.current)) is not None:
+            return refusal
+        self.homes.position = home = request.home
+        self.say(mavlink.MAV_SEVERITY_INFO, f"Home position: {home.lat:.7f}, {home.lon:.7f}, {home.alt:.2f}")
         return ACCEPTED, None
 
     def transition(self, target: int, state: VehicleState) -> Reply:

@@ -24,9 +24,9 @@ import numpy as np
 from aircraft.failures import Failure, FailureUnit, failed_sensors
 from autopilot.flight_modes import HOLD, LAND, RETURN
 from autopilot.geofence import Fence, breach, fence_from_items
+from autopilot.home_position import HomeKeeper
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
-from transport.geodesy import Home
 from transport.mavlink import mavlink
 
 NONE, WARN, TERMINATE = "None", "Warn", "Terminate"  # the actions that are not modes (Hold, Return, Land are)
@@ -58,11 +58,11 @@ class FailsafeInputs:
 
 
 class Failsafe:
-    def __init__(self, params: ParameterStore, missions: MissionStore, home: Home,
+    def __init__(self, params: ParameterStore, missions: MissionStore, homes: HomeKeeper,
                  say: Callable[..., None]) -> None:  # fmt: skip
         self.params = params
         self.missions = missions
-        self.home = home
+        self.homes = homes
         self.say = say
         self.gcs_heard_usec: int | None = None  # the last GCS HEARTBEAT (simulation time)
         self.datalink_lost = False
@@ -140,7 +140,7 @@ class Failsafe:
         items = self.missions.snapshot.fence
         if items is not self._fence_items:
             self._fence_items = items
-            self._fence = fence_from_items(items, self.home)
+            self._fence = fence_from_items(items, self.homes.origin)
             for reason in self._fence.ignored:
                 self.say(mavlink.MAV_SEVERITY_WARNING, f"Geofence: {reason}: ignored")
         return self._fence
@@ -149,7 +149,8 @@ class Failsafe:
         """Why `position_ned` is outside the geofence (None: inside, or GF_ACTION 0 disables the fence)."""
         if GEOFENCE_ACTIONS[self.params.get_int("GF_ACTION")] == NONE:
             return None
-        return breach(position_ned, self.fence(), self.params["GF_MAX_HOR_DIST"], self.params["GF_MAX_VER_DIST"])
+        return breach(position_ned, self.fence(), self.params["GF_MAX_HOR_DIST"], self.params["GF_MAX_VER_DIST"],
+                      self.homes.position.ned)  # fmt: skip
 
     def _geofence(self, status: FailsafeInputs) -> Decision | None:
         why = self.outside_fence(status.position_ned) if status.flying else None

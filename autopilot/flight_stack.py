@@ -13,7 +13,7 @@ from autopilot.parameters import ParameterStore
 from autopilot.requests import (Arm, ChangeSpeed, ClearMission, Disarm, GcsHeartbeat, InjectFailure, Land,
                                 ManualControlInput, OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit,
                                 Reply, Reposition, Request, ReturnToLaunch, SetMissionCurrent, SetMode,
-                                StartMission, StoreMission, Takeoff, Transition)  # fmt: skip
+                                SetHome, StartMission, StoreMission, Takeoff, Transition)  # fmt: skip
 from transport.mavlink import mavlink
 
 
@@ -55,6 +55,8 @@ class FlightStack:
                 return commander.takeoff(state, altitude)
             case Land():
                 return commander.land(state)
+            case SetHome():
+                return commander.set_home(request)
             case SetMode(mode=mode):
                 return commander.set_mode(mode, state)
             case Transition(target=target):
