@@ -23,12 +23,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from autopilot.auto_flight import AutoFlight, Circle
-from autopilot.failsafe import DESCEND, TERMINATE, WARN, Decision, Failsafe, FailsafeInputs
+from autopilot.failsafe import Decision, Failsafe, FailsafeInputs
+from autopilot.failsafe_reaction import reaction
 from autopilot.flight_modes import (HOLD, LAND, MISSION, OFFBOARD, ORBIT, RETURN, TAKEOFF, VTOL_FW, VTOL_MC,
                                     FlightMode, HoldMode, LandMode, MissionMode, OffboardMode, OrbitMode, ReturnMode,
                                     TakeoffMode)  # fmt: skip
 from autopilot.home_position import HomeKeeper
 from autopilot.manual_modes import ALTITUDE, POSITION, ManualControl, StickMode
+from autopilot.mission_feasibility import MissionFeasibility
 from autopilot.mission_flight import MissionFlight
 from autopilot.mission_store import MissionStore
 from autopilot.navigator import LandDetector, Navigator
@@ -85,6 +87,7 @@ class Commander:
         self.auto = auto = AutoFlight(params)
         mission = MissionFlight(params, missions, self.homes, auto, landed=lambda: self.on_ground)
         self.failsafe = Failsafe(params, missions, self.homes, say)
+        self.feasibility = MissionFeasibility(mission, self.failsafe.outside_fence, say)
         self.offboard = OffboardSetpoint(stamped=stamped_setpoints)
         self.manual = ManualControl(params)
         self.hold = HoldMode(navigator, auto)
@@ -235,6 +238,8 @@ class Commander:
                             f"pitch {math.degrees(pitch):.0f} deg)")  # fmt: skip
         if not force and (outside := self.failsafe.outside_fence(state.position_ned)) is not None:
             return DENIED, f"Arming denied: vehicle outside the geofence ({outside})"
+        if not force and self.mode == MISSION and self.feasibility.check() is not None:
+            return DENIED, "Arming denied: no valid mission"
         self._set_armed(True, "Armed")
         if self.mode == MISSION:
             self.mission_mode.activate(state)  # a takeoff item first: the mission takes off
@@ -271,12 +276,20 @@ class Commander:
             return self.takeoff(state, None)
         if mode == MISSION and not self.mission_mode.stored:
             return DENIED, "Mission denied: no mission stored"
+        if mode == MISSION and self.feasibility.check() is not None:
+            return TEMPORARILY_REJECTED, "Switching to Mission is currently not available"
         if mode == ORBIT:
             return DENIED, "Orbit: use MAV_CMD_DO_ORBIT (radius, speed, centre)"
         if mode == RETURN and not self.flying:
             return TEMPORARILY_REJECTED, "Return denied: not flying"
         self._set_mode(mode, state)
         return ACCEPTED, None
+
+    def start_mission(self, state: VehicleState) -> Reply:
+        """MAV_CMD_MISSION_START: Mission mode, if the mission passes the feasibility check (PX4: DENIED if not)."""
+        if self.mission_mode.stored and self.mode != MISSION and self.feasibility.check() is not None:
+            return DENIED, "Mission start denied! No valid mission"
+        return self.set_mode(MISSION, state)
 
     def manual_control(self, sticks: ManualControlInput) -> Reply:
         """MANUAL_CONTROL as a virtual RC, when COM_RC_IN_MODE takes it."""
@@ -429,25 +442,19 @@ class Commander:
         return setpoint
 
     def _failsafe(self, decision: Decision, state: VehicleState) -> None:
-        """A failsafe's action: a warning, flight termination, or its mode (not Return while landing, as PX4; Hold
-        again when in Hold, which stops a Go-to)."""
+        """A failsafe's action, as failsafe_reaction.py plans it."""
         self.failsafes += 1
-        action = decision.action
-        if action == WARN or (action == self.mode != HOLD) or (action == RETURN and self.mode == LAND):
-            self.say(mavlink.MAV_SEVERITY_WARNING, decision.cause)
-        elif action == DESCEND:
-            self._set_mode(LAND, state, f"{decision.cause}, Descend")
-            self.land_mode.descend = True
-            self.say(mavlink.MAV_SEVERITY_CRITICAL, "Failsafe activated: Descend")
-        elif action == TERMINATE:
-            self.say(mavlink.MAV_SEVERITY_CRITICAL, f"{decision.cause}: flight termination")
-            self._set_armed(False, "Failsafe activated: flight termination, motors off")
-        else:  # Hold again stops a Go-to where it is
-            if action == self.mode:
-                self.say(mavlink.MAV_SEVERITY_WARNING, f"{decision.cause}, {action}")
-            self._set_mode(action, state, f"{decision.cause}, {action}")
-            if self.flying:
-                self.say(mavlink.MAV_SEVERITY_CRITICAL, f"Failsafe activated: {action}")
+        plan = reaction(decision, self.mode, self.flying)
+        for severity, text in plan.before:
+            self.say(severity, text)
+        if plan.cut_motors is not None:
+            self._set_armed(False, plan.cut_motors)
+        if plan.mode is not None:
+            self._set_mode(plan.mode, state, plan.mode_reason)
+            if plan.descend:
+                self.land_mode.descend = True
+        for severity, text in plan.after:
+            self.say(severity, text)
 
     def _on_ground(self, state: VehicleState, time_usec: int) -> np.ndarray | None:
         p = self.params

@@ -182,6 +182,10 @@ class MissionFlight:
         self._progress(self.seq, M.MISSION_STATE_COMPLETE)
         self.auto.follow(state, [HoldAt(state.position_ned.copy(), None)])
 
+    def item_position(self, item: MissionItem) -> np.ndarray | None:
+        """The item's NED position; None when it flies where the vehicle is then (latitude and longitude 0)."""
+        return None if item.x == 0 and item.y == 0 else self._position(np.zeros(3), item)
+
     def _position(self, here: np.ndarray, item: MissionItem) -> np.ndarray:
         """The item's NED position (lat/lon 0: `here`, the vehicle's; altitude relative to home or AMSL)."""
         origin = self.homes.origin
