@@ -415,7 +415,8 @@ class Commander:
         manual_lost = self.mode in (POSITION, ALTITUDE) and not self.manual.fresh(time_usec)
         decision = self.failsafe.check(FailsafeInputs(time_usec, self.flying, self.mode, state.position_ned,
                                                       self.mode == OFFBOARD and not self._offboard_fresh(),
-                                                      manual_lost))  # fmt: skip
+                                                      manual_lost, self.mode == OFFBOARD
+                                                      and self.manual.refusal(POSITION, time_usec) is None))  # fmt: skip
         if decision is not None:
             self._failsafe(decision, state)
         if not self.armed:

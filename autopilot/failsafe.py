@@ -9,9 +9,10 @@ checked from the vehicle's status, and when one starts to hold, the action PX4's
     loss               COM_RC_LOSS_T
 
 A condition acts when it starts (PX4: the action is cleared by a mode change, so a user can fly out of it); its
-cause is said as a STATUSTEXT, and the commander switches modes and says "Failsafe activated". The offboard loss's
-manual fallbacks (PX4's Position, Altitude, Stabilized) fall back to Hold: there is no RC, and a script that lost
-its Offboard stream seldom sends MANUAL_CONTROL.
+cause is said as a STATUSTEXT, and the commander switches modes and says "Failsafe activated" (failsafe_reaction.py).
+The offboard loss's manual fallbacks, PX4's Position and Altitude, need manual control (MANUAL_CONTROL heard in
+the last COM_RC_LOSS_T): without it they fall back to Hold, as PX4's chain (Altitude, Stabilized, Hold) does when
+there is no RC; Stabilized, which this vehicle has not, is Hold.
 """
 
 from __future__ import annotations
@@ -25,13 +26,15 @@ from aircraft.failures import Failure, FailureUnit, failed_sensors
 from autopilot.flight_modes import HOLD, LAND, RETURN
 from autopilot.geofence import Fence, breach, fence_from_items
 from autopilot.home_position import HomeKeeper
+from autopilot.manual_modes import ALTITUDE, POSITION
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
 from transport.mavlink import mavlink
 
 NONE, WARN, TERMINATE = "None", "Warn", "Terminate"  # the actions that are not modes (Hold, Return, Land are)
 DESCEND = "Descend"  # Land with no horizontal position control (PX4 reports it as AUTO.LAND too)
-OFFBOARD_LOSS_ACTIONS = {0: HOLD, 1: HOLD, 2: HOLD, 3: RETURN, 4: LAND, 5: HOLD}  # COM_OBL_RC_ACT
+OFFBOARD_LOSS_ACTIONS = {0: POSITION, 1: ALTITUDE, 2: HOLD, 3: RETURN, 4: LAND, 5: HOLD}  # COM_OBL_RC_ACT
+NEEDS_MANUAL_CONTROL = (POSITION, ALTITUDE)  # without it PX4 falls back along Altitude, Stabilized, to Hold
 DATALINK_LOSS_ACTIONS = {0: NONE, 1: HOLD, 2: RETURN, 3: LAND}  # NAV_DLL_ACT
 GEOFENCE_ACTIONS = {0: NONE, 1: WARN, 2: HOLD, 3: RETURN, 4: TERMINATE, 5: LAND}  # GF_ACTION
 MANUAL_LOSS_ACTIONS = {0: NONE, 1: HOLD, 2: RETURN, 3: LAND, 4: HOLD, 5: TERMINATE, 6: TERMINATE}  # NAV_RCL_ACT
@@ -55,6 +58,7 @@ class FailsafeInputs:
     position_ned: np.ndarray
     offboard_lost: bool  # in Offboard with no set-point for COM_OF_LOSS_T
     manual_lost: bool = False  # in Position or Altitude with no MANUAL_CONTROL for COM_RC_LOSS_T
+    manual_fresh: bool = False  # MANUAL_CONTROL heard in the last COM_RC_LOSS_T (the manual modes can run)
 
 
 class Failsafe:
@@ -103,6 +107,8 @@ class Failsafe:
         """The decision of a condition that started to hold this tick (the worst first), or None."""
         if status.offboard_lost:
             action = OFFBOARD_LOSS_ACTIONS[self.params.get_int("COM_OBL_RC_ACT")] if status.flying else HOLD
+            if action in NEEDS_MANUAL_CONTROL and not status.manual_fresh:
+                action = HOLD
             return Decision(action, f"Offboard lost: no set-point for {self.params['COM_OF_LOSS_T']:g} s")
         if status.manual_lost:  # PX4 with NAV_RCL_ACT 0 still leaves a manual mode it cannot fly: Hold
             action = MANUAL_LOSS_ACTIONS[self.params.get_int("NAV_RCL_ACT")] if status.flying else HOLD

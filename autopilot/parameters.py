@@ -57,8 +57,9 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
     P("SYS_FAILURE_DLY", REAL32, 0.0, 0.0, 60.0, "s", "delay before the controllers learn of an injected failure",
       px4=False),
     P("COM_OF_LOSS_T", REAL32, 1.0, 0.1, 60.0, "s", "offboard set-point loss timeout: then COM_OBL_RC_ACT"),
-    P("COM_OBL_RC_ACT", INT32, 0, 0, 5, "", "offboard loss failsafe: 0 Position, 1 Altitude, 2 Stabilized (with no "
-      "RC all three fall back to Hold), 3 Return, 4 Land, 5 Hold (PX4's 6 Terminate and 7 Disarm are refused)"),
+    P("COM_OBL_RC_ACT", INT32, 0, 0, 5, "", "offboard loss failsafe: 0 Position, 1 Altitude (with MANUAL_CONTROL "
+      "heard in the last COM_RC_LOSS_T; without, Hold), 2 Stabilized (Hold: there is no Stabilized), 3 Return, "
+      "4 Land, 5 Hold (PX4's 6 Terminate and 7 Disarm are refused)"),
     P("COM_DL_LOSS_T", INT32, 10, 5, 300, "s", "data-link loss: no ground-station HEARTBEAT for this long"),
     P("NAV_DLL_ACT", INT32, 0, 0, 3, "", "data-link loss failsafe: 0 disabled, 1 Hold, 2 Return, 3 Land (PX4's 5 "
       "Terminate and 6 Disarm are refused)"),

@@ -13,11 +13,12 @@ import pytest
 from aircraft.failures import Failure, FailureRejected, FailureType, FailureUnit
 from autopilot.commander import HOLD, LAND, OFFBOARD, RETURN, Commander
 from autopilot.geofence import breach, fence_from_items, inside_polygon
+from autopilot.manual_modes import ALTITUDE, POSITION
 from autopilot.mission_flight import closest_safe_point
 from autopilot.mission_items import MissionItem
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterRejected, ParameterStore
-from autopilot.requests import Reposition
+from autopilot.requests import ManualControlInput, Reposition
 from autopilot.vehicle_state import VehicleState
 from transport.geodesy import Home
 from transport.mavlink import mavlink as M
@@ -82,12 +83,16 @@ def test_return_goes_to_the_closest_of_home_and_the_rally_points():
 
 
 # ---- the actions, through the commander -------------------------------------------------------------------------------
-@pytest.mark.parametrize("action, mode", [(0, HOLD), (3, RETURN), (4, LAND), (5, HOLD)])
-def test_offboard_loss_takes_com_obl_rc_act(action, mode):
+@pytest.mark.parametrize("action, mode, sticks", [(0, HOLD, False), (1, HOLD, False), (2, HOLD, True),
+                                                  (0, POSITION, True), (1, ALTITUDE, True), (3, RETURN, False),
+                                                  (4, LAND, False), (5, HOLD, False)])  # fmt: skip
+def test_offboard_loss_takes_com_obl_rc_act(action, mode, sticks):
+    """Position and Altitude need MANUAL_CONTROL (heard within COM_RC_LOSS_T): without it, Hold, as PX4 falls back."""
     commander, said = flying_commander(COM_OBL_RC_ACT=action)
+    centred = (lambda t: commander.manual_control(ManualControlInput())) if sticks else None
     commander.offboard_setpoint(np.array([1.0, 0.0, 0.0]))
     assert commander.set_mode(OFFBOARD, state_at(0.0))[0] == M.MAV_RESULT_ACCEPTED
-    fly(commander, 0.0, 1.1)
+    fly(commander, 0.0, 1.1, every=centred)
     assert commander.mode == mode and f"Failsafe activated: {mode}" in said
     assert any(text.startswith("Offboard lost") for text in said)
 
