@@ -63,12 +63,27 @@ def closest_safe_point(position_ned: np.ndarray, rally_points: list[np.ndarray],
                key=lambda point: float(np.hypot(*(point - position_ned[0:2]))))  # fmt: skip
 
 
+def return_height(height: float, distance: float, return_alt: float, cone_deg: int) -> float:
+    """PX4's return altitude (its calculate_return_alt_from_cone_half_angle), as the height above the destination:
+    RTL_RETURN_ALT, lowered within the RTL_CONE_ANG cone over the destination to the cone's height at `distance`
+    (m, horizontal); never below `height` (where the vehicle is now). cone_deg 0: no cone; 90: no climb."""
+    if height > return_alt or cone_deg >= 90:
+        return height
+    if cone_deg <= 0:
+        return return_alt
+    cone = math.radians(min(max(cone_deg, 1), 89))
+    return max(height, min(max(distance / math.tan(cone), 0.0), return_alt))
+
+
 def return_route(params: ParameterStore, state: VehicleState, rally_points: list[np.ndarray],
                  home_ned: np.ndarray) -> list[Target]:  # fmt: skip
-    """Climb to RTL_RETURN_ALT above home (if lower) over here, fly at that altitude to the closest of home and the
+    """Climb to the return altitude above home (return_height) over here, fly at it to the closest of home and the
     rally points, land there."""
-    down = min(float(state.position_ned[2]), float(home_ned[2]) - params["RTL_RETURN_ALT"])
     destination = closest_safe_point(state.position_ned, rally_points, home_ned)
+    distance = float(np.hypot(*(state.position_ned[0:2] - destination)))
+    height = float(home_ned[2]) - float(state.position_ned[2])
+    down = float(home_ned[2]) - return_height(height, distance, params["RTL_RETURN_ALT"],
+                                              params.get_int("RTL_CONE_ANG"))  # fmt: skip
     return [Climb(state.position_ned[0:2].copy(), down, params["MPC_Z_VEL_MAX_UP"]),
             FlyTo(np.array([*destination, down]), LANDING_APPROACH_RADIUS), LandAt(destination.copy())]  # fmt: skip
 

@@ -101,6 +101,8 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
       "0)"),
     P("RTL_RETURN_ALT", REAL32, 60.0, 0.0, 1000.0, "m", "Return: climb to this height above home (if lower) before "
       "flying to the closest of home and the rally points"),
+    P("RTL_CONE_ANG", INT32, 45, 0, 90, "deg", "Return: half-angle of the cone over the destination that lowers the "
+      "return altitude near it (0: always RTL_RETURN_ALT; 90: no climb)"),
     P("NAV_LOITER_RAD", REAL32, 250.0, 100.0, 2000.0, "m", "radius of the fixed-wing Hold circle"),
 )
 del P

@@ -14,7 +14,7 @@ from aircraft.failures import Failure, FailureRejected, FailureType, FailureUnit
 from autopilot.commander import HOLD, LAND, OFFBOARD, RETURN, Commander
 from autopilot.geofence import breach, fence_from_items, inside_polygon
 from autopilot.manual_modes import ALTITUDE, POSITION
-from autopilot.mission_flight import closest_safe_point
+from autopilot.mission_flight import closest_safe_point, return_height
 from autopilot.mission_items import MissionItem
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterRejected, ParameterStore
@@ -80,6 +80,16 @@ def test_return_goes_to_the_closest_of_home_and_the_rally_points():
     rally = [np.array([100.0, 0.0, 0.0]), np.array([0.0, -300.0, 0.0])]
     assert list(closest_safe_point(np.array([80.0, 0.0, -20.0]), rally)) == [100.0, 0.0]
     assert list(closest_safe_point(np.array([10.0, -100.0, -20.0]), rally)) == [0.0, 0.0]
+
+
+def test_return_altitude_follows_px4_s_cone_rtl_cone_ang():
+    assert return_height(10.0, 500.0, 60.0, 45) == 60.0  # far: RTL_RETURN_ALT
+    assert math.isclose(return_height(10.0, 30.0, 60.0, 45), 30.0)  # within the 45 deg cone: its height there
+    assert return_height(2.0, 30.0, 60.0, 80) == 30.0 / math.tan(math.radians(80))  # a narrower cone: lower
+    assert return_height(40.0, 30.0, 60.0, 45) == 40.0  # above the cone: no descent
+    assert return_height(10.0, 30.0, 60.0, 0) == 60.0  # 0: no cone
+    assert return_height(10.0, 30.0, 60.0, 90) == 10.0  # 90: no climb
+    assert return_height(70.0, 500.0, 60.0, 45) == 70.0  # above RTL_RETURN_ALT: stays
 
 
 # ---- the actions, through the commander -------------------------------------------------------------------------------
