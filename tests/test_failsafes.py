@@ -12,8 +12,11 @@ import pytest
 
 from aircraft.failures import Failure, FailureRejected, FailureType, FailureUnit
 from autopilot.commander import HOLD, LAND, OFFBOARD, RETURN, Commander
+from autopilot.failsafe import Decision
+from autopilot.failsafe_reaction import Reaction, reaction
 from autopilot.geofence import breach, fence_from_items, inside_polygon
 from autopilot.manual_modes import ALTITUDE, POSITION
+from autopilot.mission_feasibility import geofence_violation
 from autopilot.mission_flight import closest_safe_point, return_height
 from autopilot.mission_items import MissionItem
 from autopilot.mission_store import MissionStore
@@ -206,3 +209,27 @@ def test_gps_loss_in_the_air_descends_after_com_pos_fs_delay_and_position_modes_
     assert result == M.MAV_RESULT_TEMPORARILY_REJECTED and "GPS lost" in reason
     commander.failsafe.failure_known(Failure(FailureUnit.GPS, FailureType.OK, 0))
     assert commander.set_mode(HOLD, state_at(2.2))[0] == M.MAV_RESULT_ACCEPTED
+
+
+def test_a_failsafe_decision_becomes_px4_s_plan():
+    cause = "Geofence violated: x"
+    assert reaction(Decision("Warn", cause), HOLD, True) == Reaction(before=((M.MAV_SEVERITY_WARNING, cause),))
+    assert reaction(Decision(RETURN, cause), LAND, True).mode is None  # not Return while landing
+    descend = reaction(Decision("Descend", cause), HOLD, True)
+    assert (descend.mode, descend.descend, descend.after) == (LAND, True, ((M.MAV_SEVERITY_CRITICAL,
+                                                                             "Failsafe activated: Descend"),))
+    assert reaction(Decision("Terminate", cause), HOLD, True).cut_motors is not None
+    again = reaction(Decision(HOLD, cause), HOLD, False)  # Hold again stops a Go-to; nothing activated on the ground
+    assert again.mode == HOLD and again.before == ((M.MAV_SEVERITY_WARNING, f"{cause}, Hold"),) and again.after == ()
+
+
+def test_only_mission_items_with_a_position_are_checked_against_the_fence():
+    items = (item(M.MAV_CMD_NAV_WAYPOINT, 10.0, 0.0), item(M.MAV_CMD_NAV_WAYPOINT, 500.0, 0.0),
+             MissionItem(REL, M.MAV_CMD_NAV_LAND, 1, 0.0, 0.0, 0.0, 0.0, 0, 0, 0.0))  # fmt: skip
+    positions = {id(items[0]): np.array([10.0, 0.0, 0.0]), id(items[1]): np.array([500.0, 0.0, 0.0])}  # land: none
+
+    def far(ned: np.ndarray) -> str | None:
+        return "beyond 100 m" if ned[0] > 100.0 else None
+
+    assert geofence_violation(items, lambda it: positions.get(id(it)), far) == "Geofence violation for waypoint 2"
+    assert geofence_violation(items[0:1] + items[2:], lambda it: positions.get(id(it)), far) is None
