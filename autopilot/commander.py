@@ -23,18 +23,21 @@ from dataclasses import dataclass
 import numpy as np
 
 from autopilot.auto_flight import AutoFlight, Circle
-from autopilot.failsafe import DESCEND, TERMINATE, WARN, Decision, Failsafe, FailsafeInputs
+from autopilot.failsafe import Decision, Failsafe, FailsafeInputs
+from autopilot.failsafe_reaction import reaction
 from autopilot.flight_modes import (HOLD, LAND, MISSION, OFFBOARD, ORBIT, RETURN, TAKEOFF, VTOL_FW, VTOL_MC,
                                     FlightMode, HoldMode, LandMode, MissionMode, OffboardMode, OrbitMode, ReturnMode,
                                     TakeoffMode)  # fmt: skip
+from autopilot.home_position import HomeKeeper
 from autopilot.manual_modes import ALTITUDE, POSITION, ManualControl, StickMode
+from autopilot.mission_feasibility import MissionFeasibility
 from autopilot.mission_flight import MissionFlight
 from autopilot.mission_store import MissionStore
 from autopilot.navigator import LandDetector, Navigator
 from autopilot.offboard_setpoint import SETPOINT_LIMITS, AttitudeTarget, OffboardSetpoint
 from autopilot.parameters import ParameterStore
 from autopilot.requests import (ManualControlInput, OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit,
-                                Reply, Reposition)
+                                Reply, Reposition, SetHome)
 from autopilot.vehicle_state import VehicleState
 from transport.geodesy import Home
 from transport.mavlink import mavlink
@@ -80,9 +83,11 @@ class Commander:
         self.params = params
         missions = missions if missions is not None else MissionStore()
         navigator = Navigator(params)
+        self.homes = HomeKeeper(home)
         self.auto = auto = AutoFlight(params)
-        mission = MissionFlight(params, missions, home, auto, landed=lambda: self.on_ground)
-        self.failsafe = Failsafe(params, missions, home, say)
+        mission = MissionFlight(params, missions, self.homes, auto, landed=lambda: self.on_ground)
+        self.failsafe = Failsafe(params, missions, self.homes, say)
+        self.feasibility = MissionFeasibility(mission, self.failsafe.outside_fence, say)
         self.offboard = OffboardSetpoint(stamped=stamped_setpoints)
         self.manual = ManualControl(params)
         self.hold = HoldMode(navigator, auto)
@@ -233,6 +238,8 @@ class Commander:
                             f"pitch {math.degrees(pitch):.0f} deg)")  # fmt: skip
         if not force and (outside := self.failsafe.outside_fence(state.position_ned)) is not None:
             return DENIED, f"Arming denied: vehicle outside the geofence ({outside})"
+        if not force and self.mode == MISSION and self.feasibility.check() is not None:
+            return DENIED, "Arming denied: no valid mission"
         self._set_armed(True, "Armed")
         if self.mode == MISSION:
             self.mission_mode.activate(state)  # a takeoff item first: the mission takes off
@@ -269,12 +276,20 @@ class Commander:
             return self.takeoff(state, None)
         if mode == MISSION and not self.mission_mode.stored:
             return DENIED, "Mission denied: no mission stored"
+        if mode == MISSION and self.feasibility.check() is not None:
+            return TEMPORARILY_REJECTED, "Switching to Mission is currently not available"
         if mode == ORBIT:
             return DENIED, "Orbit: use MAV_CMD_DO_ORBIT (radius, speed, centre)"
         if mode == RETURN and not self.flying:
             return TEMPORARILY_REJECTED, "Return denied: not flying"
         self._set_mode(mode, state)
         return ACCEPTED, None
+
+    def start_mission(self, state: VehicleState) -> Reply:
+        """MAV_CMD_MISSION_START: Mission mode, if the mission passes the feasibility check (PX4: DENIED if not)."""
+        if self.mission_mode.stored and self.mode != MISSION and self.feasibility.check() is not None:
+            return DENIED, "Mission start denied! No valid mission"
+        return self.set_mode(MISSION, state)
 
     def manual_control(self, sticks: ManualControlInput) -> Reply:
         """MANUAL_CONTROL as a virtual RC, when COM_RC_IN_MODE takes it."""
@@ -288,7 +303,7 @@ class Commander:
             altitude_above_home = self.params["MIS_TAKEOFF_ALT"]
         elif not 1.0 <= altitude_above_home <= 1000.0:
             return DENIED, f"Takeoff denied: altitude {altitude_above_home:.1f} m above home not in 1..1000 m"
-        self.takeoff_mode.start(state, -altitude_above_home)
+        self.takeoff_mode.start(state, self.homes.position.down - altitude_above_home)
         if self.mode != TAKEOFF:
             self.mode = TAKEOFF
             self.state_version += 1
@@ -304,6 +319,15 @@ class Commander:
         if (refusal := self._refusal("Land")) is not None:
             return refusal
         self._set_mode(LAND, state, "Landing")
+        return ACCEPTED, None
+
+    def set_home(self, request: SetHome) -> Reply:
+        """MAV_CMD_DO_SET_HOME: Return and the geofence's distances use the new home from now (PX4: refused,
+        TEMPORARILY_REJECTED, without a position estimate)."""
+        if (refusal := self._refusal("Set home", positional=request.current)) is not None:
+            return refusal
+        self.homes.position = home = request.home
+        self.say(mavlink.MAV_SEVERITY_INFO, f"Home position: {home.lat:.7f}, {home.lon:.7f}, {home.alt:.2f}")
         return ACCEPTED, None
 
     def transition(self, target: int, state: VehicleState) -> Reply:
@@ -391,7 +415,8 @@ class Commander:
         manual_lost = self.mode in (POSITION, ALTITUDE) and not self.manual.fresh(time_usec)
         decision = self.failsafe.check(FailsafeInputs(time_usec, self.flying, self.mode, state.position_ned,
                                                       self.mode == OFFBOARD and not self._offboard_fresh(),
-                                                      manual_lost))  # fmt: skip
+                                                      manual_lost, self.mode == OFFBOARD
+                                                      and self.manual.refusal(POSITION, time_usec) is None))  # fmt: skip
         if decision is not None:
             self._failsafe(decision, state)
         if not self.armed:
@@ -418,25 +443,19 @@ class Commander:
         return setpoint
 
     def _failsafe(self, decision: Decision, state: VehicleState) -> None:
-        """A failsafe's action: a warning, flight termination, or its mode (not Return while landing, as PX4; Hold
-        again when in Hold, which stops a Go-to)."""
+        """A failsafe's action, as failsafe_reaction.py plans it."""
         self.failsafes += 1
-        action = decision.action
-        if action == WARN or (action == self.mode != HOLD) or (action == RETURN and self.mode == LAND):
-            self.say(mavlink.MAV_SEVERITY_WARNING, decision.cause)
-        elif action == DESCEND:
-            self._set_mode(LAND, state, f"{decision.cause}, Descend")
-            self.land_mode.descend = True
-            self.say(mavlink.MAV_SEVERITY_CRITICAL, "Failsafe activated: Descend")
-        elif action == TERMINATE:
-            self.say(mavlink.MAV_SEVERITY_CRITICAL, f"{decision.cause}: flight termination")
-            self._set_armed(False, "Failsafe activated: flight termination, motors off")
-        else:  # Hold again stops a Go-to where it is
-            if action == self.mode:
-                self.say(mavlink.MAV_SEVERITY_WARNING, f"{decision.cause}, {action}")
-            self._set_mode(action, state, f"{decision.cause}, {action}")
-            if self.flying:
-                self.say(mavlink.MAV_SEVERITY_CRITICAL, f"Failsafe activated: {action}")
+        plan = reaction(decision, self.mode, self.flying)
+        for severity, text in plan.before:
+            self.say(severity, text)
+        if plan.cut_motors is not None:
+            self._set_armed(False, plan.cut_motors)
+        if plan.mode is not None:
+            self._set_mode(plan.mode, state, plan.mode_reason)
+            if plan.descend:
+                self.land_mode.descend = True
+        for severity, text in plan.after:
+            self.say(severity, text)
 
     def _on_ground(self, state: VehicleState, time_usec: int) -> np.ndarray | None:
         p = self.params

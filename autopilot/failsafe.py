@@ -9,9 +9,10 @@ checked from the vehicle's status, and when one starts to hold, the action PX4's
     loss               COM_RC_LOSS_T
 
 A condition acts when it starts (PX4: the action is cleared by a mode change, so a user can fly out of it); its
-cause is said as a STATUSTEXT, and the commander switches modes and says "Failsafe activated". The offboard loss's
-manual fallbacks (PX4's Position, Altitude, Stabilized) fall back to Hold: there is no RC, and a script that lost
-its Offboard stream seldom sends MANUAL_CONTROL.
+cause is said as a STATUSTEXT, and the commander switches modes and says "Failsafe activated" (failsafe_reaction.py).
+The offboard loss's manual fallbacks, PX4's Position and Altitude, need manual control (MANUAL_CONTROL heard in
+the last COM_RC_LOSS_T): without it they fall back to Hold, as PX4's chain (Altitude, Stabilized, Hold) does when
+there is no RC; Stabilized, which this vehicle has not, is Hold.
 """
 
 from __future__ import annotations
@@ -24,14 +25,16 @@ import numpy as np
 from aircraft.failures import Failure, FailureUnit, failed_sensors
 from autopilot.flight_modes import HOLD, LAND, RETURN
 from autopilot.geofence import Fence, breach, fence_from_items
+from autopilot.home_position import HomeKeeper
+from autopilot.manual_modes import ALTITUDE, POSITION
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
-from transport.geodesy import Home
 from transport.mavlink import mavlink
 
 NONE, WARN, TERMINATE = "None", "Warn", "Terminate"  # the actions that are not modes (Hold, Return, Land are)
 DESCEND = "Descend"  # Land with no horizontal position control (PX4 reports it as AUTO.LAND too)
-OFFBOARD_LOSS_ACTIONS = {0: HOLD, 1: HOLD, 2: HOLD, 3: RETURN, 4: LAND, 5: HOLD}  # COM_OBL_RC_ACT
+OFFBOARD_LOSS_ACTIONS = {0: POSITION, 1: ALTITUDE, 2: HOLD, 3: RETURN, 4: LAND, 5: HOLD}  # COM_OBL_RC_ACT
+NEEDS_MANUAL_CONTROL = (POSITION, ALTITUDE)  # without it PX4 falls back along Altitude, Stabilized, to Hold
 DATALINK_LOSS_ACTIONS = {0: NONE, 1: HOLD, 2: RETURN, 3: LAND}  # NAV_DLL_ACT
 GEOFENCE_ACTIONS = {0: NONE, 1: WARN, 2: HOLD, 3: RETURN, 4: TERMINATE, 5: LAND}  # GF_ACTION
 MANUAL_LOSS_ACTIONS = {0: NONE, 1: HOLD, 2: RETURN, 3: LAND, 4: HOLD, 5: TERMINATE, 6: TERMINATE}  # NAV_RCL_ACT
@@ -55,14 +58,15 @@ class FailsafeInputs:
     position_ned: np.ndarray
     offboard_lost: bool  # in Offboard with no set-point for COM_OF_LOSS_T
     manual_lost: bool = False  # in Position or Altitude with no MANUAL_CONTROL for COM_RC_LOSS_T
+    manual_fresh: bool = False  # MANUAL_CONTROL heard in the last COM_RC_LOSS_T (the manual modes can run)
 
 
 class Failsafe:
-    def __init__(self, params: ParameterStore, missions: MissionStore, home: Home,
+    def __init__(self, params: ParameterStore, missions: MissionStore, homes: HomeKeeper,
                  say: Callable[..., None]) -> None:  # fmt: skip
         self.params = params
         self.missions = missions
-        self.home = home
+        self.homes = homes
         self.say = say
         self.gcs_heard_usec: int | None = None  # the last GCS HEARTBEAT (simulation time)
         self.datalink_lost = False
@@ -103,6 +107,8 @@ class Failsafe:
         """The decision of a condition that started to hold this tick (the worst first), or None."""
         if status.offboard_lost:
             action = OFFBOARD_LOSS_ACTIONS[self.params.get_int("COM_OBL_RC_ACT")] if status.flying else HOLD
+            if action in NEEDS_MANUAL_CONTROL and not status.manual_fresh:
+                action = HOLD
             return Decision(action, f"Offboard lost: no set-point for {self.params['COM_OF_LOSS_T']:g} s")
         if status.manual_lost:  # PX4 with NAV_RCL_ACT 0 still leaves a manual mode it cannot fly: Hold
             action = MANUAL_LOSS_ACTIONS[self.params.get_int("NAV_RCL_ACT")] if status.flying else HOLD
@@ -140,7 +146,7 @@ class Failsafe:
         items = self.missions.snapshot.fence
         if items is not self._fence_items:
             self._fence_items = items
-            self._fence = fence_from_items(items, self.home)
+            self._fence = fence_from_items(items, self.homes.origin)
             for reason in self._fence.ignored:
                 self.say(mavlink.MAV_SEVERITY_WARNING, f"Geofence: {reason}: ignored")
         return self._fence
@@ -149,7 +155,8 @@ class Failsafe:
         """Why `position_ned` is outside the geofence (None: inside, or GF_ACTION 0 disables the fence)."""
         if GEOFENCE_ACTIONS[self.params.get_int("GF_ACTION")] == NONE:
             return None
-        return breach(position_ned, self.fence(), self.params["GF_MAX_HOR_DIST"], self.params["GF_MAX_VER_DIST"])
+        return breach(position_ned, self.fence(), self.params["GF_MAX_HOR_DIST"], self.params["GF_MAX_VER_DIST"],
+                      self.homes.position.ned)  # fmt: skip
 
     def _geofence(self, status: FailsafeInputs) -> Decision | None:
         why = self.outside_fence(status.position_ned) if status.flying else None

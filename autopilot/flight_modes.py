@@ -222,7 +222,7 @@ class ReturnMode(FlightMode):
         self.mission = mission
 
     def activate(self, state: VehicleState) -> None:
-        self.auto.start(state, return_route(self.params, state, self.mission.rally_points()))
+        self.auto.start(state, return_route(self.params, state, self.mission.rally_points(), self.mission.homes.position.ned))
 
     @property
     def landing(self) -> bool:

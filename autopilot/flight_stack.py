@@ -6,14 +6,16 @@ uploads, clears and the current item go to the mission store (autopilot/mission_
 
 from __future__ import annotations
 
-from autopilot.commander import MISSION, RETURN, Commander
+from autopilot.commander import RETURN, Commander
 from autopilot.failure_injection import FailureInjection
+from autopilot.mission_items import FENCE as FENCE_TYPE
+from autopilot.mission_items import MISSION as MISSION_TYPE
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
 from autopilot.requests import (Arm, ChangeSpeed, ClearMission, Disarm, GcsHeartbeat, InjectFailure, Land,
                                 ManualControlInput, OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit,
                                 Reply, Reposition, Request, ReturnToLaunch, SetMissionCurrent, SetMode,
-                                StartMission, StoreMission, Takeoff, Transition)  # fmt: skip
+                                SetHome, StartMission, StoreMission, Takeoff, Transition)  # fmt: skip
 from transport.mavlink import mavlink
 
 
@@ -33,6 +35,8 @@ class FlightStack:
             return None  # answered when the plant has acknowledged it
         if isinstance(request, StoreMission):
             self.missions.store(request.mission_type, request.items, request.current)
+            if request.mission_type in (MISSION_TYPE, FENCE_TYPE):
+                self.commander.feasibility.check()  # PX4's navigator checks a new mission (or fence) at once
             return mavlink.MAV_RESULT_ACCEPTED, None
         if isinstance(request, ClearMission):
             self.missions.clear(request.mission_type)
@@ -55,12 +59,14 @@ class FlightStack:
                 return commander.takeoff(state, altitude)
             case Land():
                 return commander.land(state)
+            case SetHome():
+                return commander.set_home(request)
             case SetMode(mode=mode):
                 return commander.set_mode(mode, state)
             case Transition(target=target):
                 return commander.transition(target, state)
             case StartMission():
-                return commander.set_mode(MISSION, state)
+                return commander.start_mission(state)
             case ReturnToLaunch():
                 return commander.set_mode(RETURN, state)
             case ChangeSpeed(speed=speed):

@@ -94,14 +94,17 @@ def inside_zone(north: float, east: float, zone: Zone) -> bool:
     return inside_polygon(north, east, zone.vertices)
 
 
-def breach(position_ned: np.ndarray, fence: Fence, max_horizontal: float, max_vertical: float) -> str | None:
-    """Why `position_ned` is outside the geofence, or None when it is inside (0 disables a distance)."""
+def breach(position_ned: np.ndarray, fence: Fence, max_horizontal: float, max_vertical: float,
+           home_ned: np.ndarray = np.zeros(3)) -> str | None:  # fmt: skip
+    """Why `position_ned` is outside the geofence, or None when it is inside (0 disables a distance; the distances
+    are from home, `home_ned`)."""
     north, east, down = (float(x) for x in position_ned[0:3])
-    distance = math.hypot(north, east)
+    distance = math.hypot(north - float(home_ned[0]), east - float(home_ned[1]))
+    height = float(home_ned[2]) - down
     if max_horizontal > 0 and distance > max_horizontal:
         return f"{distance:.0f} m from home, beyond GF_MAX_HOR_DIST {max_horizontal:g} m"
-    if max_vertical > 0 and -down > max_vertical:
-        return f"{-down:.0f} m above home, beyond GF_MAX_VER_DIST {max_vertical:g} m"
+    if max_vertical > 0 and height > max_vertical:
+        return f"{height:.0f} m above home, beyond GF_MAX_VER_DIST {max_vertical:g} m"
     inclusions = [zone for zone in fence.zones if zone.inclusion]
     if inclusions and not any(inside_zone(north, east, zone) for zone in inclusions):
         return "outside every inclusion zone"

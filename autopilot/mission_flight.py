@@ -38,7 +38,8 @@ from autopilot.mission_items import MissionItem
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
 from autopilot.vehicle_state import VehicleState
-from transport.geodesy import Home, ned_from_geodetic
+from autopilot.home_position import HomeKeeper
+from transport.geodesy import ned_from_geodetic
 from transport.mavlink import mavlink as M
 
 LANDING_APPROACH_RADIUS = 1.0  # m: the FlyTo before a landing stops within this of the landing point
@@ -54,17 +55,35 @@ def takeoff_down(item_down: float, ground_down: float, takeoff_alt: float) -> fl
 VTOL_FW, VTOL_MC = M.MAV_VTOL_STATE_FW, M.MAV_VTOL_STATE_MC
 
 
-def closest_safe_point(position_ned: np.ndarray, rally_points: list[np.ndarray]) -> np.ndarray:
-    """The closest (horizontally) of home and the rally points, (north, east) from home (PX4's RTL_TYPE 0)."""
-    return min([np.zeros(2), *(point[0:2] for point in rally_points)],
+def closest_safe_point(position_ned: np.ndarray, rally_points: list[np.ndarray],
+                       home_ned: np.ndarray = np.zeros(3)) -> np.ndarray:  # fmt: skip
+    """The closest (horizontally) of home and the rally points, (north, east) from the local origin (PX4's RTL_TYPE
+    0)."""
+    return min([home_ned[0:2].copy(), *(point[0:2] for point in rally_points)],
                key=lambda point: float(np.hypot(*(point - position_ned[0:2]))))  # fmt: skip
 
 
-def return_route(params: ParameterStore, state: VehicleState, rally_points: list[np.ndarray]) -> list[Target]:
-    """Climb to RTL_RETURN_ALT (if lower) over here, fly at that altitude to the closest of home and the rally
-    points, land there."""
-    down = min(float(state.position_ned[2]), -params["RTL_RETURN_ALT"])
-    destination = closest_safe_point(state.position_ned, rally_points)
+def return_height(height: float, distance: float, return_alt: float, cone_deg: int) -> float:
+    """PX4's return altitude (its calculate_return_alt_from_cone_half_angle), as the height above the destination:
+    RTL_RETURN_ALT, lowered within the RTL_CONE_ANG cone over the destination to the cone's height at `distance`
+    (m, horizontal); never below `height` (where the vehicle is now). cone_deg 0: no cone; 90: no climb."""
+    if height > return_alt or cone_deg >= 90:
+        return height
+    if cone_deg <= 0:
+        return return_alt
+    cone = math.radians(min(max(cone_deg, 1), 89))
+    return max(height, min(max(distance / math.tan(cone), 0.0), return_alt))
+
+
+def return_route(params: ParameterStore, state: VehicleState, rally_points: list[np.ndarray],
+                 home_ned: np.ndarray) -> list[Target]:  # fmt: skip
+    """Climb to the return altitude above home (return_height) over here, fly at it to the closest of home and the
+    rally points, land there."""
+    destination = closest_safe_point(state.position_ned, rally_points, home_ned)
+    distance = float(np.hypot(*(state.position_ned[0:2] - destination)))
+    height = float(home_ned[2]) - float(state.position_ned[2])
+    down = float(home_ned[2]) - return_height(height, distance, params["RTL_RETURN_ALT"],
+                                              params.get_int("RTL_CONE_ANG"))  # fmt: skip
     return [Climb(state.position_ned[0:2].copy(), down, params["MPC_Z_VEL_MAX_UP"]),
             FlyTo(np.array([*destination, down]), LANDING_APPROACH_RADIUS), LandAt(destination.copy())]  # fmt: skip
 
@@ -72,12 +91,12 @@ def return_route(params: ParameterStore, state: VehicleState, rally_points: list
 class MissionFlight:
     """Steps through the stored mission from its current item, handing AutoFlight its targets."""
 
-    def __init__(self, params: ParameterStore, store: MissionStore, home: Home, auto: AutoFlight,
+    def __init__(self, params: ParameterStore, store: MissionStore, homes: HomeKeeper, auto: AutoFlight,
                  landed: Callable[[], bool]) -> None:  # fmt: skip
         self.params = params
         self.landed_now = landed
         self.store = store
-        self.home = home
+        self.homes = homes
         self.auto = auto
         self.seq = 0
         self.complete = False
@@ -110,7 +129,7 @@ class MissionFlight:
         return self.auto.descending
 
     def rally_points(self) -> list[np.ndarray]:
-        """The stored rally points, NED from home."""
+        """The stored rally points, NED from the local origin."""
         return [self._position(np.zeros(3), item) for item in self.store.snapshot.rally]
 
     def landed(self, state: VehicleState) -> None:
@@ -178,13 +197,18 @@ class MissionFlight:
         self._progress(self.seq, M.MISSION_STATE_COMPLETE)
         self.auto.follow(state, [HoldAt(state.position_ned.copy(), None)])
 
+    def item_position(self, item: MissionItem) -> np.ndarray | None:
+        """The item's NED position; None when it flies where the vehicle is then (latitude and longitude 0)."""
+        return None if item.x == 0 and item.y == 0 else self._position(np.zeros(3), item)
+
     def _position(self, here: np.ndarray, item: MissionItem) -> np.ndarray:
         """The item's NED position (lat/lon 0: `here`, the vehicle's; altitude relative to home or AMSL)."""
+        origin = self.homes.origin
         if item.x == 0 and item.y == 0:
             north, east = float(here[0]), float(here[1])
         else:
-            north, east, _ = ned_from_geodetic(self.home, item.latitude_deg, item.longitude_deg, self.home.alt)
-        down = -item.z if item.relative_altitude else self.home.alt - item.z
+            north, east, _ = ned_from_geodetic(origin, item.latitude_deg, item.longitude_deg, origin.alt)
+        down = self.homes.position.down - item.z if item.relative_altitude else origin.alt - item.z
         return np.array([north, east, down])
 
     def _targets(self, state: VehicleState, item: MissionItem) -> list[Target]:
@@ -207,5 +231,5 @@ class MissionFlight:
         if command == M.MAV_CMD_NAV_DELAY:
             return [HoldAt(state.position_ned.copy(), max(item.param1, 0.0))]
         if command == M.MAV_CMD_NAV_RETURN_TO_LAUNCH:
-            return return_route(p, state, self.rally_points())
+            return return_route(p, state, self.rally_points(), self.homes.position.ned)
         return []  # DO_CHANGE_SPEED, DO_VTOL_TRANSITION (done above), DO_SET_HOME: nothing to fly

@@ -57,8 +57,9 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
     P("SYS_FAILURE_DLY", REAL32, 0.0, 0.0, 60.0, "s", "delay before the controllers learn of an injected failure",
       px4=False),
     P("COM_OF_LOSS_T", REAL32, 1.0, 0.1, 60.0, "s", "offboard set-point loss timeout: then COM_OBL_RC_ACT"),
-    P("COM_OBL_RC_ACT", INT32, 0, 0, 5, "", "offboard loss failsafe: 0 Position, 1 Altitude, 2 Stabilized (with no "
-      "RC all three fall back to Hold), 3 Return, 4 Land, 5 Hold (PX4's 6 Terminate and 7 Disarm are refused)"),
+    P("COM_OBL_RC_ACT", INT32, 0, 0, 5, "", "offboard loss failsafe: 0 Position, 1 Altitude (with MANUAL_CONTROL "
+      "heard in the last COM_RC_LOSS_T; without, Hold), 2 Stabilized (Hold: there is no Stabilized), 3 Return, "
+      "4 Land, 5 Hold (PX4's 6 Terminate and 7 Disarm are refused)"),
     P("COM_DL_LOSS_T", INT32, 10, 5, 300, "s", "data-link loss: no ground-station HEARTBEAT for this long"),
     P("NAV_DLL_ACT", INT32, 0, 0, 3, "", "data-link loss failsafe: 0 disabled, 1 Hold, 2 Return, 3 Land (PX4's 5 "
       "Terminate and 6 Disarm are refused)"),
@@ -100,6 +101,8 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
       "0)"),
     P("RTL_RETURN_ALT", REAL32, 60.0, 0.0, 1000.0, "m", "Return: climb to this height above home (if lower) before "
       "flying to the closest of home and the rally points"),
+    P("RTL_CONE_ANG", INT32, 45, 0, 90, "deg", "Return: half-angle of the cone over the destination that lowers the "
+      "return altitude near it (0: always RTL_RETURN_ALT; 90: no climb)"),
     P("NAV_LOITER_RAD", REAL32, 250.0, 100.0, 2000.0, "m", "radius of the fixed-wing Hold circle"),
 )
 del P

@@ -14,6 +14,7 @@ from typing import Protocol
 import numpy as np
 
 from aircraft.failures import Failure
+from autopilot.home_position import HomePosition
 from autopilot.mission_items import MissionItem
 
 Reply = tuple[int, str | None]  # (MAV_RESULT, reason or None)
@@ -37,6 +38,14 @@ class Takeoff:
 @dataclass(frozen=True)
 class Land:
     pass
+
+
+@dataclass(frozen=True)
+class SetHome:
+    """MAV_CMD_DO_SET_HOME: `home` (checked); `current` when it is where the vehicle is (param1 = 1)."""
+
+    home: HomePosition
+    current: bool
 
 
 @dataclass(frozen=True)
@@ -162,7 +171,7 @@ class GcsHeartbeat:
 Request = (Arm | Disarm | Takeoff | Land | SetMode | Transition | OffboardVelocity | OffboardPosition
            | OffboardAttitude | ManualControlInput | InjectFailure
            | StoreMission | ClearMission | SetMissionCurrent | StartMission | ReturnToLaunch | Reposition | ChangeSpeed
-           | Orbit | GcsHeartbeat)  # fmt: skip
+           | Orbit | GcsHeartbeat | SetHome)  # fmt: skip
 
 
 class RequestHandler(Protocol):

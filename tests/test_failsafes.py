@@ -12,12 +12,16 @@ import pytest
 
 from aircraft.failures import Failure, FailureRejected, FailureType, FailureUnit
 from autopilot.commander import HOLD, LAND, OFFBOARD, RETURN, Commander
+from autopilot.failsafe import Decision
+from autopilot.failsafe_reaction import Reaction, reaction
 from autopilot.geofence import breach, fence_from_items, inside_polygon
-from autopilot.mission_flight import closest_safe_point
+from autopilot.manual_modes import ALTITUDE, POSITION
+from autopilot.mission_feasibility import geofence_violation
+from autopilot.mission_flight import closest_safe_point, return_height
 from autopilot.mission_items import MissionItem
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterRejected, ParameterStore
-from autopilot.requests import Reposition
+from autopilot.requests import ManualControlInput, Reposition
 from autopilot.vehicle_state import VehicleState
 from transport.geodesy import Home
 from transport.mavlink import mavlink as M
@@ -81,13 +85,27 @@ def test_return_goes_to_the_closest_of_home_and_the_rally_points():
     assert list(closest_safe_point(np.array([10.0, -100.0, -20.0]), rally)) == [0.0, 0.0]
 
 
+def test_return_altitude_follows_px4_s_cone_rtl_cone_ang():
+    assert return_height(10.0, 500.0, 60.0, 45) == 60.0  # far: RTL_RETURN_ALT
+    assert math.isclose(return_height(10.0, 30.0, 60.0, 45), 30.0)  # within the 45 deg cone: its height there
+    assert return_height(2.0, 30.0, 60.0, 80) == 30.0 / math.tan(math.radians(80))  # a narrower cone: lower
+    assert return_height(40.0, 30.0, 60.0, 45) == 40.0  # above the cone: no descent
+    assert return_height(10.0, 30.0, 60.0, 0) == 60.0  # 0: no cone
+    assert return_height(10.0, 30.0, 60.0, 90) == 10.0  # 90: no climb
+    assert return_height(70.0, 500.0, 60.0, 45) == 70.0  # above RTL_RETURN_ALT: stays
+
+
 # ---- the actions, through the commander -------------------------------------------------------------------------------
-@pytest.mark.parametrize("action, mode", [(0, HOLD), (3, RETURN), (4, LAND), (5, HOLD)])
-def test_offboard_loss_takes_com_obl_rc_act(action, mode):
+@pytest.mark.parametrize("action, mode, sticks", [(0, HOLD, False), (1, HOLD, False), (2, HOLD, True),
+                                                  (0, POSITION, True), (1, ALTITUDE, True), (3, RETURN, False),
+                                                  (4, LAND, False), (5, HOLD, False)])  # fmt: skip
+def test_offboard_loss_takes_com_obl_rc_act(action, mode, sticks):
+    """Position and Altitude need MANUAL_CONTROL (heard within COM_RC_LOSS_T): without it, Hold, as PX4 falls back."""
     commander, said = flying_commander(COM_OBL_RC_ACT=action)
+    centred = (lambda t: commander.manual_control(ManualControlInput())) if sticks else None
     commander.offboard_setpoint(np.array([1.0, 0.0, 0.0]))
     assert commander.set_mode(OFFBOARD, state_at(0.0))[0] == M.MAV_RESULT_ACCEPTED
-    fly(commander, 0.0, 1.1)
+    fly(commander, 0.0, 1.1, every=centred)
     assert commander.mode == mode and f"Failsafe activated: {mode}" in said
     assert any(text.startswith("Offboard lost") for text in said)
 
@@ -191,3 +209,27 @@ def test_gps_loss_in_the_air_descends_after_com_pos_fs_delay_and_position_modes_
     assert result == M.MAV_RESULT_TEMPORARILY_REJECTED and "GPS lost" in reason
     commander.failsafe.failure_known(Failure(FailureUnit.GPS, FailureType.OK, 0))
     assert commander.set_mode(HOLD, state_at(2.2))[0] == M.MAV_RESULT_ACCEPTED
+
+
+def test_a_failsafe_decision_becomes_px4_s_plan():
+    cause = "Geofence violated: x"
+    assert reaction(Decision("Warn", cause), HOLD, True) == Reaction(before=((M.MAV_SEVERITY_WARNING, cause),))
+    assert reaction(Decision(RETURN, cause), LAND, True).mode is None  # not Return while landing
+    descend = reaction(Decision("Descend", cause), HOLD, True)
+    assert (descend.mode, descend.descend, descend.after) == (LAND, True, ((M.MAV_SEVERITY_CRITICAL,
+                                                                             "Failsafe activated: Descend"),))
+    assert reaction(Decision("Terminate", cause), HOLD, True).cut_motors is not None
+    again = reaction(Decision(HOLD, cause), HOLD, False)  # Hold again stops a Go-to; nothing activated on the ground
+    assert again.mode == HOLD and again.before == ((M.MAV_SEVERITY_WARNING, f"{cause}, Hold"),) and again.after == ()
+
+
+def test_only_mission_items_with_a_position_are_checked_against_the_fence():
+    items = (item(M.MAV_CMD_NAV_WAYPOINT, 10.0, 0.0), item(M.MAV_CMD_NAV_WAYPOINT, 500.0, 0.0),
+             MissionItem(REL, M.MAV_CMD_NAV_LAND, 1, 0.0, 0.0, 0.0, 0.0, 0, 0, 0.0))  # fmt: skip
+    positions = {id(items[0]): np.array([10.0, 0.0, 0.0]), id(items[1]): np.array([500.0, 0.0, 0.0])}  # land: none
+
+    def far(ned: np.ndarray) -> str | None:
+        return "beyond 100 m" if ned[0] > 100.0 else None
+
+    assert geofence_violation(items, lambda it: positions.get(id(it)), far) == "Geofence violation for waypoint 2"
+    assert geofence_violation(items[0:1] + items[2:], lambda it: positions.get(id(it)), far) is None

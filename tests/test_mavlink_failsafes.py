@@ -128,3 +128,27 @@ def test_a_go_to_into_an_uploaded_exclusion_zone_stops_in_hold_at_its_edge(tmp_p
         stopped = gs.latest["LOCAL_POSITION_NED"].x
         print(f"stopped {stopped:.1f} m north (the zone begins at 20 m)")
         assert 20.0 <= stopped < 30.0 and gs.mode == HOLD
+
+
+def test_offboard_loss_with_manual_control_heard_takes_position_or_altitude_as_px4(tmp_path):
+    """COM_OBL_RC_ACT 0 / 1 with MANUAL_CONTROL streaming: Position / Altitude (without it: Hold, the test above's
+    commander-level twin in test_failsafes.py)."""
+    with hovering(tmp_path) as gs:
+        set_param(gs, "COM_RC_LOSS_T", 5.0)  # lockstep runs faster than the wall clock the sticks are sent on
+
+        def sticks() -> None:
+            gs.conn.mav.manual_control_send(1, 0, 0, 500, 0, 0)
+
+        def both() -> None:
+            gs.velocity_setpoint(0.0, 0.0, 0.0)
+            sticks()
+
+        for action, mode, name in ((0, 3 << 16, "Position"), (1, 2 << 16, "Altitude")):
+            set_param(gs, "COM_OBL_RC_ACT", action)
+            both()
+            gs.pump(0.02)
+            assert gs.set_mode(OFFBOARD).result == M.MAV_RESULT_ACCEPTED
+            gs.wait(lambda: gs.mode == OFFBOARD, "Offboard", every=both)
+            gs.wait(lambda: gs.mode == mode, f"the offboard loss failsafe to {name}", timeout_s=30, every=sticks)
+            gs.wait(lambda: f"Failsafe activated: {name}" in gs.statustexts, "the failsafe's STATUSTEXT", every=sticks)
+            assert gs.armed and gs.altitude > 15.0

@@ -16,6 +16,7 @@ import numpy as np
 
 from aircraft.failures import FailureRejected, parse_failure
 from autopilot.commander import FORCE_MAGIC
+from autopilot.home_position import home_at, home_here, home_refusal
 from autopilot.mavlink import messages
 from autopilot.mavlink.px4_modes import mode_from_px4, px4_mode_name
 from autopilot.mavlink.router import COMP_ID, GroundLink
@@ -33,6 +34,7 @@ from autopilot.requests import (
     Reposition,
     RequestHandler,
     ReturnToLaunch,
+    SetHome,
     SetMode,
     StartMission,
     Takeoff,
@@ -80,7 +82,7 @@ class CommandService:
         self.view = view
         self.announcer = announcer
         self.system_id = system_id
-        self.home = home
+        self.origin = home  # of the local frame (a DO_SET_HOME moves home, not it: self.view.home)
         self._tickets: dict[int, Origin] = {}  # failure injections awaiting the plant's answer
         self._next_ticket = 1
         self._commands: dict[int, Callable[[Origin, Params, int | None], Reply | None]] = {
@@ -100,6 +102,7 @@ class CommandService:
             M.MAV_CMD_GET_MESSAGE_INTERVAL: self._get_interval,
             M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: self._capabilities,
             M.MAV_CMD_GET_HOME_POSITION: self._home,
+            M.MAV_CMD_DO_SET_HOME: self._set_home,
         }
 
     # ---- messages ---------------------------------------------------------------------------------------------
@@ -169,7 +172,7 @@ class CommandService:
             return self.flight_stack.handle(Takeoff(None))
         if not math.isfinite(altitude):
             return M.MAV_RESULT_DENIED, "Takeoff denied: param7 (altitude) is infinite"
-        above_home = altitude if frame in RELATIVE_FRAMES else altitude - self.home.alt
+        above_home = altitude if frame in RELATIVE_FRAMES else altitude - self.view.home.alt
         if not 1.0 <= above_home <= 1000.0:
             return M.MAV_RESULT_DENIED, (f"Takeoff denied: {altitude:g} m AMSL is {above_home:.0f} m above home "
                                          f"(1..1000 m; NaN: MIS_TAKEOFF_ALT)")  # fmt: skip
@@ -204,17 +207,18 @@ class CommandService:
             return f"latitude/longitude {p[4]:g}, {p[5]:g} not valid"
         if math.isinf(p[6]):
             return "altitude infinite"
-        north, east, _ = ned_from_geodetic(self.home, lat, lon, self.home.alt)
+        north, east, _ = ned_from_geodetic(self.origin, lat, lon, self.origin.alt)
         down = self._down(p[6], frame)
-        if down is not None and -down < MIN_TARGET_HEIGHT_M:
-            return f"altitude {-down:.1f} m above home: targets stay at least {MIN_TARGET_HEIGHT_M:g} m above it"
+        if down is not None and self.view.home.down - down < MIN_TARGET_HEIGHT_M:
+            return (f"altitude {self.view.home.down - down:.1f} m above home: targets stay at least "
+                    f"{MIN_TARGET_HEIGHT_M:g} m above it")  # fmt: skip
         return north, east, down
 
     def _down(self, altitude: float, frame: int | None) -> float | None:
         """A command's altitude (AMSL; above home in the RELATIVE_ALT frames) as NED down; None for NaN."""
         if math.isnan(altitude):
             return None
-        return -altitude if frame in RELATIVE_FRAMES else self.home.alt - altitude
+        return self.view.home.down - altitude if frame in RELATIVE_FRAMES else self.origin.alt - altitude
 
     def _current_position(self) -> tuple[float, float, float]:
         status = self.view.status
@@ -279,7 +283,7 @@ class CommandService:
         if status is None:
             return NO_STATE_YET
         msgid = int_param(p[0])
-        message = messages.build(msgid, origin.link.mav, status) if msgid is not None else None
+        message = messages.build(msgid, origin.link.mav, status, self.view.home) if msgid is not None else None
         if message is None:
             return M.MAV_RESULT_DENIED, f"Message {p[0]:g} not available on request"
         self.ack(origin, M.MAV_RESULT_ACCEPTED)
@@ -291,8 +295,28 @@ class CommandService:
         return M.MAV_RESULT_ACCEPTED, None
 
     def _home(self, origin: Origin, p: Params, frame: int | None) -> Reply:
-        origin.link.queue(messages.home_position(origin.link.mav, self.home, self.view.now_usec))
+        origin.link.queue(messages.home_position(origin.link.mav, self.view.home, self.view.now_usec))
         return M.MAV_RESULT_ACCEPTED, None
+
+    def _set_home(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
+        """MAV_CMD_DO_SET_HOME, as PX4's commander: param1 > 0.5 where the vehicle is, else params 5-7 (latitude,
+        longitude, altitude AMSL; in the RELATIVE_ALT frames above the current home). Non-finite coordinates are
+        DENIED (PX4), and so are ones out of range."""
+        status = self.view.status
+        if status is None:
+            return NO_STATE_YET
+        if p[0] > 0.5:
+            home, current = home_here(self.origin, status.estimate.position_ned), True
+        else:
+            lat, lon = (p[4] * 1e-7, p[5] * 1e-7) if frame is not None else (p[4], p[5])
+            alt = p[6] + self.view.home.alt if frame in RELATIVE_FRAMES else p[6]
+            if (why := home_refusal(lat, lon, alt)) is not None:
+                return M.MAV_RESULT_DENIED, f"Set home denied: {why}"
+            home, current = home_at(self.origin, lat, lon, alt), False
+        reply = self.flight_stack.handle(SetHome(home, current))
+        if reply is not None and reply[0] == M.MAV_RESULT_ACCEPTED:
+            self.view.home = home  # the services' HOME_POSITION follows what the flight stack accepted
+        return reply
 
     def _set_interval(self, origin: Origin, p: Params, frame: int | None) -> Reply:
         msgid = int_param(p[0])

@@ -11,7 +11,7 @@ from typing import Any
 from aircraft.failures import FailureUnit, failed_sensors
 from autopilot.mavlink.px4_modes import custom_mode
 from autopilot.vehicle_status import VehicleStatus
-from transport.geodesy import Home
+from autopilot.home_position import HomePosition
 from transport.mavlink import mavlink as M
 
 SENSORS = (
@@ -117,10 +117,11 @@ def battery(mav: Any, status: VehicleStatus) -> Any:
                                      [4200] * 4 + [65535] * 6, -1, -1, -1, 100)  # fmt: skip
 
 
-def home_position(mav: Any, home: Home, time_usec: int) -> Any:
+def home_position(mav: Any, home: HomePosition, time_usec: int) -> Any:
+    """HOME_POSITION: home's latitude, longitude, altitude and its place in the local frame (x, y, z)."""
     return mav.home_position_encode(int(round(home.lat * 1e7)), int(round(home.lon * 1e7)),
-                                    int(round(home.alt * 1000)), 0.0, 0.0, 0.0, [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0,
-                                    time_usec)  # fmt: skip
+                                    int(round(home.alt * 1000)), home.north, home.east, home.down,
+                                    [1.0, 0.0, 0.0, 0.0], 0.0, 0.0, 0.0, time_usec)  # fmt: skip
 
 
 def system_time(mav: Any, time_usec: int) -> Any:
@@ -152,14 +153,15 @@ BUILDERS: dict[int, Callable[[Any, VehicleStatus], Any]] = {
     M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW: servo_output,
     M.MAVLINK_MSG_ID_GPS_RAW_INT: gps_raw,
     M.MAVLINK_MSG_ID_BATTERY_STATUS: battery,
-    M.MAVLINK_MSG_ID_HOME_POSITION: lambda mav, status: home_position(mav, status.home, status.time_usec),
     M.MAVLINK_MSG_ID_SYSTEM_TIME: lambda mav, status: system_time(mav, status.time_usec),
     M.MAVLINK_MSG_ID_AUTOPILOT_VERSION: lambda mav, status: autopilot_version(mav),
     M.MAVLINK_MSG_ID_MISSION_CURRENT: mission_current,
 }
 
 
-def build(msgid: int, mav: Any, status: VehicleStatus) -> Any | None:
+def build(msgid: int, mav: Any, status: VehicleStatus, home: HomePosition) -> Any | None:
     """Message `msgid` now, or None if this vehicle has no such message."""
+    if msgid == M.MAVLINK_MSG_ID_HOME_POSITION:
+        return home_position(mav, home, status.time_usec)
     builder = BUILDERS.get(msgid)
     return None if builder is None else builder(mav, status)
