@@ -1,4 +1,4 @@
-/* One real-time iteration of the unified velocity MPC in one C call (docs/mpc.md 3.6).
+/* One real-time iteration of the unified velocity MPC in one C call (docs/mpc.md 3.8).
  *
  * The stage blocks (RK4 gap and its Jacobians, Gauss-Newton Hessian and gradient) come from the CasADi-generated
  * functions mpc_stage and mpc_terminal (mpc_rti_model.h) and are written straight into HPIPM's OCP-QP structures,
