@@ -3,17 +3,18 @@
 The paper rebuilt and solved the NLP with IPOPT at every call (~23 ms here, docs/performance.md). This is the
 standard real-time NMPC instead: one Gauss-Newton SQP iteration per control step, warm started from the
 shifted previous plan, with the QP data (RK4 gaps and their Jacobians, Gauss-Newton Hessian blocks J^T J and
-gradients J^T r) from one CasADi function compiled to C, and the structured QP solved by HPIPM through
-CasADi's `conic` interface. Iterated to convergence from a fixed state, the same QP sequence is a full
-Gauss-Newton SQP and reaches the NLP's optimum (tested against IPOPT).
-
-Decision vector w = [x0 u0 x1 u1 ... x_{N-1} u_{N-1} xN] (HPIPM's ordering); constraint rows
-[gap0 lin0 gap1 lin1 ... gap_{N-1} lin_{N-1}] with gap_k = F(x_k, u_k) - x_{k+1} and lin_k = psi_d,k - psi_k.
+gradients J^T r) from CasADi functions compiled to C, and the structured QP solved by HPIPM: by default in one
+C call that writes the stage blocks into HPIPM's OCP-QP structures (autopilot/mpc_hpipm.py), or through CasADi's
+`conic` interface (QpBackend.CASADI_CONIC, and the fallback where no C compiler is found). Iterated to
+convergence from a fixed state, the same QP sequence is a full Gauss-Newton SQP and reaches the NLP's optimum
+(tested against IPOPT). The decision vector's layout is autopilot/mpc_qp.py's.
 """
 
 from __future__ import annotations
 
+import enum
 import math
+import sys
 import time
 from dataclasses import dataclass, field
 
@@ -25,6 +26,7 @@ from aircraft.codegen import compiled
 from aircraft.frames import rotation_from_euler
 from aircraft.wrench import body_wrench
 from autopilot.attitude import DEFAULT_GAINS, AttitudeGains
+from autopilot.mpc_hpipm import HpipmSettings, RtiStep, build_hpipm_rti
 from autopilot.mpc_model import (
     CHI,
     CHI_DOT,
@@ -43,10 +45,17 @@ from autopilot.mpc_model import (
     MpcWeights,
     SoftTiltCost,
     V,
-    discrete_dynamics,
     stage_residual,
     terminal_residual,
 )
+from autopilot.mpc_qp import build_qp_functions, stage_functions
+
+
+class QpBackend(enum.Enum):
+    """How the QP of each RTI is built and solved."""
+
+    HPIPM_C = "hpipm-c"  # one C call: stage blocks into HPIPM's OCP-QP structures (falls back to CASADI_CONIC)
+    CASADI_CONIC = "casadi-conic"  # one sparse QP through CasADi's `conic` HPIPM plugin
 
 
 @dataclass
@@ -66,88 +75,6 @@ class MpcSolution:
 class MpcStatistics:
     solve_times_s: list[float] = field(default_factory=list)
     failed: int = 0
-
-
-def build_qp_functions(
-    airframe: Airframe,
-    horizon: int,
-    dt: float,
-    gains: AttitudeGains = DEFAULT_GAINS,
-    weights: MpcWeights = MpcWeights(),
-    soft: SoftTiltCost = SoftTiltCost(),
-    limits: MpcLimits = MpcLimits(),
-) -> tuple[ca.Function, ca.Function]:
-    """qp_data(w, P, x0, lbw, ubw) -> (H, g, A, lba, uba, lbx, ubx, cost) for the QP in the step dw,
-    and the plain dynamics F(x, u) (used for shifting and tests)."""
-    step = discrete_dynamics(airframe, gains, dt)
-    xs, us, xn, ps = ca.SX.sym("x", NX), ca.SX.sym("u", NU), ca.SX.sym("x_next", NX), ca.SX.sym("p", NP)
-    x_next = step(xs, us)
-    residual = stage_residual(airframe, weights, soft, xs, us, ps, limits)
-    jac = ca.jacobian(residual, ca.vertcat(xs, us))
-    stage = ca.Function(
-        "mpc_stage", [xs, us, xn, ps],
-        [x_next - xn, ca.jacobian(x_next, xs), ca.jacobian(x_next, us), jac.T @ jac, jac.T @ residual,
-         ca.sumsqr(residual)],
-    )  # fmt: skip
-    r_terminal = terminal_residual(weights, xs, ps, limits)
-    j_terminal = ca.jacobian(r_terminal, xs)
-    terminal = ca.Function("mpc_terminal", [xs, ps], [j_terminal.T @ j_terminal, j_terminal.T @ r_terminal,
-                                                      ca.sumsqr(r_terminal)])  # fmt: skip
-
-    n = horizon
-    n_w = NX * (n + 1) + NU * n
-    w = ca.MX.sym("w", n_w)
-    params = ca.MX.sym("P", NP, n + 1)
-    x0 = ca.MX.sym("x0", NX)
-    lbw, ubw = ca.MX.sym("lbw", n_w), ca.MX.sym("ubw", n_w)
-    stride = NX + NU
-    xs_all = ca.horzcat(*[w[k * stride : k * stride + NX] for k in range(n + 1)])
-    us_all = ca.horzcat(*[w[k * stride + NX : (k + 1) * stride] for k in range(n)])
-    gaps, a_blocks, b_blocks, h_blocks, g_blocks, costs = stage.map(n, "serial")(
-        xs_all[:, 0:n], us_all, xs_all[:, 1 : n + 1], params[:, 0:n]
-    )
-    h_terminal, g_terminal, cost_terminal = terminal(xs_all[:, n], params[:, n])
-
-    stage_width = NX + NU
-    h_list = [h_blocks[:, k * stage_width : (k + 1) * stage_width] for k in range(n)] + [h_terminal]
-    # Levenberg-Marquardt damping, Marquardt's scale-invariant form H + lambda diag(H) (+ a tiny floor): full
-    # Gauss-Newton steps can cycle between the linear and the saturated part of the attitude loop's rate
-    # limit; a multiple of I instead froze the variables with small curvature (thrust in N) (docs/mpc.md).
-    levenberg = ca.MX.sym("levenberg")
-    gauss_newton = ca.diagcat(*h_list)
-    hessian = gauss_newton + ca.diag(levenberg * ca.diag(gauss_newton) + 1e-6)
-    gradient = ca.vertcat(*[g_blocks[:, k] for k in range(n)], g_terminal)
-
-    rows, lba, uba = [], [], []
-    lin_row = ca.DM.zeros(1, stage_width)
-    lin_row[PSI_INDEX], lin_row[NX + PSI_D_INDEX] = -1.0, 1.0
-    for k in range(n):
-        left = k * stride
-        right = n_w - left - stride - NX
-        a_k = a_blocks[:, k * NX : (k + 1) * NX]
-        b_k = b_blocks[:, k * NU : (k + 1) * NU]
-        rows.append(ca.horzcat(ca.MX(NX, left), a_k, b_k, -ca.MX.eye(NX), ca.MX(NX, right)))
-        rows.append(ca.horzcat(ca.MX(1, left), ca.MX(lin_row), ca.MX(1, n_w - left - stage_width)))
-        lba.append(-gaps[:, k])
-        uba.append(-gaps[:, k])
-        offset = us_all[PSI_D_INDEX, k] - xs_all[PSI_INDEX, k]
-        lba.append(-limits.yaw_sp_offset - offset)
-        uba.append(limits.yaw_sp_offset - offset)
-    constraint_matrix = ca.vertcat(*rows)
-    lbx = lbw - w
-    ubx = ubw - w
-    # The initial state is not free: its step is fixed to reach the measurement (dx0 = x0 - w0; a free dx0
-    # tracks wrongly, docs/performance.md).
-    dx0 = x0 - w[0:NX]
-    lbx = ca.vertcat(dx0, lbx[NX:])
-    ubx = ca.vertcat(dx0, ubx[NX:])
-    total_cost = ca.sum2(costs) + cost_terminal
-    qp_data = ca.Function(
-        "mpc_qp_data", [w, params, x0, lbw, ubw, levenberg],
-        [hessian, gradient, constraint_matrix, ca.vertcat(*lba), ca.vertcat(*uba), lbx, ubx, total_cost],
-        ["w", "P", "x0", "lbw", "ubw", "levenberg"], ["H", "g", "A", "lba", "uba", "lbx", "ubx", "cost"],
-    )  # fmt: skip
-    return qp_data, step
 
 
 @dataclass(frozen=True)
@@ -188,33 +115,51 @@ class RtiSolver:
         soft: SoftTiltCost = SoftTiltCost(),
         compile_model: bool = True,
         qp_tolerance: float = 1e-5,
+        backend: QpBackend = QpBackend.HPIPM_C,
+        hpipm: HpipmSettings | None = None,
     ) -> None:
         """qp_tolerance: HPIPM's stationarity tolerance (feasibility and complementarity 100x tighter, at least
-        1e-8); 1e-5 for real time, 1e-8 to reproduce a converged NLP solution exactly."""
+        1e-8); 1e-5 for real time, 1e-8 to reproduce a converged NLP solution exactly. hpipm: all of HPIPM's
+        settings instead (HPIPM_C only). compile_model: False keeps everything in CasADi's virtual machine (the
+        CASADI_CONIC back-end)."""
         self.airframe = airframe
         self.gains = gains
         self.horizon = horizon
         self.dt = dt
         self.limits = limits
-        qp_data, self.step_function = build_qp_functions(airframe, horizon, dt, gains, weights, soft, limits)
+        functions = stage_functions(airframe, dt, gains, weights, soft, limits)
+        self.step_function = functions.step
         self.model = StageModel(airframe, weights, soft, limits)
         self.weights = weights
-        self.qp_data = compiled(qp_data, "vtol-autopilot") if compile_model else qp_data
         n = horizon
         self.n_w = NX * (n + 1) + NU * n
-        feasibility = max(qp_tolerance / 100, 1e-8)
-        options = {
-            "N": n, "nx": [NX] * (n + 1), "nu": [NU] * n + [0], "ng": [1] * n + [0],
-            "error_on_fail": False,
-            "hpipm": {"mode": "speed_abs", "iter_max": 50, "res_g_max": qp_tolerance,
-                      "res_b_max": feasibility, "res_d_max": feasibility, "res_m_max": feasibility},
-        }  # fmt: skip
-        self.qp = ca.conic(
-            "mpc_qp", "hpipm", {"h": qp_data.sparsity_out("H"), "a": qp_data.sparsity_out("A")}, options
-        )
+        self.lbw, self.ubw = self._nominal_bounds()
+        settings = hpipm or HpipmSettings.for_tolerance(qp_tolerance)
+        self.fast = None
+        self.last_step: RtiStep | None = None  # the C back-end's last QP: iterations, residuals, where the time went
+        if backend is QpBackend.HPIPM_C and compile_model:
+            (x_lb, x_ub), (u_lb, u_ub) = self._x_bounds, self._u_bounds
+            state_bounded = np.isfinite(x_lb) | np.isfinite(x_ub)
+            input_bounded = np.isfinite(u_lb) | np.isfinite(u_ub)
+            self.fast = build_hpipm_rti(functions, n, state_bounded, input_bounded, limits.yaw_sp_offset, settings)
+            if self.fast is None:
+                print("vtol-autopilot: the MPC's QP goes through CasADi's conic interface (slower)", file=sys.stderr)
+        self.backend = QpBackend.HPIPM_C if self.fast is not None else QpBackend.CASADI_CONIC
+        if self.fast is None:
+            qp_data = build_qp_functions(functions, n, limits)
+            self.qp_data = compiled(qp_data, "vtol-autopilot") if compile_model else qp_data
+            options = {
+                "N": n, "nx": [NX] * (n + 1), "nu": [NU] * n + [0], "ng": [1] * n + [0],
+                "error_on_fail": False,
+                "hpipm": {"mode": "speed_abs", "iter_max": settings.iter_max, "res_g_max": settings.tol_stat,
+                          "res_b_max": settings.tol_eq, "res_d_max": settings.tol_ineq,
+                          "res_m_max": settings.tol_comp},
+            }  # fmt: skip
+            self.qp = ca.conic(
+                "mpc_qp", "hpipm", {"h": qp_data.sparsity_out("H"), "a": qp_data.sparsity_out("A")}, options
+            )
         self.w = np.zeros(self.n_w)
         self.params = np.zeros((NP, n + 1))
-        self.lbw, self.ubw = self._nominal_bounds()
         self._limits_key: np.ndarray | None = None
         self.initialised = False
         self.levenberg = 1.0
@@ -270,12 +215,14 @@ class RtiSolver:
 
     # ---- solving ------------------------------------------------------------------------------------------
     def states(self) -> np.ndarray:
-        stride = NX + NU
-        return np.stack([self.w[k * stride : k * stride + NX] for k in range(self.horizon + 1)])
+        """The planned states (N+1, NX), a copy."""
+        stride, n = NX + NU, self.horizon
+        return np.vstack((self.w[: n * stride].reshape(n, stride)[:, :NX], self.w[n * stride :]))
 
     def inputs(self) -> np.ndarray:
-        stride = NX + NU
-        return np.stack([self.w[k * stride + NX : (k + 1) * stride] for k in range(self.horizon)])
+        """The planned inputs (N, NU), a copy."""
+        stride, n = NX + NU, self.horizon
+        return self.w[: n * stride].reshape(n, stride)[:, NX:].copy()
 
     def initialise(self, x0: np.ndarray, hover_thrust: float) -> None:
         """A cold guess: the state held, hover thrust, attitude set-point at the current attitude."""
@@ -310,51 +257,74 @@ class RtiSolver:
         """One RTI: linearise at the current guess, solve the QP, take the full step."""
         started = time.perf_counter()
         self.params[:] = params
-        H, g, A, lba, uba, lbx, ubx, cost = self.qp_data(self.w, self.params, x0, self.lbw, self.ubw, self.levenberg)
-        result = self.qp(h=H, g=g, a=A, lba=lba, uba=uba, lbx=lbx, ubx=ubx)
-        stats = self.qp.stats()
-        dw = np.asarray(result["x"]).ravel()
-        ok = bool(stats.get("success", False)) and bool(np.all(np.isfinite(dw)))
+        if self.fast is not None:
+            step = self.last_step = self.fast.solve(self.w, self.params, x0, self.lbw, self.ubw, self.levenberg)
+            dw = self.fast.dw
+            ok, status, iterations, cost = step.ok, step.status_name, step.iterations, step.cost
+        else:
+            H, g, A, lba, uba, lbx, ubx, qp_cost = self.qp_data(
+                self.w, self.params, x0, self.lbw, self.ubw, self.levenberg
+            )
+            result = self.qp(h=H, g=g, a=A, lba=lba, uba=uba, lbx=lbx, ubx=ubx)
+            stats = self.qp.stats()
+            dw = np.asarray(result["x"]).ravel()
+            ok, status = bool(stats.get("success", False)), str(stats.get("return_status", ""))
+            iterations, cost = int(stats.get("iter_count", -1)), float(qp_cost)
+        ok = ok and bool(np.all(np.isfinite(dw)))
         if ok:
             self.w += dw
         elapsed = time.perf_counter() - started
-        return MpcSolution(
-            ok, str(stats.get("return_status", "")), elapsed, int(stats.get("iter_count", -1)),
-            self.states(), self.inputs(), float(cost),
+        return MpcSolution(ok, status, elapsed, iterations, self.states(), self.inputs(), cost)
+
+
+class ReferenceNlp:
+    """The same NLP solved the paper's way: IPOPT to convergence from a cold start, built once with the initial
+    state and the stage parameters as NLP parameters (the paper rebuilt it at every call: solve_reference_nlp).
+
+    Same dynamics, cost (sum of the squared residuals) and constraints as the RTI. Used by the agreement test and
+    by the benchmark's "paper's way" figures.
+    """
+
+    def __init__(self, solver: RtiSolver, tol: float = 1e-10) -> None:
+        n, stride = solver.horizon, NX + NU
+        self.solver = solver
+        w = ca.SX.sym("w", solver.n_w)
+        x0, params = ca.SX.sym("x0", NX), ca.SX.sym("P", NP, n + 1)
+        xs = [w[k * stride : k * stride + NX] for k in range(n + 1)]
+        us = [w[k * stride + NX : (k + 1) * stride] for k in range(n)]
+        model = solver.model
+        cost = 0
+        constraints = [xs[0] - x0]
+        lbg, ubg = [0.0] * NX, [0.0] * NX
+        for k in range(n):
+            cost += ca.sumsqr(model.stage_residual(xs[k], us[k], params[:, k]))
+            constraints.append(solver.step_function(xs[k], us[k]) - xs[k + 1])
+            lbg += [0.0] * NX
+            ubg += [0.0] * NX
+            constraints.append(us[k][PSI_D_INDEX] - xs[k][PSI_INDEX])
+            lbg.append(-solver.limits.yaw_sp_offset)
+            ubg.append(solver.limits.yaw_sp_offset)
+        cost += ca.sumsqr(model.terminal_residual(xs[n], params[:, n]))
+        self.lbg, self.ubg = lbg, ubg
+        self.nlp = ca.nlpsol(
+            "paper_nlp", "ipopt",
+            {"x": w, "p": ca.vertcat(x0, ca.vec(params)), "f": cost, "g": ca.vertcat(*constraints)},
+            {"ipopt.print_level": 0, "print_time": False, "ipopt.tol": tol, "ipopt.max_iter": 500},
         )  # fmt: skip
+
+    def solve(self, x0: np.ndarray, params: np.ndarray) -> np.ndarray:
+        """The optimal w from x0 and the stage parameters (NP, N+1), with the solver's current bounds."""
+        solver, stride = self.solver, NX + NU
+        cold = np.zeros(solver.n_w)
+        for k in range(solver.horizon + 1):
+            cold[k * stride : k * stride + NX] = x0
+        p = np.concatenate((x0, params.ravel(order="F")))
+        result = self.nlp(x0=cold, p=p, lbx=solver.lbw, ubx=solver.ubw, lbg=self.lbg, ubg=self.ubg)
+        if not self.nlp.stats()["success"]:
+            raise RuntimeError(f"IPOPT did not converge: {self.nlp.stats()['return_status']}")
+        return np.asarray(result["x"]).ravel()
 
 
 def solve_reference_nlp(solver: RtiSolver, x0: np.ndarray, params: np.ndarray, tol: float = 1e-10) -> np.ndarray:
-    """The same NLP solved the paper's way: built afresh and solved to convergence by IPOPT from a cold start.
-
-    Same dynamics, cost (sum of the squared residuals) and constraints as the RTI; returns the optimal w.
-    Used by the agreement test and by the benchmark's "paper's way" figure (whose time includes the build).
-    """
-    n, stride = solver.horizon, NX + NU
-    w = ca.SX.sym("w", solver.n_w)
-    xs = [w[k * stride : k * stride + NX] for k in range(n + 1)]
-    us = [w[k * stride + NX : (k + 1) * stride] for k in range(n)]
-    model = solver.model
-    cost = 0
-    constraints = [xs[0] - x0]
-    lbg, ubg = [0.0] * NX, [0.0] * NX
-    for k in range(n):
-        cost += ca.sumsqr(model.stage_residual(xs[k], us[k], params[:, k]))
-        constraints.append(solver.step_function(xs[k], us[k]) - xs[k + 1])
-        lbg += [0.0] * NX
-        ubg += [0.0] * NX
-        constraints.append(us[k][PSI_D_INDEX] - xs[k][PSI_INDEX])
-        lbg.append(-solver.limits.yaw_sp_offset)
-        ubg.append(solver.limits.yaw_sp_offset)
-    cost += ca.sumsqr(model.terminal_residual(xs[n], params[:, n]))
-    nlp = ca.nlpsol(
-        "paper_nlp", "ipopt", {"x": w, "f": cost, "g": ca.vertcat(*constraints)},
-        {"ipopt.print_level": 0, "print_time": False, "ipopt.tol": tol, "ipopt.max_iter": 500},
-    )  # fmt: skip
-    cold = np.zeros(solver.n_w)
-    for k in range(n + 1):
-        cold[k * stride : k * stride + NX] = x0
-    result = nlp(x0=cold, lbx=solver.lbw, ubx=solver.ubw, lbg=lbg, ubg=ubg)
-    if not nlp.stats()["success"]:
-        raise RuntimeError(f"IPOPT did not converge: {nlp.stats()['return_status']}")
-    return np.asarray(result["x"]).ravel()
+    """The paper's way to the letter: the NLP built afresh, then solved (ReferenceNlp); returns the optimal w."""
+    return ReferenceNlp(solver, tol).solve(x0, params)
