@@ -24,6 +24,7 @@ from transport.cli import (
 )
 from transport.geodesy import HomeRefused, LocalGeodetic, home_from
 from transport.mavlink import Link
+from transport.mavlink_frames import PLANT_STEP_FORMATS
 from transport.ports import LOOPBACK, Ports
 from transport.zenoh_bus import open_session
 
@@ -120,7 +121,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     plant = Plant(airframe, spawn, wind_ned=args.wind)
     link = Link(args.sysid if args.sysid is not None else ports.system_id, args.compid,
-                signing_key=key_file_option(PROG, "--plant-signing-key", args.plant_signing_key))
+                signing_key=key_file_option(PROG, "--plant-signing-key", args.plant_signing_key),
+                fast=PLANT_STEP_FORMATS)
     sensors = SensorSuite(plant, link, LocalGeodetic(home), noise_seed=args.sensor_noise_seed)
     session = None
     if not args.no_zenoh:

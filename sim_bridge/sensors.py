@@ -18,6 +18,7 @@ from aircraft.frames import rotation_rows
 from sim_bridge.plant import DT_USEC, Plant
 from transport.geodesy import LocalGeodetic
 from transport.mavlink import Link, mavlink
+from transport.mavlink_frames import HIL_GPS, HIL_SENSOR, HIL_STATE_QUATERNION
 
 # Earth's field at the default home (Pittsburgh; WMM: 0.52 G, inclination 67 deg, declination -8.5 deg), NED.
 MAG_FIELD_NED_GAUSS = (0.2008, -0.0300, 0.4787)
@@ -70,13 +71,11 @@ class SensorSuite:
         mav = link.mav
         g0 = plant.airframe.gravity
         frames = [
-            link.pack(
-                mav.hil_state_quaternion_encode(
-                    t, (qw, qx, qy, qz), p, q, r, lat_e7, lon_e7, alt_mm,
-                    _clip_int16(vn * 100), _clip_int16(ve * 100), _clip_int16(vd * 100),
-                    _clip_uint16(airspeed * 100), _clip_uint16(airspeed * 100),
-                    _clip_int16(ax / g0 * 1000), _clip_int16(ay / g0 * 1000), _clip_int16(az / g0 * 1000),
-                )
+            link.pack_fields(
+                HIL_STATE_QUATERNION, t, (qw, qx, qy, qz), p, q, r, lat_e7, lon_e7, alt_mm,
+                _clip_int16(vn * 100), _clip_int16(ve * 100), _clip_int16(vd * 100),
+                _clip_uint16(airspeed * 100), _clip_uint16(airspeed * 100),
+                _clip_int16(ax / g0 * 1000), _clip_int16(ay / g0 * 1000), _clip_int16(az / g0 * 1000),
             )
         ]  # fmt: skip
         (r00, r01, r02), (r10, r11, r12), (r20, r21, r22) = rotation_rows(qw, qx, qy, qz)
@@ -92,16 +91,14 @@ class SensorSuite:
             baro, diff = baro + NOISE_STD["baro_hpa"] * n[9], diff + NOISE_STD["diff_hpa"] * n[10]
         values = [ax, ay, az, p, q, r, mx, my, mz, baro, diff, alt, isa_temperature_c(alt)]
         fields = silence(plant.failed_sensors, values) if plant.failed_sensors else HIL_SENSOR_ALL_FIELDS
-        frames.append(link.pack(mav.hil_sensor_encode(t, *values, fields)))
+        frames.append(link.pack_fields(HIL_SENSOR, t, *values, fields))
         if t % GPS_PERIOD_USEC == 0 and FailureUnit.GPS not in plant.failed_sensors:
             course = math.degrees(math.atan2(ve, vn)) % 360.0
             frames.append(
-                link.pack(
-                    mav.hil_gps_encode(
-                        t, 3, lat_e7, lon_e7, alt_mm, 100, 100, _clip_uint16(math.hypot(vn, ve) * 100),
-                        _clip_int16(vn * 100), _clip_int16(ve * 100), _clip_int16(vd * 100),
-                        int(round(course * 100)) % 36000, 12,
-                    )
+                link.pack_fields(
+                    HIL_GPS, t, 3, lat_e7, lon_e7, alt_mm, 100, 100, _clip_uint16(math.hypot(vn, ve) * 100),
+                    _clip_int16(vn * 100), _clip_int16(ve * 100), _clip_int16(vd * 100),
+                    int(round(course * 100)) % 36000, 12,
                 )
             )  # fmt: skip
         if t % HEARTBEAT_PERIOD_USEC == 0:

@@ -1,7 +1,8 @@
 """MAVLink 2 framing via pymavlink's generated `common` dialect, with counting of everything dropped.
 
-Nothing here frames bytes or computes CRCs by hand: pymavlink does both. This module only keeps a parser
-per link that survives any input (random bytes, truncated frames, bad CRC, unknown ids) and counts what it
+pymavlink frames and checks everything, except the plant link's per-step messages, which
+transport/mavlink_frames.py packs and parses with precompiled structs into the same bytes. This module keeps a
+parser per link that survives any input (random bytes, truncated frames, bad CRC, unknown ids) and counts what it
 could not use, so bad input is refused visibly and never raises into a control loop.
 """
 
@@ -15,6 +16,7 @@ os.environ.setdefault("MAVLINK20", "1")
 from pymavlink.dialects.v20 import common as mavlink  # noqa: E402
 
 from transport.link_signing import sign_everything  # noqa: E402
+from transport.mavlink_frames import FastFrames, FrameFormat  # noqa: E402
 
 MAV_RESULT_ACCEPTED = mavlink.MAV_RESULT_ACCEPTED
 MAV_RESULT_DENIED = mavlink.MAV_RESULT_DENIED
@@ -33,16 +35,24 @@ def drop_reason(parser_reason: str) -> str:
 class Link:
     """One MAVLink endpoint's encoder and robust parser with drop counters."""
 
-    def __init__(self, system_id: int, component_id: int, signing_key: bytes | None = None) -> None:
-        """`signing_key`: sign everything sent and keep only frames signed with it (transport/link_signing.py)."""
+    def __init__(
+        self, system_id: int, component_id: int, signing_key: bytes | None = None,
+        fast: tuple[FrameFormat, ...] = (),
+    ) -> None:
+        """`signing_key`: sign everything sent and keep only frames signed with it (transport/link_signing.py).
+        `fast`: message types parsed by precompiled structs (transport/mavlink_frames.py)."""
         self.mav = mavlink.MAVLink(None, srcSystem=system_id, srcComponent=component_id)
         self.mav.robust_parsing = True
         self.dropped: Counter[str] = Counter()
         if signing_key is not None:
             sign_everything(self.mav, signing_key)
+        self.frames = FastFrames(self.mav, fast)
 
     def parse(self, data: bytes) -> list[mavlink.MAVLink_message]:
         """Every good message in one UDP datagram; bad frames are counted in `dropped`, never raised."""
+        fast = self.frames.parse(data)
+        if fast is not None:
+            return fast
         try:
             messages = self.mav.parse_buffer(data) or []
         except (mavlink.MAVError, IndexError, ValueError) as exc:  # defensive: any frame pymavlink rejects
@@ -68,3 +78,8 @@ class Link:
     def pack(self, message: mavlink.MAVLink_message) -> bytes:
         """Frame one message (sequence number; signed when the link has a key)."""
         return message.pack(self.mav)
+
+    def pack_fields(self, frame_format: FrameFormat, *fields: object) -> bytes:
+        """Frame one message from its fields (pymavlink's `<name>_encode` arguments): the bytes
+        `pack` would give, without building a message object."""
+        return self.frames.pack(frame_format, *fields)

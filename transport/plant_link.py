@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from transport.mavlink import Link
+from transport.mavlink_frames import PLANT_STEP_FORMATS, SERVO_OUTPUT_RAW
 from transport.plant_handshake import confirm_message, hello_messages, is_challenge_for, new_client_nonce
 from transport.ports import LOOPBACK
 from transport.udp import SPIN_WINDOW_S, receive
@@ -48,7 +49,7 @@ class PlantLinkClient:
             raise
         self.sock.setblocking(False)
         self.local_port: int = self.sock.getsockname()[1]
-        self.link = Link(system_id, component_id, signing_key)
+        self.link = Link(system_id, component_id, signing_key, fast=PLANT_STEP_FORMATS)
         self.received_other: list[Any] = []
         self.confirmed = 0  # handshake challenges answered (docs/plant-link.md#the-handshake)
         self.foreign = 0  # datagrams from anyone but the plant's address, ignored
@@ -110,8 +111,7 @@ class PlantLinkClient:
 
     def send_pwm(self, time_usec: int, pwm: list[int]) -> None:
         """SERVO_OUTPUT_RAW for step time_usec with 12 channels (port 0)."""
-        channels = list(pwm) + [0] * (16 - len(pwm))
-        self.send(self.link.mav.servo_output_raw_encode(time_usec % USEC_WRAP, 0, *channels))
+        self.send_raw(self.link.pack_fields(SERVO_OUTPUT_RAW, time_usec % USEC_WRAP, 0, *pwm))
 
     def send_command_long(
         self, command: int, params: tuple[float, ...], target_system: int = 1, target_component: int = 200
