@@ -51,6 +51,7 @@ def test_packed_frames_are_pymavlinks_and_parse_back_the_same(frame_format: Fram
         assert [(m.get_srcSystem(), m.get_srcComponent(), m.get_seq(), bytes(m.get_msgbuf())) for m in fast] == \
             [(m.get_srcSystem(), m.get_srcComponent(), m.get_seq(), bytes(m.get_msgbuf())) for m in slow]  # fmt: skip
     assert reader_fast.dropped == reader_slow.dropped == {}
+    assert ours.mav.seq == theirs.mav.seq == 300 % 256
 
 
 def test_a_step_datagram_and_extensions_left_out() -> None:
@@ -68,6 +69,7 @@ def test_a_step_datagram_and_extensions_left_out() -> None:
     assert datagram == expected
     parsed = Link(1, 1, fast=PLANT_STEP_FORMATS).parse(datagram)
     assert [m.get_type() for m in parsed] == ["HIL_STATE_QUATERNION", "HIL_SENSOR", "HIL_GPS"]
+    assert [m.get_seq() for m in parsed] == [0, 1, 2]  # each frame advances the link's sequence, as pymavlink's send
     assert parsed[0].attitude_quaternion == [1.0, 0.0, 0.0, 0.0] and parsed[1].id == 0 and parsed[2].yaw == 0
 
 

@@ -76,10 +76,18 @@ class Link:
         return good
 
     def pack(self, message: mavlink.MAVLink_message) -> bytes:
-        """Frame one message (sequence number; signed when the link has a key)."""
-        return message.pack(self.mav)
+        """Frame one message (signed when the link has a key) with the link's sequence number, which then
+        advances, as pymavlink's `send` does (receivers count lost frames by its gaps)."""
+        frame = message.pack(self.mav)
+        self._advance_sequence()
+        return frame
 
     def pack_fields(self, frame_format: FrameFormat, *fields: object) -> bytes:
         """Frame one message from its fields (pymavlink's `<name>_encode` arguments): the bytes
         `pack` would give, without building a message object."""
-        return self.frames.pack(frame_format, *fields)
+        frame = self.frames.pack(frame_format, *fields)
+        self._advance_sequence()
+        return frame
+
+    def _advance_sequence(self) -> None:
+        self.mav.seq = (self.mav.seq + 1) % 256
