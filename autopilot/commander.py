@@ -11,7 +11,8 @@ nothing integrated on the ground carries into the flight. A detected landing sto
 disarms after COM_DISARM_LAND.
 
 Every request answers (MAV_RESULT, reason); a reason goes to the ground station as STATUSTEXT. What the
-commander says (`say`) goes to the ground stations as STATUSTEXT too.
+commander says (`say`) goes to the ground stations as STATUSTEXT too. Arming, modes and takeoff are judged here;
+the guided requests (Land, Go-to, Orbit, transition, speed, home, Offboard set-points) in guided_requests.py.
 """
 
 from __future__ import annotations
@@ -22,22 +23,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from autopilot.auto_flight import AutoFlight, Circle
+from autopilot.auto_flight import AutoFlight
 from autopilot.failsafe import Decision, Failsafe, FailsafeInputs
 from autopilot.failsafe_reaction import reaction
-from autopilot.flight_modes import (HOLD, LAND, MISSION, OFFBOARD, ORBIT, RETURN, TAKEOFF, VTOL_FW, VTOL_MC,
-                                    FlightMode, HoldMode, LandMode, MissionMode, OffboardMode, OrbitMode, ReturnMode,
-                                    TakeoffMode)  # fmt: skip
+from autopilot.flight_modes import (HOLD, LAND, MISSION, OFFBOARD, ORBIT, RETURN, TAKEOFF, FlightMode, HoldMode,
+                                    LandMode, MissionMode, OffboardMode, OrbitMode, ReturnMode, TakeoffMode)  # fmt: skip
 from autopilot.home_position import HomeKeeper
 from autopilot.manual_modes import ALTITUDE, POSITION, ManualControl, StickMode
 from autopilot.mission_feasibility import MissionFeasibility
 from autopilot.mission_flight import MissionFlight
 from autopilot.mission_store import MissionStore
 from autopilot.navigator import LandDetector, Navigator
-from autopilot.offboard_setpoint import SETPOINT_LIMITS, AttitudeTarget, OffboardSetpoint
+from autopilot.offboard_setpoint import AttitudeTarget, OffboardSetpoint
 from autopilot.parameters import ParameterStore
-from autopilot.requests import (ManualControlInput, OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit,
-                                Reply, Reposition, SetHome)
+from autopilot.requests import ManualControlInput, Reply
 from autopilot.vehicle_state import VehicleState
 from transport.geodesy import Home
 from transport.mavlink import mavlink
@@ -56,9 +55,6 @@ TAKING_OFF = mavlink.MAV_LANDED_STATE_TAKEOFF
 LANDING = mavlink.MAV_LANDED_STATE_LANDING
 
 MAX_LEVEL_TILT = math.radians(30.0)  # arming on the ground: roll and pitch within this
-
-
-MAX_CRUISE_SPEED = float(SETPOINT_LIMITS[0])  # m/s: DO_CHANGE_SPEED within the velocity envelope
 
 
 @dataclass(frozen=True)
@@ -111,7 +107,6 @@ class Commander:
         self._controller_flight = 0  # the flight the running flight controller was started for
         self.state_version = 1  # counts arming, mode and ground-state changes (each sends a HEARTBEAT)
         self._reported_version = 0
-        self.setpoints_clamped = 0
         self.now_usec = 0
         self.state = VehicleState()  # the current step's estimate (observe())
         self._start_usec = 0
@@ -162,6 +157,10 @@ class Commander:
         return IN_AIR
 
     @property
+    def setpoints_clamped(self) -> int:
+        return self.offboard.clamped
+
+    @property
     def attitude_setpoint(self) -> AttitudeTarget | None:
         """Offboard attitude flying: the set-point for the attitude loop (the velocity controller out of the loop)."""
         return self.offboard.attitude if self.mode == OFFBOARD and self.flying else None
@@ -170,7 +169,7 @@ class Commander:
     def active(self) -> FlightMode:
         return self.modes[self.mode]
 
-    def _set_mode(self, mode: str, state: VehicleState, reason: str | None = None) -> None:
+    def switch_mode(self, mode: str, state: VehicleState, reason: str | None = None) -> None:
         """Enter `mode` (again, if it is the current one: it starts afresh, except Offboard)."""
         if mode != OFFBOARD or self.mode != OFFBOARD:
             self.modes[mode].activate(state)
@@ -213,7 +212,7 @@ class Commander:
         if self.profile is None and self.flying:
             self.hold.activate(state)
 
-    def _refusal(self, name: str | None = None, positional: bool = False) -> Reply | None:
+    def refusal(self, name: str | None = None, positional: bool = False) -> Reply | None:
         """Commands are off while the internal --profile flies; `name` needs a vehicle state first, and a
         `positional` one a position estimate (PX4: the mode cannot run)."""
         if self.profile is not None:
@@ -226,7 +225,7 @@ class Commander:
 
     # ---- requests (commands) ---------------------------------------------------------------------------------
     def arm(self, state: VehicleState, force: bool = False) -> Reply:
-        if (refusal := self._refusal()) is not None:
+        if (refusal := self.refusal()) is not None:
             return refusal
         if self.armed:
             return ACCEPTED, None
@@ -244,11 +243,11 @@ class Commander:
         if self.mode == MISSION:
             self.mission_mode.activate(state)  # a takeoff item first: the mission takes off
         if self.mode == OFFBOARD and not self._offboard_fresh():
-            self._set_mode(HOLD, state)
+            self.switch_mode(HOLD, state)
         return ACCEPTED, None
 
     def disarm(self, state: VehicleState, force: bool = False) -> Reply:
-        if (refusal := self._refusal()) is not None:
+        if (refusal := self.refusal()) is not None:
             return refusal
         if not self.armed:
             return ACCEPTED, None
@@ -261,11 +260,11 @@ class Commander:
         return self.offboard.fresh(self.now_usec, self.params["COM_OF_LOSS_T"])
 
     def set_mode(self, mode: str, state: VehicleState) -> Reply:
-        if (refusal := self._refusal(mode)) is not None:
+        if (refusal := self.refusal(mode)) is not None:
             return refusal
         if mode == self.mode:
             return ACCEPTED, None
-        if (refusal := self._refusal(mode, positional=mode not in (LAND, ALTITUDE))) is not None:
+        if (refusal := self.refusal(mode, positional=mode not in (LAND, ALTITUDE))) is not None:
             return refusal
         if mode == OFFBOARD and not self._offboard_fresh():
             return TEMPORARILY_REJECTED, (f"Offboard denied: no set-point in the last "
@@ -282,7 +281,7 @@ class Commander:
             return DENIED, "Orbit: use MAV_CMD_DO_ORBIT (radius, speed, centre)"
         if mode == RETURN and not self.flying:
             return TEMPORARILY_REJECTED, "Return denied: not flying"
-        self._set_mode(mode, state)
+        self.switch_mode(mode, state)
         return ACCEPTED, None
 
     def start_mission(self, state: VehicleState) -> Reply:
@@ -297,7 +296,7 @@ class Commander:
 
     def takeoff(self, state: VehicleState, altitude_above_home: float | None) -> Reply:
         """Climb to `altitude_above_home` (None: MIS_TAKEOFF_ALT) over the current position, then Hold."""
-        if (refusal := self._refusal("Takeoff", positional=True)) is not None:
+        if (refusal := self.refusal("Takeoff", positional=True)) is not None:
             return refusal
         if altitude_above_home is None:
             altitude_above_home = self.params["MIS_TAKEOFF_ALT"]
@@ -313,80 +312,6 @@ class Commander:
             self.say(mavlink.MAV_SEVERITY_INFO, f"Takeoff to {altitude_above_home:.1f} m: waiting for arming")
         else:
             self.say(mavlink.MAV_SEVERITY_INFO, f"Takeoff to {altitude_above_home:.1f} m")
-        return ACCEPTED, None
-
-    def land(self, state: VehicleState) -> Reply:
-        if (refusal := self._refusal("Land")) is not None:
-            return refusal
-        self._set_mode(LAND, state, "Landing")
-        return ACCEPTED, None
-
-    def set_home(self, request: SetHome) -> Reply:
-        """MAV_CMD_DO_SET_HOME: Return and the geofence's distances use the new home from now (PX4: refused,
-        TEMPORARILY_REJECTED, without a position estimate)."""
-        if (refusal := self._refusal("Set home", positional=request.current)) is not None:
-            return refusal
-        self.homes.position = home = request.home
-        self.say(mavlink.MAV_SEVERITY_INFO, f"Home position: {home.lat:.7f}, {home.lon:.7f}, {home.alt:.2f}")
-        return ACCEPTED, None
-
-    def transition(self, target: int, state: VehicleState) -> Reply:
-        """MAV_CMD_DO_VTOL_TRANSITION: in Hold, to FW circles at cruise speed, to MC brakes and hovers."""
-        if (refusal := self._refusal()) is not None:
-            return refusal
-        if target not in (VTOL_FW, VTOL_MC):
-            return DENIED, f"Transition denied: param1 must be {VTOL_MC} (MC) or {VTOL_FW} (FW)"
-        if not self.flying:
-            return TEMPORARILY_REJECTED, "Transition denied: not flying"
-        if self.mode == OFFBOARD:
-            return TEMPORARILY_REJECTED, "Transition denied: in Offboard the set-points choose the phase"
-        if self.mode != HOLD:
-            return TEMPORARILY_REJECTED, f"Transition denied: in {self.mode} (switch to Hold first)"
-        if (text := self.hold.transition(target, state)) is not None:
-            self.say(mavlink.MAV_SEVERITY_INFO, text)
-        return ACCEPTED, None
-
-    # ---- typed requests from the ground stations ------------------------------------------------------------
-    def offboard_request(self, request: OffboardVelocity | OffboardPosition | OffboardAttitude) -> Reply:
-        """A client's Offboard set-point, judged against the current step's state (observe())."""
-        if isinstance(request, OffboardAttitude):
-            if self.offboard.accept(request, self.state, self.now_usec):
-                self.setpoints_clamped += 1
-                self.say(mavlink.MAV_SEVERITY_WARNING, "Attitude set-point clamped (tilt <= 45 deg, rates <= 180 "
-                         "deg/s, thrust 0..1)", key="attitude clamped")  # fmt: skip
-            return ACCEPTED, None
-        if self.offboard.accept(request, self.state, self.now_usec):
-            self.setpoints_clamped += 1
-            self.say(mavlink.MAV_SEVERITY_WARNING, "Set-point clamped to |v| <= (30, 30, 10) m/s", key="clamped")
-        return ACCEPTED, None
-
-    def route(self, request: Reposition | Orbit, state: VehicleState) -> Reply:
-        """DO_REPOSITION: Hold at a new position (flown there); DO_ORBIT: Orbit mode around a centre."""
-        name = "Reposition" if isinstance(request, Reposition) else "Orbit"
-        if (refusal := self._refusal(name, positional=True)) is not None:
-            return refusal
-        if not self.flying:
-            return TEMPORARILY_REJECTED, f"{name} denied: not flying"
-        if isinstance(request, Reposition):
-            self._set_mode(HOLD, state, "Reposition: Hold")
-            self.hold.reposition(state, request.position, request.speed)
-            return ACCEPTED, None
-        center = state.position_ned[0:2].copy() if request.center is None else request.center
-        down = float(state.position_ned[2]) if request.down is None else request.down
-        self._set_mode(ORBIT, state, f"Orbit: radius {request.radius:g} m at {request.speed:g} m/s")
-        self.orbit.start(state, Circle(center, down, request.radius, request.speed, request.clockwise))
-        return ACCEPTED, None
-
-    def change_speed(self, speed: float | None) -> Reply:
-        """DO_CHANGE_SPEED: the cruise speed of the legs of Mission, Return and Go-to (None: the defaults), within
-        the velocity controllers' envelope."""
-        if (refusal := self._refusal()) is not None:
-            return refusal
-        if speed is not None and speed > MAX_CRUISE_SPEED:
-            self.say(mavlink.MAV_SEVERITY_WARNING, f"Speed {speed:g} m/s clamped to {MAX_CRUISE_SPEED:g} m/s")
-            speed = MAX_CRUISE_SPEED
-        self.auto.mission_speed = speed
-        self.say(mavlink.MAV_SEVERITY_INFO, "Speed: defaults" if speed is None else f"Speed: {speed:g} m/s")
         return ACCEPTED, None
 
     def offboard_setpoint(self, velocity_ned: np.ndarray, stamp_ms: int | None = None) -> None:
@@ -426,7 +351,7 @@ class Commander:
         if self.mode == TAKEOFF:
             if not self.takeoff_mode.done(state):
                 return self.takeoff_mode.setpoint(state)
-            self._set_mode(HOLD, state, "Takeoff complete: Hold")
+            self.switch_mode(HOLD, state, "Takeoff complete: Hold")
             self.hold.hold_at(*self.takeoff_mode.end)
         mode = self.active
         setpoint = mode.setpoint(state)
@@ -451,7 +376,7 @@ class Commander:
         if plan.cut_motors is not None:
             self._set_armed(False, plan.cut_motors)
         if plan.mode is not None:
-            self._set_mode(plan.mode, state, plan.mode_reason)
+            self.switch_mode(plan.mode, state, plan.mode_reason)
             if plan.descend:
                 self.land_mode.descend = True
         for severity, text in plan.after:

@@ -1,13 +1,15 @@
-"""The flight stack as the MAVLink services see it: it takes their typed requests. Arming, modes, takeoff,
-landing, transitions, Offboard set-points and ground-station heartbeats (for the data-link failsafe) go to the
-commander; a failure injection, once SYS_FAILURE_EN
-allows it (as PX4's commander checks it), goes to the plant link and is answered when the plant has. Mission
-uploads, clears and the current item go to the mission store (autopilot/mission_store.py), which the navigator reads."""
+"""The flight stack as the MAVLink services see it: it takes their typed requests. Arming, modes, takeoff and
+ground-station heartbeats (for the data-link failsafe) go to the commander; landing, Go-to, Orbit, transitions,
+speed, home and Offboard set-points to its guided requests (guided_requests.py); a failure injection, once
+SYS_FAILURE_EN allows it (as PX4's commander checks it), goes to the plant link and is answered when the plant has.
+Mission uploads, clears and the current item go to the mission store (autopilot/mission_store.py), which the
+navigator reads."""
 
 from __future__ import annotations
 
 from autopilot.commander import RETURN, Commander
 from autopilot.failure_injection import FailureInjection
+from autopilot.guided_requests import GuidedRequests
 from autopilot.mission_items import FENCE as FENCE_TYPE
 from autopilot.mission_items import MISSION as MISSION_TYPE
 from autopilot.mission_store import MissionStore
@@ -20,9 +22,10 @@ from transport.mavlink import mavlink
 
 
 class FlightStack:
-    def __init__(self, commander: Commander, injection: FailureInjection, params: ParameterStore,
-                 missions: MissionStore) -> None:  # fmt: skip
+    def __init__(self, commander: Commander, guided: GuidedRequests, injection: FailureInjection,
+                 params: ParameterStore, missions: MissionStore) -> None:  # fmt: skip
         self.commander = commander
+        self.guided = guided
         self.injection = injection
         self.params = params
         self.missions = missions
@@ -48,8 +51,8 @@ class FlightStack:
         return self._commander_request(request)
 
     def _commander_request(self, request: Request) -> Reply:
-        """Arming, modes and set-points: judged by the commander against the current step's state."""
-        commander, state = self.commander, self.commander.state
+        """Arming, modes, guided requests and set-points: judged against the current step's state."""
+        commander, guided, state = self.commander, self.guided, self.commander.state
         match request:
             case Arm(force=force):
                 return commander.arm(state, force)
@@ -58,23 +61,23 @@ class FlightStack:
             case Takeoff(altitude_above_home=altitude):
                 return commander.takeoff(state, altitude)
             case Land():
-                return commander.land(state)
+                return guided.land(state)
             case SetHome():
-                return commander.set_home(request)
+                return guided.set_home(request)
             case SetMode(mode=mode):
                 return commander.set_mode(mode, state)
             case Transition(target=target):
-                return commander.transition(target, state)
+                return guided.transition(target, state)
             case StartMission():
                 return commander.start_mission(state)
             case ReturnToLaunch():
                 return commander.set_mode(RETURN, state)
             case ChangeSpeed(speed=speed):
-                return commander.change_speed(speed)
+                return guided.change_speed(speed)
             case Reposition() | Orbit():
-                return commander.route(request, state)
+                return guided.route(request, state)
             case OffboardVelocity() | OffboardPosition() | OffboardAttitude():
-                return commander.offboard_request(request)
+                return guided.offboard_request(request)
             case ManualControlInput():
                 return commander.manual_control(request)
             case GcsHeartbeat():

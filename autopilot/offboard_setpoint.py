@@ -72,11 +72,18 @@ class OffboardSetpoint:
         self.attitude: AttitudeTarget | None = None  # SET_ATTITUDE_TARGET's (the velocity is then unused)
         self.received_usec: int | None = None
         self.stamped = StampedSetpoints() if stamped else None
+        self.clamped = 0  # set-points accept() had to clamp so far
 
     def accept(self, request: OffboardVelocity | OffboardPosition | OffboardAttitude, state: VehicleState,
                now_usec: int) -> bool:  # fmt: skip
         """A client's set-point in NED (body frames rotated by the yaw, offsets from where the vehicle is), its
-        velocity clamped to the envelope, an attitude to its limits; True when it had to be clamped."""
+        velocity clamped to the envelope, an attitude to its limits; True when it had to be clamped (counted)."""
+        clamped = self._store(request, state, now_usec)
+        self.clamped += clamped
+        return clamped
+
+    def _store(self, request: OffboardVelocity | OffboardPosition | OffboardAttitude, state: VehicleState,
+               now_usec: int) -> bool:  # fmt: skip
         if isinstance(request, OffboardAttitude):
             last_thrust = 0.0 if self.attitude is None else self.attitude.thrust
             self.attitude, clamped = attitude_in_limits(request, last_thrust)

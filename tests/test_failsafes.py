@@ -15,6 +15,7 @@ from autopilot.commander import HOLD, LAND, OFFBOARD, RETURN, Commander
 from autopilot.failsafe import Decision
 from autopilot.failsafe_reaction import Reaction, reaction
 from autopilot.geofence import breach, fence_from_items, inside_polygon
+from autopilot.guided_requests import GuidedRequests
 from autopilot.manual_modes import ALTITUDE, POSITION
 from autopilot.mission_feasibility import geofence_violation
 from autopilot.mission_flight import closest_safe_point, return_height
@@ -130,7 +131,7 @@ def test_data_link_loss_after_com_dl_loss_t_takes_nav_dll_act_and_is_said_when_r
     assert said[-1] == "Data link regained"
     landing, _ = flying_commander(NAV_DLL_ACT=2, COM_DL_LOSS_T=5)
     landing.failsafe.gcs_heartbeat(0)
-    landing.land(state_at(0.0))
+    GuidedRequests(landing).land(state_at(0.0))
     fly(landing, 0.0, 6.0)
     assert landing.mode == LAND  # PX4 ignores the data-link loss while landing
 
@@ -149,7 +150,8 @@ def test_geofence_breach_takes_gf_action_once_and_return_heads_for_the_closest_r
     fly(commander, 1.02, 2.0, north=101.0)
     assert commander.mode == HOLD  # still outside, but the breach acted once: the user flies out of it
     going, said = flying_commander(GF_MAX_HOR_DIST=100.0)  # GF_ACTION 2: Hold
-    assert going.route(Reposition(np.array([200.0, 0.0, -50.0]), None), state_at(0.0))[0] == M.MAV_RESULT_ACCEPTED
+    go_to = Reposition(np.array([200.0, 0.0, -50.0]), None)
+    assert GuidedRequests(going).route(go_to, state_at(0.0))[0] == M.MAV_RESULT_ACCEPTED
     fly(going, 0.0, 0.1, north=101.0)
     assert going.mode == HOLD and not going.hold.repositioning  # the Go-to stops where the fence is
     assert "Failsafe activated: Hold" in said

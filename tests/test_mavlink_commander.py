@@ -18,6 +18,7 @@ from autopilot.commander import (
     TEMPORARILY_REJECTED,
     Commander,
 )
+from autopilot.guided_requests import GuidedRequests
 from autopilot.mavlink.px4_modes import custom_mode, mode_from_px4
 from autopilot.parameters import ParameterStore
 from autopilot.vehicle_state import VehicleState
@@ -99,7 +100,7 @@ def test_takeoff_climbs_to_the_altitude_then_holds_there():
 
 def test_land_detects_touchdown_and_disarms_after_com_disarm_land():
     commander, said = new_commander(in_air=True, COM_DISARM_LAND=1.0)
-    assert commander.land(state_at(0.0, -50.0))[0] == ACCEPTED
+    assert GuidedRequests(commander).land(state_at(0.0, -50.0))[0] == ACCEPTED
     assert commander.tick(state_at(0.01, -50.0), 10_000, HOVER)[2] == pytest.approx(1.5)  # MPC_Z_VEL_MAX_DN
     assert commander.tick(state_at(0.02, -3.0), 20_000, HOVER)[2] == pytest.approx(0.7)  # below MPC_LAND_ALT2
     t = 1.0
@@ -126,14 +127,15 @@ def test_armed_on_the_ground_without_a_takeoff_disarms_after_com_disarm_prflt():
 
 def test_the_transition_command_in_hold_circles_and_comes_back_to_a_hover():
     commander, _ = new_commander(in_air=True)
+    guided = GuidedRequests(commander)
     state = state_at(0.0, -50.0)
-    assert commander.transition(7, state)[0] == DENIED
-    assert commander.transition(M.MAV_VTOL_STATE_FW, state)[0] == ACCEPTED
+    assert guided.transition(7, state)[0] == DENIED
+    assert guided.transition(M.MAV_VTOL_STATE_FW, state)[0] == ACCEPTED
     setpoint = commander.tick(state_at(0.01, -50.0), 10_000, HOVER)
     assert math.hypot(setpoint[0], setpoint[1]) == pytest.approx(26.0)  # FW_AIRSPD_TRIM
-    assert commander.transition(M.MAV_VTOL_STATE_MC, state)[0] == ACCEPTED
+    assert guided.transition(M.MAV_VTOL_STATE_MC, state)[0] == ACCEPTED
     moving = state_at(0.02, -50.0, velocity=(20.0, 0.0, 0.0))
     assert list(commander.tick(moving, 20_000, HOVER)[0:2]) == [0.0, 0.0]  # brake first
     commander.offboard_setpoint(np.zeros(3))
     commander.set_mode(OFFBOARD, state)
-    assert commander.transition(M.MAV_VTOL_STATE_FW, state)[0] == TEMPORARILY_REJECTED
+    assert guided.transition(M.MAV_VTOL_STATE_FW, state)[0] == TEMPORARILY_REJECTED
