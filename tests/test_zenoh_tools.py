@@ -324,7 +324,7 @@ def test_vtol_watch_prints_status_lines_and_writes_a_snapshot(tmp_path, vehicle)
     result = subprocess.run(command, capture_output=True, text=True, timeout=60, env=env)
     assert result.returncode == 0, result.stderr
     lines = result.stdout.splitlines()
-    assert 2 <= len(lines) <= 4, lines  # one a second (3), give or take a stall on a loaded machine
+    assert 2 <= len(lines) <= 6, lines  # one a second (3), give or take a stall and its catch-up on a loaded machine
     status = [m for m in map(STATUS.search, lines) if m]
     assert len(status) >= 2 and status[-1].string == lines[-1], lines  # (a loaded machine may connect late)
     assert all(abs(float(m.group(2)) - 100.0) < 5.0 for m in status), lines
