@@ -14,14 +14,12 @@ from __future__ import annotations
 import argparse
 import json
 import pstats
-import subprocess
 import sys
 import tempfile
 from pathlib import Path
 
 from autopilot.parameters import FILE_FORMAT, FILE_VERSION
-from ground_tools.processes import (AutopilotCommand, SimCommand, Zenoh, deterministic_argv,
-                                    deterministic_environment, free_link_ports, free_udp_port)  # fmt: skip
+from ground_tools.lockstep_flight import LockstepFlight, fly_lockstep
 from scenarios.profiles import PROFILES
 
 # (label, module file, function): cumulative time of the function, the calls within it included
@@ -54,29 +52,9 @@ PIECES = [
 ]
 
 
-def fly(profile: str, duration: float, controller: str, params: Path, profile_to: Path | None) -> dict:
-    port = free_udp_port()
-    plant = subprocess.Popen(
-        deterministic_argv(SimCommand(port=port, spawn_alt=100.0, zenoh=Zenoh.off(), duration_s=duration,
-                                      summary=True).argv()),
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=deterministic_environment(),
-    )  # fmt: skip
-    argv = AutopilotCommand(sim_port=port, links=free_link_ports(), spawn_alt=100.0, profile=profile,
-                            duration_s=duration, controller=controller, summary=True, zenoh=Zenoh.off(), quiet=True,
-                            params=params).argv()  # fmt: skip
-    if profile_to is not None:  # [python, -m, module, ...] -> [python, -m, cProfile, -o, FILE, -m, module, ...]
-        argv = [argv[0], "-m", "cProfile", "-o", str(profile_to), *argv[1:]]
-    try:
-        autopilot = subprocess.run(argv, capture_output=True, text=True, timeout=900, env=deterministic_environment())
-        plant_out, _ = plant.communicate(timeout=120)
-    finally:
-        if plant.poll() is None:
-            plant.kill()
-            plant.wait()
-    if autopilot.returncode != 0:
-        raise SystemExit(f"vtol-autopilot exited with {autopilot.returncode}: {autopilot.stderr[-2000:]}")
-    return {"autopilot": json.loads(autopilot.stdout.strip().splitlines()[-1]),
-            "plant": json.loads(plant_out.strip().splitlines()[-1])}  # fmt: skip
+def fly(profile: str, duration: float, controller: str, params: Path, profile_to: Path | None) -> LockstepFlight:
+    return fly_lockstep(profile, duration, controller=controller, autopilot_args=("--params", str(params)),
+                        autopilot_profile=profile_to)  # fmt: skip
 
 
 def cumulative(stats: pstats.Stats, module: str, function: str) -> tuple[float, int]:
@@ -104,7 +82,7 @@ def main() -> None:
         profile_path = Path(scratch) / "autopilot.prof"
         fly(args.profile, args.duration, args.controller, params, profile_path)
         stats = pstats.Stats(str(profile_path))
-    ap, pl = plain["autopilot"], plain["plant"]
+    ap, pl = plain.autopilot, plain.plant
     sim_s, steps = pl["sim_time_s"], pl["steps"]
     wall_ms = pl["wall_time_s"] / sim_s * 1e3
     autopilot_busy_ms = ap["busy_us_per_step"] * steps / sim_s / 1e3
