@@ -100,7 +100,7 @@ class SolveRequest:
     state: VehicleState
     v_sp: np.ndarray
     tilts: np.ndarray
-    previous_rates: np.ndarray | None  # the MPC's Psi_dot_prev for this state (None: the state's own rates)
+    previous_rates: np.ndarray  # the MPC's Psi_dot_prev for this state: the rates of the tick before
 
 
 @dataclass(frozen=True)
@@ -137,8 +137,7 @@ def serve(mpc: MpcVelocityController, connection: Connection, parent_end: Connec
             connection.send(mpc.statistics())
             continue
         try:
-            if request.previous_rates is not None:
-                mpc.previous_rates = request.previous_rates
+            mpc.previous_rates = request.previous_rates
             command = mpc.update(request.state, request.v_sp, request.tilts)
             reply: SolveReply | SolveError = SolveReply(command, mpc.last_solution, mpc.fallback_requested,
                                                         mpc.failures_in_row)  # fmt: skip
