@@ -12,8 +12,8 @@ no time. Here the solve of tick k+1 runs in a second process (on the second core
 The first tick solves at once. The solving process is forked from the autopilot with the controller built, and
 owns it from then on: it receives the requests in order and nothing else, and the failure state the MPC's bounds
 come from (HealthSnapshot) after each failure, so the commands are the same run to run, bit for bit. A worker
-thread would share the autopilot's heap: measured, the allocation QP's results then changed in their last bits
-from run to run (proxsuite depends on its buffers' alignment). The paper's synchronous way: VT_MPC_OVERLAP = 0.
+thread would share the autopilot's heap, whose layout would then depend on timing, while the allocation QP's last
+bits depend on its buffers' alignment (docs/mpc.md 3.9). The paper's synchronous way: VT_MPC_OVERLAP = 0.
 """
 
 from __future__ import annotations
