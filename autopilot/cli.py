@@ -193,7 +193,8 @@ def main(argv: list[str] | None = None) -> int:
     def new_flight_controller() -> FlightController:
         """Built at start and at every takeoff from the ground, with the parameters of the moment."""
         return build_flight_controller(airframe, controller_kind(args.controller, params.get_int("VT_CTRL")),
-                                       TransitionAirspeeds(params["VT_ARSP_BLEND"], params["VT_ARSP_TRANS"]))
+                                       TransitionAirspeeds(params["VT_ARSP_BLEND"], params["VT_ARSP_TRANS"]),
+                                       mpc_overlap=params.get_int("VT_MPC_OVERLAP") == 1)
 
     outputs = LoopOutputs(
         log=None if log is None else FlightLogger(log),

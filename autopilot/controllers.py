@@ -16,6 +16,7 @@ from autopilot.actuator_health import ServoEstimate
 from autopilot.allocation import ControlAllocator
 from autopilot.flight_controller import MPC, PID, VELOCITY_PERIOD_USEC, ControllerKind, FlightController
 from autopilot.mpc_controller import HORIZON, MpcVelocityController
+from autopilot.mpc_overlap import OverlappedMpc
 from autopilot.pid_baseline import PidVelocityController, TransitionAirspeeds
 
 KINDS: tuple[ControllerKind, ...] = (MPC, PID)
@@ -37,9 +38,12 @@ def build_flight_controller(
     transition_airspeeds: TransitionAirspeeds | None = None,
     *,
     mpc_horizon: int = HORIZON,
+    mpc_overlap: bool = False,
 ) -> FlightController:
     """A fresh flight controller of `kind` ("mpc" or "pid"); transition_airspeeds: VT_ARSP_BLEND / VT_ARSP_TRANS
-    for the PID (None: PidParameters' defaults); mpc_horizon: the MPC's stages. Raises ValueError for another kind."""
+    for the PID (None: PidParameters' defaults); mpc_horizon: the MPC's stages; mpc_overlap: solve one tick ahead in a
+    process of its own (autopilot/mpc_overlap.py, VT_MPC_OVERLAP) instead of the paper's synchronous solve. Raises
+    ValueError for another kind."""
     if kind not in KINDS:
         raise ValueError(f"controller must be one of {', '.join(KINDS)}, got {kind!r}")
     u_initial = np.zeros(ALLOCATED_COUNT)
@@ -49,5 +53,8 @@ def build_flight_controller(
     pid = PidVelocityController(airframe, dt=VELOCITY_PERIOD_USEC / 1e6)
     if transition_airspeeds is not None:
         pid.set_transition_airspeeds(*transition_airspeeds)
-    mpc = MpcVelocityController(airframe, allocator, servos, horizon=mpc_horizon) if kind == MPC else None
-    return FlightController(airframe, allocator, servos, pid, mpc)
+    if kind != MPC:
+        return FlightController(airframe, allocator, servos, pid)
+    mpc = MpcVelocityController(airframe, allocator, servos, horizon=mpc_horizon)
+    flying = OverlappedMpc(mpc, VELOCITY_PERIOD_USEC) if mpc_overlap else mpc
+    return FlightController(airframe, allocator, servos, pid, flying)

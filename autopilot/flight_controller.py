@@ -30,6 +30,7 @@ from autopilot.attitude import AttitudeController
 from autopilot.attitude_setpoint import attitude_command
 from autopilot.mpc import MpcSolution
 from autopilot.mpc_controller import MpcVelocityController
+from autopilot.mpc_overlap import OverlappedMpc
 from autopilot.offboard_setpoint import AttitudeTarget
 from autopilot.pid_baseline import PidVelocityController
 from autopilot.vehicle_state import VehicleState
@@ -89,7 +90,8 @@ class YawByTilt:
 class FlightController:
     """Velocity set-point in, physical actuator commands out (thrust fractions, tilts rad, deflections).
 
-    Flies `mpc` when given, with `pid` as its back-up after repeated failed solves (paper), else `pid`.
+    Flies `mpc` when given (synchronous, the paper's way, or overlapped: autopilot/mpc_overlap.py), with `pid` as
+    its back-up after repeated failed solves (paper), else `pid`.
     """
 
     def __init__(
@@ -98,7 +100,7 @@ class FlightController:
         allocator: ControlAllocator,
         servos: ServoEstimate,
         pid: PidVelocityController,
-        mpc: MpcVelocityController | None = None,
+        mpc: MpcVelocityController | OverlappedMpc | None = None,
     ) -> None:
         self.airframe = airframe
         self.allocator = allocator
@@ -164,6 +166,8 @@ class FlightController:
     def apply_failure(self, failure: Failure) -> None:
         """Tell the allocator and the servo estimate about a failure the plant accepted."""
         self.health.apply(failure)
+        if isinstance(self.mpc, OverlappedMpc):  # its solving process keeps its own copy of the MPC's bounds
+            self.mpc.health_changed(self.allocator, self.servos)
 
     def pop_events(self) -> list[str]:
         """Events since the last call (the MPC falling back to the PID), for STATUSTEXT."""
@@ -234,7 +238,7 @@ class FlightController:
         return command.yaw_by_tilt or (self.velocity_controller is not self.pid
                                        and not bool(np.all(np.isnan(self.servos.stuck))))
 
-    def _fall_back_to_pid(self, state: VehicleState, mpc: MpcVelocityController) -> None:
+    def _fall_back_to_pid(self, state: VehicleState, mpc: MpcVelocityController | OverlappedMpc) -> None:
         """Paper: the PID is the MPC's back-up after repeated failed solves; it flies from this tick on."""
         self.fell_back_to_pid = True
         self.velocity_controller = self.pid

@@ -53,6 +53,8 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
       "accepts them (outgoing messages are signed either way)", px4=False),
     P("VT_CTRL", INT32, 1, 0, 1, "", "velocity controller: 0 PID baseline, 1 unified MPC (at the next start or "
       "takeoff from the ground; --controller overrides at start)", px4=False),
+    P("VT_MPC_OVERLAP", INT32, 0, 0, 1, "", "MPC solve: 0 synchronous (the paper's), 1 one control tick ahead on a "
+      "second core, from the predicted state (at the next start or takeoff from the ground)", px4=False),
     P("SYS_FAILURE_EN", INT32, 0, 0, 1, "", "1 enables MAV_CMD_INJECT_FAILURE"),
     P("SYS_FAILURE_DLY", REAL32, 0.0, 0.0, 60.0, "s", "delay before the controllers learn of an injected failure",
       px4=False),
