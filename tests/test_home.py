@@ -61,6 +61,9 @@ def test_the_vehicle_reports_the_home_px4_home_variables_give(monkeypatch):
         finally:
             link.close()
     assert home is not None and position is not None
-    assert (home.latitude, home.longitude, home.altitude) == (-338688000, 1512093000, 58000)
+    # Home is where the vehicle stands (PX4: its first valid position), its centre of gravity on the gear over
+    # the ground at PX4_HOME_ALT.
+    assert (home.latitude, home.longitude) == (-338688000, 1512093000)
+    assert 58000 < home.altitude < 59000 and abs(home.altitude - position.alt) < 50 and abs(home.z + 0.001 * (
+        home.altitude - 58000)) < 0.01
     assert math.hypot(position.lat - home.latitude, position.lon - home.longitude) < 100  # within ~1 m
-    assert abs(position.alt - 58000) < 1000
