@@ -28,7 +28,7 @@ from autopilot.failsafe import Decision, Failsafe, FailsafeInputs
 from autopilot.failsafe_reaction import reaction
 from autopilot.flight_modes import (HOLD, LAND, MISSION, OFFBOARD, ORBIT, RETURN, TAKEOFF, FlightMode, HoldMode,
                                     LandMode, MissionMode, OffboardMode, OrbitMode, ReturnMode, TakeoffMode)  # fmt: skip
-from autopilot.home_position import HomeKeeper, HomePosition
+from autopilot.home_position import HomeKeeper
 from autopilot.manual_modes import ALTITUDE, POSITION, ManualControl, StickMode
 from autopilot.mission_feasibility import MissionFeasibility
 from autopilot.mission_flight import MissionFlight
@@ -164,10 +164,6 @@ class Commander:
     def attitude_setpoint(self) -> AttitudeTarget | None:
         """Offboard attitude flying: the set-point for the attitude loop (the velocity controller out of the loop)."""
         return self.offboard.attitude if self.mode == OFFBOARD and self.flying else None
-
-    @property
-    def home(self) -> HomePosition:
-        return self.homes.position
 
     @property
     def active(self) -> FlightMode:

@@ -8,13 +8,13 @@ ever) before landing; bad values refused."""
 from __future__ import annotations
 
 import math
-import struct
 
 import pymap3d
 import pytest
 
+from autopilot.parameters import BY_NAME, encode_value
 from tests.ground_station import HOLD, OFFBOARD
-from tests.mavlink_sitl import start_sitl
+from tests.test_mavlink_failsafes import hovering, set_param
 from tests.test_mavlink_navigation import RETURN_MODE, latlon_e7
 from transport.geodesy import Home
 from transport.mavlink import mavlink as M
@@ -52,10 +52,7 @@ def here(gs) -> tuple[float, float, float]:
 
 
 def test_home_follows_the_vehicle_on_the_ground_and_arming_but_not_over_a_set_home(tmp_path):
-    sitl = start_sitl(tmp_path / "params.json", speed=None)
-    try:
-        gs = sitl.gs
-        gs.connect()
+    with hovering(tmp_path, 0.0) as gs:  # on the ground
         # The first valid position: home is where the vehicle stands (its centre of gravity over the origin).
         first = home_after(gs, 0)
         x, y, z = here(gs)
@@ -88,15 +85,10 @@ def test_home_follows_the_vehicle_on_the_ground_and_arming_but_not_over_a_set_ho
         gs.wait_sim(1.0)
         kept = gs.latest["HOME_POSITION"]
         assert abs(kept.x + 20.0) < 0.3 and abs(kept.y - 5.0) < 0.3 and abs(kept.z + 3.0) < 0.1
-    finally:
-        sitl.kill()
 
 
 def test_relative_altitudes_are_above_home_and_terrain_altitudes_are_refused(tmp_path):
-    sitl = start_sitl(tmp_path / "params.json", spawn_alt=12.0, speed=None)
-    try:
-        gs = sitl.gs
-        gs.connect()
+    with hovering(tmp_path, 12.0) as gs:
         # Home 10 m above the origin, over it: a relative altitude of 15 m is 25 m above the origin.
         assert gs.command(M.MAV_CMD_DO_SET_HOME, 0, 0, 0, math.nan, ORIGIN.lat, ORIGIN.lon, ORIGIN.alt + 10.0).result \
             == M.MAV_RESULT_ACCEPTED  # fmt: skip
@@ -123,26 +115,20 @@ def test_relative_altitudes_are_above_home_and_terrain_altitudes_are_refused(tmp
         gs.wait(lambda: math.hypot(*here(gs)[0:2]) < 1.0 and abs(gs.altitude - 15.0) < 1.0,
                 "the Offboard target 5 m above home", 60, every=stream)  # fmt: skip
         assert gs.latest["GLOBAL_POSITION_INT"].relative_alt == pytest.approx(5000, abs=1000)  # above home too
-    finally:
-        sitl.kill()
 
 
 def test_return_altitude_descend_altitude_and_land_delay(tmp_path):
-    sitl = start_sitl(tmp_path / "params.json", spawn_alt=8.0, speed=None)
-    try:
-        gs = sitl.gs
-        gs.connect()
+    with hovering(tmp_path, 8.0) as gs:
         for name, value in (("RTL_RETURN_ALT", 20.0), ("RTL_CONE_ANG", 60), ("NAV_ACC_RAD", 2.0),
                             ("RTL_DESCEND_ALT", 5.0), ("RTL_LAND_DELAY", -1.0)):  # fmt: skip
-            kind = M.MAV_PARAM_TYPE_INT32 if isinstance(value, int) else M.MAV_PARAM_TYPE_REAL32
-            wire = gs.param_set(name, value if kind == M.MAV_PARAM_TYPE_REAL32 else int_wire(value), kind)
-            assert wire.param_id == name
+            set_param(gs, name, value)
         # Bad values refused, the old ones kept.
         texts = len(gs.statustexts)
         assert gs.param_set("RTL_LAND_DELAY", -2.0, M.MAV_PARAM_TYPE_REAL32).param_value == -1.0
         assert gs.param_set("RTL_MIN_DIST", 0.1, M.MAV_PARAM_TYPE_REAL32).param_value == 10.0
         assert gs.param_set("RTL_DESCEND_ALT", math.nan, M.MAV_PARAM_TYPE_REAL32).param_value == 5.0
-        assert gs.param_set("RTL_DESCEND_ALT", int_wire(7), M.MAV_PARAM_TYPE_INT32).param_value == 5.0
+        as_int32 = encode_value(BY_NAME["RTL_CONE_ANG"], 7)  # an INT32's encoding, for a REAL32 parameter
+        assert gs.param_set("RTL_DESCEND_ALT", as_int32, M.MAV_PARAM_TYPE_INT32).param_value == 5.0
         for why in ("RTL_LAND_DELAY: -2 outside -1..3600", "RTL_MIN_DIST: 0.1 outside", "not a finite number",
                     "Param set RTL_DESCEND_ALT: type 6"):  # fmt: skip
             said(gs, why, texts)
@@ -156,7 +142,7 @@ def test_return_altitude_descend_altitude_and_land_delay(tmp_path):
         assert said(gs, "RTL: start return", texts) == f"RTL: start return at {math.ceil(ORIGIN.alt + 20)} m (20 m " \
             "above destination)"  # fmt: skip
         assert gs.set_mode(HOLD).result == M.MAV_RESULT_ACCEPTED
-        gs.param_set("RTL_MIN_DIST", 50.0, M.MAV_PARAM_TYPE_REAL32)
+        set_param(gs, "RTL_MIN_DIST", 50.0)
         texts = len(gs.statustexts)
         assert gs.command(M.MAV_CMD_NAV_RETURN_TO_LAUNCH).result == M.MAV_RESULT_ACCEPTED
         assert said(gs, "RTL: start return", texts).endswith("(15 m above destination)")
@@ -170,7 +156,7 @@ def test_return_altitude_descend_altitude_and_land_delay(tmp_path):
         assert gs.mode == RETURN_MODE and abs(gs.altitude - 5.0) < 0.5 and math.hypot(*here(gs)[0:2]) < 1.0
         assert gs.landed_state == M.MAV_LANDED_STATE_IN_AIR
         # RTL_LAND_DELAY 3 s: Return again from here waits 3 s at RTL_DESCEND_ALT, then lands and disarms.
-        gs.param_set("RTL_LAND_DELAY", 3.0, M.MAV_PARAM_TYPE_REAL32)
+        set_param(gs, "RTL_LAND_DELAY", 3.0)
         assert gs.set_mode(HOLD).result == M.MAV_RESULT_ACCEPTED
         texts, beats = len(gs.statustexts), len(gs.heartbeats)
         assert gs.command(M.MAV_CMD_NAV_RETURN_TO_LAUNCH).result == M.MAV_RESULT_ACCEPTED
@@ -186,10 +172,4 @@ def test_return_altitude_descend_altitude_and_land_delay(tmp_path):
         said(gs, "RTL: land at destination", texts)
         gs.wait(lambda: not gs.armed, "the landing and the disarm", 120)
         assert math.hypot(*here(gs)[0:2]) < 1.0
-    finally:
-        sitl.kill()
 
-
-def int_wire(value: int) -> float:
-    """An INT32 parameter's value as PARAM_SET carries it (PX4's bytewise encoding)."""
-    return struct.unpack("<f", struct.pack("<i", value))[0]
