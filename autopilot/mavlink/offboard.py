@@ -54,7 +54,7 @@ class OffboardService:
         if not for_us(self.system_id, message.target_system, message.target_component):
             return
         if message.coordinate_frame not in GLOBAL_FRAMES:
-            self._drop(f"frame {message.coordinate_frame} is not a global frame (GLOBAL_INT, GLOBAL_RELATIVE_ALT_INT)")
+            self._drop(f"frame {message.coordinate_frame} not a global frame (GLOBAL_INT, GLOBAL_RELATIVE_ALT_INT)")
             return
         position = None
         if message.type_mask & POSITION_IGNORE != POSITION_IGNORE:
