@@ -5,7 +5,7 @@ default). Home is set as PX4's commander sets it (its HomePosition): where the v
 position on the ground, at every arming, and, disarmed on the ground, again when the vehicle has moved more than
 1 m horizontally or 1.5 m vertically from it; never over a home a ground station gave in coordinates
 (MAV_CMD_DO_SET_HOME, PX4's manual_home), which stays until the next DO_SET_HOME. A vehicle spawned in the air
-keeps the origin (the ground under its spawn point) until it arms on the ground. Home never moves the origin:
+has the origin (the ground under its spawn point) as home until one of these sets it. Home never moves the origin:
 local positions (LOCAL_POSITION_NED, the set-points) stay relative to it. HOME_POSITION carries home's latitude,
 longitude and altitude, and its x, y, z in the local frame.
 """

@@ -1,9 +1,9 @@
 """The vehicle's status snapshot: what the flight stack publishes once per plant step for the MAVLink services.
 
 The services (autopilot/mavlink/) read only this: arming, mode, landed and VTOL state, the state estimate, the
-position as the GPS sees it, home as the commander keeps it (HOME_POSITION, relative altitudes), the actuator outputs, the controller flying, the failures known, the stored
-missions and their progress (MISSION_CURRENT, MISSION_ITEM_REACHED, downloads), and what
-happened since the last snapshot (events to announce, failure injections answered by the plant). As PX4's
+position as the GPS sees it, home as the commander keeps it (HOME_POSITION, relative altitudes), the actuator
+outputs, the controller flying, the failures known, the stored missions and their progress (MISSION_CURRENT,
+MISSION_ITEM_REACHED, downloads), and what happened since the last snapshot (events to announce, failure injections answered by the plant). As PX4's
 mavlink streams read vehicle_status and friends, never the commander.
 """
 
