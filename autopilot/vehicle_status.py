@@ -3,8 +3,8 @@
 The services (autopilot/mavlink/) read only this: arming, mode, landed and VTOL state, the state estimate, the
 position as the GPS sees it, home as the commander keeps it (HOME_POSITION, relative altitudes), the actuator
 outputs, the controller flying, the failures known, the stored missions and their progress (MISSION_CURRENT,
-MISSION_ITEM_REACHED, downloads), and what happened since the last snapshot (events to announce, failure injections answered by the plant). As PX4's
-mavlink streams read vehicle_status and friends, never the commander.
+MISSION_ITEM_REACHED, downloads), and what happened since the last snapshot (events to announce, failure
+injections answered by the plant). As PX4's mavlink streams read vehicle_status and friends, never the commander.
 """
 
 from __future__ import annotations
