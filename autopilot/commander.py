@@ -94,7 +94,7 @@ class Commander:
         self.modes: dict[str, FlightMode] = {mode.name: mode for mode in (
             self.hold, self.takeoff_mode, self.land_mode, OffboardMode(navigator, self.offboard, hover_fraction),
             self.mission_mode,
-            ReturnMode(params, auto, mission), self.orbit, StickMode(POSITION, params, self.manual),
+            ReturnMode(params, auto, mission, say), self.orbit, StickMode(POSITION, params, self.manual),
             StickMode(ALTITUDE, params, self.manual))}  # fmt: skip
         self.land_detector = LandDetector(hover_fraction)
         self.say = say
@@ -195,6 +195,8 @@ class Commander:
         """The first valid state: a vehicle spawned in the air holds where it is."""
         self.started = True
         self.now_usec = self._start_usec = state.time_usec
+        if self.on_ground:
+            self.homes.set_here(state.position_ned)  # PX4: home at the first valid position on the ground
         if self.flying and self.profile is None:
             self.hold.activate(state)
         if self.armed:
@@ -240,6 +242,8 @@ class Commander:
         if not force and self.mode == MISSION and self.feasibility.check() is not None:
             return DENIED, "Arming denied: no valid mission"
         self._set_armed(True, "Armed")
+        if not self.failsafe.position_lost:
+            self.homes.set_here(state.position_ned)  # PX4: home where the vehicle arms (not over a manual home)
         if self.mode == MISSION:
             self.mission_mode.activate(state)  # a takeoff item first: the mission takes off
         if self.mode == OFFBOARD and not self._offboard_fresh():
@@ -345,6 +349,8 @@ class Commander:
         if decision is not None:
             self._failsafe(decision, state)
         if not self.armed:
+            if self.on_ground and not self.failsafe.position_lost:
+                self.homes.follow(state.position_ned)
             return None
         if self.on_ground:
             return self._on_ground(state, time_usec)

@@ -15,15 +15,18 @@ DO_REPOSITION fly routes of targets (auto_flight.py, mission_flight.py).
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 
 import numpy as np
 
-from autopilot.auto_flight import AutoFlight, Circle, FlyTo, HoldAt
-from autopilot.mission_flight import MissionFlight, return_route
+from autopilot.auto_flight import AutoFlight, Circle, FlyTo, HoldAt, LandAt
+from autopilot.mission_flight import MissionFlight
 from autopilot.navigator import Navigator
 from autopilot.offboard_setpoint import OffboardSetpoint
 from autopilot.parameters import ParameterStore
+from autopilot.return_route import plan_return
 from autopilot.vehicle_state import VehicleState
 from transport.mavlink import mavlink
 
@@ -212,24 +215,41 @@ class MissionMode(FlightMode):
 
 
 class ReturnMode(FlightMode):
-    """AUTO.RTL: climb to RTL_RETURN_ALT, fly to the closest of home and the rally points, land there."""
+    """AUTO.RTL: climb to the return altitude, fly to the closest of home and the rally points, loiter there if
+    RTL_LAND_DELAY asks, land (autopilot/return_route.py); it says PX4's texts as it goes."""
 
     name = RETURN
 
-    def __init__(self, params: ParameterStore, auto: AutoFlight, mission: MissionFlight) -> None:
+    def __init__(self, params: ParameterStore, auto: AutoFlight, mission: MissionFlight,
+                 say: Callable[..., None]) -> None:  # fmt: skip
         self.params = params
         self.auto = auto
         self.mission = mission
+        self.say = say
+        self._announced = -1  # the route's target last announced
 
     def activate(self, state: VehicleState) -> None:
-        self.auto.start(state, return_route(self.params, state, self.mission.rally_points(), self.mission.homes.position.ned))
+        home = self.mission.homes.position
+        plan = plan_return(self.params, state, self.mission.rally_points(), home.ned)
+        self.auto.start(state, plan.route)
+        self._announced = -1
+        self.say(mavlink.MAV_SEVERITY_INFO, f"RTL: start return at {math.ceil(home.alt + plan.height)} m "
+                 f"({math.ceil(plan.height)} m above destination)")  # fmt: skip
 
     @property
     def landing(self) -> bool:
         return self.auto.descending
 
     def setpoint(self, state: VehicleState) -> np.ndarray:
-        return self.auto.step(state)
+        setpoint = self.auto.step(state)
+        if self.auto.index != self._announced:
+            self._announced = self.auto.index
+            target = self.auto.target
+            if isinstance(target, HoldAt) and target.seconds is None:
+                self.say(mavlink.MAV_SEVERITY_INFO, "RTL: completed, loitering")
+            elif isinstance(target, LandAt):
+                self.say(mavlink.MAV_SEVERITY_INFO, "RTL: land at destination")
+        return setpoint
 
 
 class OrbitMode(FlightMode):

@@ -37,12 +37,12 @@ from autopilot.auto_flight import AutoFlight, Climb, FlyTo, HoldAt, LandAt, Targ
 from autopilot.mission_items import MissionItem
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
+from autopilot.return_route import LANDING_APPROACH_RADIUS, plan_return
 from autopilot.vehicle_state import VehicleState
 from autopilot.home_position import HomeKeeper
 from transport.geodesy import ned_from_geodetic
 from transport.mavlink import mavlink as M
 
-LANDING_APPROACH_RADIUS = 1.0  # m: the FlyTo before a landing stops within this of the landing point
 LANDS = (M.MAV_CMD_NAV_LAND, M.MAV_CMD_NAV_VTOL_LAND)
 TAKEOFFS = (M.MAV_CMD_NAV_TAKEOFF, M.MAV_CMD_NAV_VTOL_TAKEOFF)
 TAKEOFF_BEFORE = (M.MAV_CMD_NAV_WAYPOINT, M.MAV_CMD_NAV_LOITER_TIME, M.MAV_CMD_NAV_LOITER_UNLIM)
@@ -53,39 +53,6 @@ def takeoff_down(item_down: float, ground_down: float, takeoff_alt: float) -> fl
     item's, but at least `takeoff_alt` (MIS_TAKEOFF_ALT) above the ground (PX4's calculate_takeoff_altitude)."""
     return min(item_down, ground_down - takeoff_alt)
 VTOL_FW, VTOL_MC = M.MAV_VTOL_STATE_FW, M.MAV_VTOL_STATE_MC
-
-
-def closest_safe_point(position_ned: np.ndarray, rally_points: list[np.ndarray],
-                       home_ned: np.ndarray = np.zeros(3)) -> np.ndarray:  # fmt: skip
-    """The closest (horizontally) of home and the rally points, (north, east) from the local origin (PX4's RTL_TYPE
-    0)."""
-    return min([home_ned[0:2].copy(), *(point[0:2] for point in rally_points)],
-               key=lambda point: float(np.hypot(*(point - position_ned[0:2]))))  # fmt: skip
-
-
-def return_height(height: float, distance: float, return_alt: float, cone_deg: int) -> float:
-    """PX4's return altitude (its calculate_return_alt_from_cone_half_angle), as the height above the destination:
-    RTL_RETURN_ALT, lowered within the RTL_CONE_ANG cone over the destination to the cone's height at `distance`
-    (m, horizontal); never below `height` (where the vehicle is now). cone_deg 0: no cone; 90: no climb."""
-    if height > return_alt or cone_deg >= 90:
-        return height
-    if cone_deg <= 0:
-        return return_alt
-    cone = math.radians(min(max(cone_deg, 1), 89))
-    return max(height, min(max(distance / math.tan(cone), 0.0), return_alt))
-
-
-def return_route(params: ParameterStore, state: VehicleState, rally_points: list[np.ndarray],
-                 home_ned: np.ndarray) -> list[Target]:  # fmt: skip
-    """Climb to the return altitude above home (return_height) over here, fly at it to the closest of home and the
-    rally points, land there."""
-    destination = closest_safe_point(state.position_ned, rally_points, home_ned)
-    distance = float(np.hypot(*(state.position_ned[0:2] - destination)))
-    height = float(home_ned[2]) - float(state.position_ned[2])
-    down = float(home_ned[2]) - return_height(height, distance, params["RTL_RETURN_ALT"],
-                                              params.get_int("RTL_CONE_ANG"))  # fmt: skip
-    return [Climb(state.position_ned[0:2].copy(), down, params["MPC_Z_VEL_MAX_UP"]),
-            FlyTo(np.array([*destination, down]), LANDING_APPROACH_RADIUS), LandAt(destination.copy())]  # fmt: skip
 
 
 class MissionFlight:
@@ -231,5 +198,5 @@ class MissionFlight:
         if command == M.MAV_CMD_NAV_DELAY:
             return [HoldAt(state.position_ned.copy(), max(item.param1, 0.0))]
         if command == M.MAV_CMD_NAV_RETURN_TO_LAUNCH:
-            return return_route(p, state, self.rally_points(), self.homes.position.ned)
+            return plan_return(p, state, self.rally_points(), self.homes.position.ned).route
         return []  # DO_CHANGE_SPEED, DO_VTOL_TRANSITION (done above), DO_SET_HOME: nothing to fly

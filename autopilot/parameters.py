@@ -104,7 +104,13 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
     P("RTL_RETURN_ALT", REAL32, 60.0, 0.0, 1000.0, "m", "Return: climb to this height above home (if lower) before "
       "flying to the closest of home and the rally points"),
     P("RTL_CONE_ANG", INT32, 45, 0, 90, "deg", "Return: half-angle of the cone over the destination that lowers the "
-      "return altitude near it (0: always RTL_RETURN_ALT; 90: no climb)"),
+      "return altitude within RTL_MIN_DIST of it (0: always RTL_RETURN_ALT)"),
+    P("RTL_MIN_DIST", REAL32, 10.0, 0.5, 10000.0, "m", "Return: within this horizontal distance of the destination "
+      "the return altitude is the RTL_CONE_ANG cone's"),
+    P("RTL_DESCEND_ALT", REAL32, 30.0, 0.0, 1000.0, "m", "Return: with RTL_LAND_DELAY not 0, descend over the "
+      "destination to this height above home (if lower) and wait there before landing"),
+    P("RTL_LAND_DELAY", REAL32, 0.0, -1.0, 3600.0, "s", "Return: wait this long at RTL_DESCEND_ALT before landing "
+      "(0: land at once; -1: wait for ever, no landing)"),
     P("NAV_LOITER_RAD", REAL32, 250.0, 100.0, 2000.0, "m", "radius of the fixed-wing Hold circle"),
 )
 del P

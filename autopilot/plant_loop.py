@@ -205,7 +205,7 @@ class PlantLoop:
             vtol_state=vtol_state(c.servos.tilt, c.command[TILTS]), state_version=report.state_version,
             estimate=copy_state(self.state),
             position=GlobalPosition(hil.lat, hil.lon, hil.alt, hil.vx, hil.vy, hil.vz),
-            home=self.home, pwm=tuple(pwm), throttle_percent=throttle, controller=c.kind,
+            home=self.commander.homes.position, pwm=tuple(pwm), throttle_percent=throttle, controller=c.kind,
             failures=tuple(self.injection.known), events=self.events.drain(),
             injections=self.injection.drain_outcomes(), missions=self.missions.snapshot,
         )  # fmt: skip

@@ -12,8 +12,10 @@ import numpy as np
 import pymap3d
 
 from autopilot.mavlink.commands import for_us
+from autopilot.mavlink.global_frames import GLOBAL_FRAMES, altitude_amsl
 from autopilot.mavlink.router import GroundLink
 from autopilot.mavlink.statustext import Announcer
+from autopilot.mavlink.view import StatusView
 from autopilot.requests import OffboardPosition, OffboardVelocity, RequestHandler
 from transport.geodesy import Home
 from transport.mavlink import mavlink as M
@@ -22,8 +24,6 @@ from transport.mavlink import mavlink as M
 LOCAL_FRAMES = {M.MAV_FRAME_LOCAL_NED: (False, False), M.MAV_FRAME_LOCAL_OFFSET_NED: (True, False),
                 M.MAV_FRAME_BODY_NED: (True, True), M.MAV_FRAME_BODY_OFFSET_NED: (True, True),
                 M.MAV_FRAME_BODY_FRD: (True, True)}  # fmt: skip
-RELATIVE_ALT_FRAMES = (M.MAV_FRAME_GLOBAL_RELATIVE_ALT, M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT)
-GLOBAL_FRAMES = (M.MAV_FRAME_GLOBAL, M.MAV_FRAME_GLOBAL_INT, *RELATIVE_ALT_FRAMES)
 POSITION_IGNORE = 0b111
 VELOCITY_IGNORE = 0b111 << 3
 ACCELERATION_IGNORE = 0b111 << 6
@@ -31,11 +31,13 @@ FORCE_SETPOINT = 1 << 9
 
 
 class OffboardService:
-    def __init__(self, flight_stack: RequestHandler, announcer: Announcer, *, system_id: int, home: Home) -> None:
+    def __init__(self, flight_stack: RequestHandler, view: StatusView, announcer: Announcer, *, system_id: int,
+                 origin: Home) -> None:  # fmt: skip
         self.flight_stack = flight_stack
+        self.view = view
         self.announcer = announcer
         self.system_id = system_id
-        self.home = home
+        self.origin = origin  # of the local frame
         self.dropped = 0
 
     def on_position_target_local(self, link: GroundLink, message: Any) -> None:
@@ -56,13 +58,20 @@ class OffboardService:
             return
         position = None
         if message.type_mask & POSITION_IGNORE != POSITION_IGNORE:
-            lat, lon, alt = message.lat_int * 1e-7, message.lon_int * 1e-7, float(message.alt)
-            if message.coordinate_frame in RELATIVE_ALT_FRAMES:
-                alt += self.home.alt
+            home = self.view.home
+            if home is None:
+                self._drop("no vehicle state from the plant yet")
+                return
+            lat, lon = message.lat_int * 1e-7, message.lon_int * 1e-7
+            alt = altitude_amsl(message.coordinate_frame, float(message.alt), home.alt)
+            if isinstance(alt, str):
+                self._drop(alt)
+                return
             if not (np.isfinite(alt) and -90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
                 self._drop("position not a place on Earth")
                 return
-            position = np.array(pymap3d.geodetic2ned(lat, lon, alt, self.home.lat, self.home.lon, self.home.alt))
+            o = self.origin
+            position = np.array(pymap3d.geodetic2ned(lat, lon, alt, o.lat, o.lon, o.alt))
         self._setpoint(message, position, relative=False, body=False)
 
     def _setpoint(self, message: Any, position: np.ndarray | None, relative: bool, body: bool) -> None:
