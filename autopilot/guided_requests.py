@@ -76,12 +76,13 @@ class GuidedRequests:
             return TEMPORARILY_REJECTED, f"{name} denied: not flying"
         if isinstance(request, Reposition):
             c.switch_mode(HOLD, state, "Reposition: Hold")
-            c.hold.reposition(state, request.position, request.speed)
+            c.hold.reposition(state, request.position, request.speed, request.yaw)
             return ACCEPTED, None
         center = state.position_ned[0:2].copy() if request.center is None else request.center
         down = float(state.position_ned[2]) if request.down is None else request.down
         c.switch_mode(ORBIT, state, f"Orbit: radius {request.radius:g} m at {request.speed:g} m/s")
-        c.orbit.start(state, Circle(center, down, request.radius, request.speed, request.clockwise))
+        c.orbit.start(state, Circle(center, down, request.radius, request.speed, request.clockwise,
+                                    request.yaw_behaviour, float(state.euler[2])))  # fmt: skip
         return ACCEPTED, None
 
     def change_speed(self, speed: float | None) -> Reply:

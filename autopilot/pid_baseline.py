@@ -26,6 +26,7 @@ from aircraft.airframe import Airframe
 from autopilot.attitude import DEFAULT_GAINS, wrap
 from autopilot.vehicle_state import VehicleState
 from autopilot.velocity_command import SetpointTrajectory, VelocityCommand, course_rate, setpoint_course
+from autopilot.yaw_setpoint import YawReference
 
 MC, TRANSITION_FW, FW, TRANSITION_MC = "MC", "TRANSITION_FW", "FW", "TRANSITION_MC"
 YAW_ATTITUDE_GAIN = DEFAULT_GAINS.attitude[2]
@@ -102,13 +103,15 @@ class PidVelocityController:
         self.p = replace(self.p, arsp_blend=blend, arsp_trans=trans)
 
     # ---- the controller ----------------------------------------------------------------------------------
-    def update(self, state: VehicleState, v_sp: np.ndarray, tilts: np.ndarray) -> VelocityCommand:
-        """One 100 Hz step. `tilts` is the autopilot's estimate of the rotors' present tilts (rad)."""
+    def update(self, state: VehicleState, v_sp: np.ndarray, tilts: np.ndarray,
+               yaw: YawReference | None = None) -> VelocityCommand:  # fmt: skip
+        """One 100 Hz step. `tilts` is the autopilot's estimate of the rotors' present tilts (rad); `yaw` the yaw
+        reference to follow (None: the set-point's course, or the yaw held at low speed)."""
         self.setpoint_rate = self.trajectory.update(state.time_usec, v_sp)
         v_sp = self.trajectory.now(state.time_usec)  # slower set-points carried on along their rate
         speed_sp = math.hypot(v_sp[0], v_sp[1])
         self.update_phase(state, speed_sp, float(np.mean(tilts)))
-        yaw_sp = self._yaw_setpoint(state, v_sp)
+        yaw_sp = self._yaw_setpoint(state, v_sp, yaw)
         if self.phase == MC:
             return self.multicopter(state, v_sp, yaw_sp)
         if self.phase == TRANSITION_FW:
@@ -226,7 +229,10 @@ class PidVelocityController:
         p = self.p
         return clamp((state.airspeed - p.arsp_blend) / (p.arsp_trans - p.arsp_blend), 0.0, 1.0)
 
-    def _yaw_setpoint(self, state: VehicleState, v_sp: np.ndarray) -> float:
+    def _yaw_setpoint(self, state: VehicleState, v_sp: np.ndarray, reference: YawReference | None) -> float:
+        if reference is not None:  # leads by the attitude loop's lag, so the yaw turns at the reference's rate
+            self.yaw_hold = None
+            return reference.yaw + reference.rate / YAW_ATTITUDE_GAIN
         course = setpoint_course(v_sp[0], v_sp[1])
         if course is not None:
             self.yaw_hold = None
