@@ -5,8 +5,9 @@
     y  roll stick, -1..1: right (+) / left
     z  throttle, 0..1 (MAVLink 0..1000), 0.5 centre: climb above centre up to MPC_Z_VEL_MAX_UP, descend below it
        down to MPC_Z_VEL_MAX_DN; centred: hold the altitude
-    r  yaw stick, -1..1: yaw rate up to MPC_MAN_Y_MAX; the sticks' frame is the heading it turns (centred: the
-       heading is held); the nose follows it while the set-point is a multicopter's (docs/autopilot.md section 6)
+    r  yaw stick, -1..1: yaw rate up to MPC_MAN_Y_MAX from the nose; centred, the turn is stopped and the heading
+       where it stopped is held, as PX4's heading lock (docs/autopilot.md section 6); the sticks' frame is that
+       heading
 
 Position: horizontal velocity up to MPC_VEL_MANUAL; centred horizontal sticks brake, then hold the position.
 Altitude: the same horizontal velocity with no position hold (centred sticks: zero velocity, the vehicle may drift);
@@ -30,6 +31,7 @@ from transport.mavlink import mavlink
 POSITION, ALTITUDE = "Position", "Altitude"
 TICK_S = 0.01
 BRAKED_SPEED = 1.0  # m/s: a centred stick locks the position (or altitude) once slower than this
+YAW_STOPPED = math.radians(5.0)  # rad/s: a centred yaw stick locks the heading once the yaw rate is below this
 NO_MAVLINK_MANUAL_CONTROL = (0, 4)  # COM_RC_IN_MODE: RC only (there is no RC here), manual control disabled
 
 
@@ -101,7 +103,7 @@ class StickMode(FlightMode):
         self.name = name
         self.params = params
         self.manual = manual
-        self.heading = 0.0  # rad: the sticks' frame (forward = x), the heading the yaw stick turns
+        self.heading = 0.0  # rad: the sticks' frame (forward = x): the nose while the yaw stick turns it, then held
         self.turn_rate = 0.0  # rad/s: the yaw stick's
         self.hold_xy: np.ndarray | None = None
         self.hold_down: float | None = None
@@ -121,7 +123,8 @@ class StickMode(FlightMode):
         p, sticks = self.params, self.manual.sticks
         zone = p["MPC_HOLD_DZ"]
         self.turn_rate = self.manual.stick_yaw_rate()
-        self.heading += self.turn_rate * TICK_S
+        if self.turning(state):
+            self.heading = float(state.euler[2])
         forward, right = deadzone(sticks.pitch, zone), deadzone(sticks.roll, zone)
         c, s = math.cos(self.heading), math.sin(self.heading)
         horizontal = limit_norm(np.array([c * forward - s * right, s * forward + c * right]), 1.0) * p["MPC_VEL_MANUAL"]
@@ -132,8 +135,13 @@ class StickMode(FlightMode):
         self.velocity = ramp(self.velocity, np.array([*horizontal, down]), p["MPC_ACC_HOR"], TICK_S)
         return self.velocity.copy()
 
+    def turning(self, state: VehicleState) -> bool:
+        """The yaw stick is out, or the turn it made has not stopped yet (the heading is locked once it has: locked
+        at once, the weak hover yaw overshot a fast turn's lock by 110 deg and swung back)."""
+        return self.turn_rate != 0.0 or abs(float(state.body_rates[2])) > YAW_STOPPED
+
     def yaw(self, state: VehicleState) -> YawSetpoint | None:
-        return YawSetpoint(self.heading, self.turn_rate)
+        return YawSetpoint(rate=self.turn_rate) if self.turning(state) else YawSetpoint(self.heading)
 
     def _horizontal_hold(self, state: VehicleState, wanted: np.ndarray, centred: bool) -> np.ndarray:
         if not centred or self.name == ALTITUDE:

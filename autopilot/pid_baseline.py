@@ -53,6 +53,7 @@ class PidParameters:
     mc_acc_hor_max: float = 6.0  # MPC_ACC_HOR_MAX (m/s^2)
     mc_acc_up_max: float = 6.0  # MPC_ACC_UP_MAX (m/s^2)
     mc_acc_down_max: float = 4.0  # MPC_ACC_DOWN_MAX (m/s^2)
+    mc_yawrate_max_deg: float = 45.0  # MC_YAWRATE_MAX (PX4: 200): the fastest yaw reference rate the PID turns at
     mc_speed_max: float = 12.0  # MPC_XY_VEL_MAX (m/s): above it the set-point asks for forward flight
     arsp_blend: float = 13.5  # VT_ARSP_BLEND (m/s)
     arsp_trans: float = 23.0  # VT_ARSP_TRANS (m/s)
@@ -232,7 +233,8 @@ class PidVelocityController:
     def _yaw_setpoint(self, state: VehicleState, v_sp: np.ndarray, reference: YawReference | None) -> float:
         if reference is not None:  # leads by the attitude loop's lag, so the yaw turns at the reference's rate
             self.yaw_hold = None
-            return reference.yaw + reference.rate / YAW_ATTITUDE_GAIN
+            limit = math.radians(self.p.mc_yawrate_max_deg)
+            return reference.yaw + clamp(reference.rate, -limit, limit) / YAW_ATTITUDE_GAIN
         course = setpoint_course(v_sp[0], v_sp[1])
         if course is not None:
             self.yaw_hold = None

@@ -14,6 +14,7 @@ from autopilot.attitude import wrap
 from autopilot.auto_flight import ORBIT_FRONT_TO_CENTER, ORBIT_INITIAL_HEADING, ORBIT_TANGENT, Circle, orbit_yaw
 from autopilot.yaw_setpoint import YawSetpoint, YawShaper, multicopter_speed
 from tests.ground_station import OFFBOARD
+from tests.test_mavlink_manual_control import POSCTL, set_param
 from tests.mavlink_sitl import start_sitl
 from tests.test_mavlink_missions import Client
 from tests.test_mavlink_navigation import MISSION_MODE, ORBIT_MODE, latlon_e7
@@ -188,3 +189,28 @@ def test_an_orbit_faces_its_centre_by_default_and_goto_turns_to_its_yaw(mpc_gs):
     gs.wait_sim(6.0)
     print(f"go-to: heading {yaw_deg(gs):.2f} deg for 30")
     assert abs(yaw_deg(gs) - 30.0) < 3.0
+
+
+def test_the_yaw_stick_turns_the_hover_at_its_rate_and_centred_stops_and_holds_the_heading(mpc_gs):
+    gs = mpc_gs
+    stick_r = [300]  # 0.3: (0.3 - MPC_HOLD_DZ) / (1 - MPC_HOLD_DZ) of MPC_MAN_Y_MAX (150 deg/s) = 33.3 deg/s
+
+    def send() -> None:
+        gs.conn.mav.manual_control_send(1, 0, 0, 500, stick_r[0], 0)
+
+    set_param(gs, "COM_RC_LOSS_T", 5.0)  # lockstep runs faster than the wall clock the sticks are sent on
+    send()
+    gs.pump(0.1)
+    assert gs.set_mode(POSCTL).result == M.MAV_RESULT_ACCEPTED
+    gs.wait_sim(1.0, every=send)
+    rate = measured_rate(gs, send, 3.0)
+    stick_r[0] = 0
+    released = yaw_deg(gs)
+    gs.wait_sim(3.0, every=send)
+    held = yaw_deg(gs)
+    gs.wait_sim(2.0, every=send)
+    print(f"yaw stick 0.3: {math.degrees(rate):.1f} deg/s for 33.3; released at {released:.1f} deg, "
+          f"{held:.1f} deg 3 s later, {yaw_deg(gs):.1f} deg 2 s after that")  # fmt: skip
+    assert abs(math.degrees(rate) - 100.0 / 3.0) < 3.0
+    assert 0.0 < wrap(math.radians(held - released)) < math.radians(15.0)  # stopped, not turned back, and locked
+    assert abs(wrap(math.radians(yaw_deg(gs) - held))) < math.radians(0.5)
