@@ -152,6 +152,16 @@ class Reposition:
 
 
 @dataclass(frozen=True)
+class TurnTo:
+    """MAV_CMD_CONDITION_YAW: turn to `angle` (rad, finite) in Hold; `relative`: by `angle` from the current heading,
+    `clockwise` or not."""
+
+    angle: float
+    relative: bool
+    clockwise: bool
+
+
+@dataclass(frozen=True)
 class ChangeSpeed:
     """MAV_CMD_DO_CHANGE_SPEED: the cruise speed (m/s, finite, > 0) of the legs flown from now; None: the defaults."""
 
@@ -178,7 +188,7 @@ class GcsHeartbeat:
 Request = (Arm | Disarm | Takeoff | Land | SetMode | Transition | OffboardVelocity | OffboardPosition
            | OffboardAttitude | ManualControlInput | InjectFailure
            | StoreMission | ClearMission | SetMissionCurrent | StartMission | ReturnToLaunch | Reposition | ChangeSpeed
-           | Orbit | GcsHeartbeat | SetHome)  # fmt: skip
+           | Orbit | GcsHeartbeat | SetHome | TurnTo)  # fmt: skip
 
 
 class RequestHandler(Protocol):

@@ -161,7 +161,7 @@ def test_a_hover_waypoint_with_a_yaw_arrives_with_that_heading_and_holds_it(mpc_
     assert abs(yaw_deg(gs) + 120.0) < 3.0 and math.hypot(position.x - 15.0, position.y - 5.0) < 2.0
 
 
-def test_an_orbit_faces_its_centre_by_default_and_goto_turns_to_its_yaw(mpc_gs):
+def test_an_orbit_faces_its_centre_by_default_goto_and_condition_yaw_turn_to_theirs(mpc_gs):
     gs = mpc_gs
     here = gs.latest["LOCAL_POSITION_NED"]
     centre = (here.x + 15.0, here.y)
@@ -182,6 +182,7 @@ def test_an_orbit_faces_its_centre_by_default_and_goto_turns_to_its_yaw(mpc_gs):
     assert worst < 5.0
     bad = gs.command(M.MAV_CMD_DO_ORBIT, 15.0, 3.0, 7.0, math.nan, math.nan, math.nan, math.nan)
     assert bad.result == M.MAV_RESULT_DENIED and "yaw behaviour" in gs.statustexts[-1]
+    assert gs.command(M.MAV_CMD_CONDITION_YAW, 0, 0, 0, 0).result == M.MAV_RESULT_TEMPORARILY_REJECTED  # Hold only
 
     # Go-to here with a yaw (param4, rad as PX4 and MAVSDK send it): Hold, turned to it.
     ack = gs.command(M.MAV_CMD_DO_REPOSITION, -1, 0, 0, math.radians(30.0), math.nan, math.nan, math.nan)
@@ -189,6 +190,13 @@ def test_an_orbit_faces_its_centre_by_default_and_goto_turns_to_its_yaw(mpc_gs):
     gs.wait_sim(6.0)
     print(f"go-to: heading {yaw_deg(gs):.2f} deg for 30")
     assert abs(yaw_deg(gs) - 30.0) < 3.0
+
+    # MAV_CMD_CONDITION_YAW in Hold: 60 deg clockwise from here (param4 1, relative).
+    assert gs.command(M.MAV_CMD_CONDITION_YAW, 60.0, 0, 1, 1).result == M.MAV_RESULT_ACCEPTED
+    gs.wait_sim(5.0)
+    print(f"condition yaw +60: heading {yaw_deg(gs):.2f} deg for 90")
+    assert abs(yaw_deg(gs) - 90.0) < 3.0
+    assert gs.command(M.MAV_CMD_CONDITION_YAW, 10.0, 0, 0, 2).result == M.MAV_RESULT_DENIED
 
 
 def test_the_yaw_stick_turns_the_hover_at_its_rate_and_centred_stops_and_holds_the_heading(mpc_gs):

@@ -39,6 +39,7 @@ from autopilot.requests import (
     StartMission,
     Takeoff,
     Transition,
+    TurnTo,
 )
 from autopilot.vehicle_status import InjectionOutcome
 from transport.geodesy import Home, ned_from_geodetic
@@ -97,6 +98,7 @@ class CommandService:
             M.MAV_CMD_NAV_RETURN_TO_LAUNCH: lambda origin, p, frame: self.flight_stack.handle(ReturnToLaunch()),
             M.MAV_CMD_DO_REPOSITION: self._reposition,
             M.MAV_CMD_DO_ORBIT: self._orbit,
+            M.MAV_CMD_CONDITION_YAW: self._condition_yaw,
             M.MAV_CMD_DO_CHANGE_SPEED: self._change_speed,
             M.MAV_CMD_INJECT_FAILURE: self._inject_failure,
             M.MAV_CMD_REQUEST_MESSAGE: self._request_message,
@@ -273,6 +275,14 @@ class CommandService:
                 return M.MAV_RESULT_DENIED, f"Orbit denied: {target}"
             center, down = np.array(target[0:2]), target[2]
         return self.flight_stack.handle(Orbit(center, down, abs(radius), radius > 0, speed, behaviour))
+
+    def _condition_yaw(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
+        """MAV_CMD_CONDITION_YAW: param1 angle (deg), param3 direction for a relative turn (-1 counter-clockwise, 1 or
+        0 clockwise), param4 0 absolute / 1 relative; param2 (rate) is not taken: the turn is at MPC_YAWRAUTO_MAX."""
+        relative = int_param(p[3])
+        if not math.isfinite(p[0]) or relative not in (0, 1) or int_param(p[2]) not in (-1, 0, 1):
+            return M.MAV_RESULT_DENIED, "Condition yaw denied: param1 finite, param3 -1/0/1, param4 0 or 1"
+        return self.flight_stack.handle(TurnTo(math.radians(p[0]), relative == 1, p[2] >= 0))
 
     def _inject_failure(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
         try:
