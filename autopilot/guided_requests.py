@@ -66,7 +66,8 @@ class GuidedRequests:
                       "deg/s, thrust 0..1)", key="attitude clamped")  # fmt: skip
             return ACCEPTED, None
         if c.offboard.accept(request, c.state, c.now_usec):
-            c.say(mavlink.MAV_SEVERITY_WARNING, "Set-point clamped to |v| <= (30, 30, 10) m/s", key="clamped")
+            c.say(mavlink.MAV_SEVERITY_WARNING, "Set-point clamped to |v| <= (30, 30, 10) m/s, |yaw rate| <= 180 "
+                  "deg/s", key="clamped")  # fmt: skip
         return ACCEPTED, None
 
     def route(self, request: Reposition | Orbit, state: VehicleState) -> Reply:

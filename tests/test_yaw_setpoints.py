@@ -131,7 +131,7 @@ def test_offboard_yaw_turns_the_hover_to_it_and_a_yaw_rate_turns_at_that_rate(tm
         sitl.kill()
 
 
-def test_a_yaw_in_forward_flight_is_not_honoured_the_nose_follows_the_course(mpc_gs):
+def test_a_yaw_in_forward_flight_is_not_honoured_and_bad_yaws_are_refused(mpc_gs):
     gs = mpc_gs
     mav = gs.conn.mav
 
@@ -139,6 +139,12 @@ def test_a_yaw_in_forward_flight_is_not_honoured_the_nose_follows_the_course(mpc
         mav.set_position_target_local_ned_send(gs.time_boot_ms, 1, 1, M.MAV_FRAME_LOCAL_NED, VELOCITY_YAW, 0, 0,
                                                0, 14.0, 0, 0, 0, 0, 0, math.radians(90.0), 0)  # fmt: skip
 
+    texts = len(gs.statustexts)
+    for yaw, rate in ((math.inf, 0.0), (0.0, -math.inf), (math.nan, 10.0)):  # dropped, dropped, clamped to pi rad/s
+        mav.set_position_target_local_ned_send(gs.time_boot_ms, 1, 1, M.MAV_FRAME_LOCAL_NED, 0b000111000111, 0, 0, 0,
+                                               0, 0, 0, 0, 0, 0, yaw, rate)  # fmt: skip
+    for why in ("yaw or yaw rate infinite", "|yaw rate| <= 180 deg/s"):
+        gs.wait(lambda: any(why in text for text in gs.statustexts[texts:]), f"the answer: {why}")
     offboard(gs, fast_north)
     gs.wait_sim(10.0, every=fast_north)
     print(f"at {math.hypot(*gs.velocity[0:2]):.1f} m/s: heading {yaw_deg(gs):.2f} deg")
