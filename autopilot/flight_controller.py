@@ -15,6 +15,7 @@ the servo estimate are built by autopilot.controllers.build_flight_controller an
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Literal
 
 import casadi as ca
@@ -37,6 +38,7 @@ from autopilot.vehicle_state import VehicleState
 from autopilot.velocity_command import VelocityCommand
 from autopilot.velocity_controller import VelocityController
 from autopilot.velocity_estimate import VelocityEstimate
+from autopilot.yaw_setpoint import YawReference
 
 ControllerKind = Literal["mpc", "pid"]
 MPC: ControllerKind = "mpc"  # the unified MPC, with the PID baseline as its back-up
@@ -116,6 +118,7 @@ class FlightController:
         self.velocity_command = VelocityCommand()
         self.velocity_estimate = VelocityEstimate(airframe.gravity)
         self.velocity_setpoint = np.zeros(3)
+        self.yaw_reference: YawReference | None = None  # None: the velocity controller's own yaw rule
         self.attitude_setpoint: AttitudeTarget | None = None  # Offboard attitude: the velocity controller idles
         self.command = np.zeros(CHANNELS)
         set_allocated(self.command, allocator.u)  # rotors and surfaces where the allocator starts
@@ -153,6 +156,15 @@ class FlightController:
         if not np.all(np.isfinite(velocity_ned)):
             return False
         self.velocity_setpoint[:] = velocity_ned
+        return True
+
+    def set_yaw_reference(self, reference: YawReference | None) -> bool:
+        """The yaw the velocity controller follows (None: its own rule); a non-finite one is refused (False) and the
+        controller's own rule flies."""
+        if reference is not None and not (math.isfinite(reference.yaw) and math.isfinite(reference.rate)):
+            self.yaw_reference = None
+            return False
+        self.yaw_reference = reference
         return True
 
     def set_attitude_setpoint(self, target: AttitudeTarget | None) -> None:
@@ -203,7 +215,8 @@ class FlightController:
             self._next_velocity_usec += VELOCITY_PERIOD_USEC
             tilts = self._velocity_controller_tilts()
             if self.attitude_setpoint is None:
-                self.velocity_command = self.velocity_controller.update(state, self.velocity_setpoint, tilts)
+                self.velocity_command = self.velocity_controller.update(state, self.velocity_setpoint, tilts,
+                                                                        self.yaw_reference)  # fmt: skip
             else:  # the velocity controller tracks the vehicle's own velocity, warm for when it flies again
                 self.velocity_controller.update(state, state.velocity_ned, tilts)
                 self.velocity_command = attitude_command(self.attitude_setpoint, state.euler,
@@ -243,7 +256,7 @@ class FlightController:
         self.fell_back_to_pid = True
         self.velocity_controller = self.pid
         self.events.append(f"MPC: {mpc.failures_in_row} failed solves in a row, PID back-up flying")
-        self.velocity_command = self.pid.update(state, self.velocity_setpoint, self.servos.tilt)
+        self.velocity_command = self.pid.update(state, self.velocity_setpoint, self.servos.tilt, self.yaw_reference)
 
     def _attitude_and_allocation(self, state: VehicleState) -> None:
         command = self.velocity_command

@@ -5,6 +5,7 @@ velocity set-point (NED, m/s) at 100 Hz.
     activate(state)     the mode is entered (or entered again) here
     setpoint(state)     the velocity set-point of this tick
     lifts_off(state)    armed on the ground, the mode asks to take off
+    yaw(state)          the yaw set-point of this tick (None: the velocity controllers' own rule), after setpoint()
     landing             it is descending onto a landing point (reported as MAV_LANDED_STATE_LANDING)
     detects_landing     the commander's land detector watches for a touchdown
     touched_down(state) the land detector saw the touchdown
@@ -21,13 +22,14 @@ from collections.abc import Callable
 
 import numpy as np
 
-from autopilot.auto_flight import AutoFlight, Circle, FlyTo, HoldAt, LandAt
+from autopilot.auto_flight import ORBIT_RC_CONTROLLED, AutoFlight, Circle, FlyTo, HoldAt, LandAt
 from autopilot.mission_flight import MissionFlight
 from autopilot.navigator import Navigator
 from autopilot.offboard_setpoint import OffboardSetpoint
 from autopilot.parameters import ParameterStore
 from autopilot.return_route import plan_return
 from autopilot.vehicle_state import VehicleState
+from autopilot.yaw_setpoint import YawSetpoint
 from transport.mavlink import mavlink
 
 HOLD, TAKEOFF, LAND, OFFBOARD = "Hold", "Takeoff", "Land", "Offboard"
@@ -56,6 +58,9 @@ class FlightMode(ABC):
 
     @abstractmethod
     def setpoint(self, state: VehicleState) -> np.ndarray: ...
+
+    def yaw(self, state: VehicleState) -> YawSetpoint | None:
+        return None
 
     def lifts_off(self, state: VehicleState) -> bool:
         return False
@@ -86,9 +91,10 @@ class HoldMode(FlightMode):
         self.navigator.hold_xy = xy.copy()
         self.navigator.hold_down = down
 
-    def reposition(self, state: VehicleState, position: np.ndarray, speed: float | None) -> None:
+    def reposition(self, state: VehicleState, position: np.ndarray, speed: float | None, yaw: float | None) -> None:
+        """Fly to `position` and hold there; `yaw` (rad; None: the controllers' own rule) on the way and there."""
         self.repositioning = True
-        self.auto.start(state, [FlyTo(position, REPOSITION_ACCEPTANCE, speed), HoldAt(position, None)])
+        self.auto.start(state, [FlyTo(position, REPOSITION_ACCEPTANCE, speed, yaw), HoldAt(position, None, yaw)])
 
     def transition(self, target: int, state: VehicleState) -> str | None:
         """MAV_CMD_DO_VTOL_TRANSITION in Hold: to FW circle at cruise speed, to MC brake and hover; what to say
@@ -104,6 +110,9 @@ class HoldMode(FlightMode):
 
     def setpoint(self, state: VehicleState) -> np.ndarray:
         return self.auto.step(state) if self.repositioning else self.navigator.hold(state)
+
+    def yaw(self, state: VehicleState) -> YawSetpoint | None:
+        return self.auto.yaw(state) if self.repositioning else None
 
 
 class TakeoffMode(FlightMode):
@@ -180,6 +189,9 @@ class OffboardMode(FlightMode):
             return self.offboard.velocity
         return self.navigator.track(state, self.offboard.position, self.offboard.velocity)
 
+    def yaw(self, state: VehicleState) -> YawSetpoint | None:
+        return None if self.offboard.attitude is not None else self.offboard.yaw
+
     def lifts_off(self, state: VehicleState) -> bool:
         return bool(self.setpoint(state)[2] < -OFFBOARD_TAKEOFF_CLIMB)
 
@@ -209,6 +221,9 @@ class MissionMode(FlightMode):
 
     def setpoint(self, state: VehicleState) -> np.ndarray:
         return self.mission.step(state)
+
+    def yaw(self, state: VehicleState) -> YawSetpoint | None:
+        return self.mission.auto.yaw(state)
 
     def touched_down(self, state: VehicleState) -> None:
         self.mission.landed(state)
@@ -253,15 +268,25 @@ class ReturnMode(FlightMode):
 
 
 class OrbitMode(FlightMode):
-    """Orbit (PX4's POSCTL.ORBIT navigation state): circle a centre for ever."""
+    """Orbit (PX4's POSCTL.ORBIT navigation state): circle a centre for ever; the nose as the orbit's yaw behaviour
+    asks, RC_CONTROLLED: turned by the yaw stick (`stick_yaw_rate`: rad/s at a simulation time, None without fresh
+    sticks)."""
 
     name = ORBIT
 
-    def __init__(self, auto: AutoFlight) -> None:
+    def __init__(self, auto: AutoFlight, stick_yaw_rate: Callable[[int], float | None]) -> None:
         self.auto = auto
+        self.stick_yaw_rate = stick_yaw_rate
 
     def start(self, state: VehicleState, circle: Circle) -> None:
         self.auto.start(state, [circle])
 
     def setpoint(self, state: VehicleState) -> np.ndarray:
         return self.auto.step(state)
+
+    def yaw(self, state: VehicleState) -> YawSetpoint | None:
+        target = self.auto.target
+        if isinstance(target, Circle) and target.yaw_behaviour == ORBIT_RC_CONTROLLED:
+            rate = self.stick_yaw_rate(state.time_usec)
+            return None if rate is None else YawSetpoint(rate=rate)
+        return self.auto.yaw(state)

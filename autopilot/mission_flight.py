@@ -2,10 +2,12 @@
 through item by item, each navigation item turned into targets for AutoFlight (autopilot/auto_flight.py), the
 progress reported to the mission store (MISSION_CURRENT, MISSION_ITEM_REACHED).
 
-    NAV_WAYPOINT                  FlyTo, acceptance radius param2 (0: NAV_ACC_RAD)
-    NAV_TAKEOFF, NAV_VTOL_TAKEOFF Climb over the current position to the item's altitude
-    NAV_LAND, NAV_VTOL_LAND       FlyTo over the point (at the current altitude), LandAt (lat/lon 0: here)
-    NAV_LOITER_TIME / _UNLIM      FlyTo, then HoldAt for param1 s (for ever)
+    NAV_WAYPOINT                  FlyTo, acceptance radius param2 (0: NAV_ACC_RAD), yaw param4
+    NAV_TAKEOFF, NAV_VTOL_TAKEOFF Climb over the current position to the item's altitude, yaw param4
+    NAV_LAND, NAV_VTOL_LAND       FlyTo over the point (at the current altitude), LandAt (lat/lon 0: here), yaw
+                                  param4
+    NAV_LOITER_TIME / _UNLIM      FlyTo, then HoldAt for param1 s (for ever); _UNLIM: yaw param4 (LOITER_TIME's
+                                  param4 is not a yaw)
     NAV_DELAY                     HoldAt here for param1 s
     NAV_RETURN_TO_LAUNCH          the Return route (to the closest of home and the rally points)
     DO_CHANGE_SPEED               param2 > 0: the cruise speed of the following legs (-1: back to the defaults)
@@ -19,6 +21,9 @@ progress reported to the mission store (MISSION_CURRENT, MISSION_ITEM_REACHED).
 A mission with a DO_VTOL_TRANSITION item flies as PX4 flies it: in multicopter until the item to fixed wing,
 back to multicopter at the item to MC (so the PID back-transitions before its landing). A mission without one
 chooses each leg's speed by its length: the unified MPC transitions by itself (docs/mavlink.md, "Mission").
+
+A yaw (param4, degrees; NaN: the velocity controllers' own rule, the nose along the leg) is the item's targets' yaw
+set-point (autopilot/auto_flight.py: a waypoint with one is reached once the heading is within MIS_YAW_ERR).
 
 A mission started on the ground whose first navigation item is a waypoint or loiter (no takeoff item) takes off
 first, as PX4's mission does: a climb over the current position to the higher of the item's altitude and
@@ -43,9 +48,18 @@ from autopilot.home_position import HomeKeeper
 from transport.geodesy import ned_from_geodetic
 from transport.mavlink import mavlink as M
 
+YAW_ITEMS = (M.MAV_CMD_NAV_WAYPOINT, M.MAV_CMD_NAV_LOITER_UNLIM, M.MAV_CMD_NAV_TAKEOFF, M.MAV_CMD_NAV_VTOL_TAKEOFF,
+             M.MAV_CMD_NAV_LAND, M.MAV_CMD_NAV_VTOL_LAND)  # param4 is their yaw (deg)
 LANDS = (M.MAV_CMD_NAV_LAND, M.MAV_CMD_NAV_VTOL_LAND)
 TAKEOFFS = (M.MAV_CMD_NAV_TAKEOFF, M.MAV_CMD_NAV_VTOL_TAKEOFF)
 TAKEOFF_BEFORE = (M.MAV_CMD_NAV_WAYPOINT, M.MAV_CMD_NAV_LOITER_TIME, M.MAV_CMD_NAV_LOITER_UNLIM)
+
+
+def item_yaw(item: MissionItem) -> float | None:
+    """The item's yaw (rad) from param4 (degrees) for the items that have one; None when NaN or not theirs."""
+    if item.command not in YAW_ITEMS or not math.isfinite(item.param4):
+        return None
+    return math.radians(item.param4)
 
 
 def takeoff_down(item_down: float, ground_down: float, takeoff_alt: float) -> float:
@@ -180,21 +194,21 @@ class MissionFlight:
 
     def _targets(self, state: VehicleState, item: MissionItem) -> list[Target]:
         p = self.params
-        command = item.command
+        command, yaw = item.command, item_yaw(item)
         if command == M.MAV_CMD_NAV_WAYPOINT:
             radius = item.param2 if math.isfinite(item.param2) and item.param2 > 0 else p["NAV_ACC_RAD"]
-            return [FlyTo(self._position(state.position_ned, item), radius)]
+            return [FlyTo(self._position(state.position_ned, item), radius, yaw=yaw)]
         if command in TAKEOFFS:
             down = float(self._position(state.position_ned, item)[2])
-            return [Climb(state.position_ned[0:2].copy(), down, p["MPC_TKO_SPEED"])]
+            return [Climb(state.position_ned[0:2].copy(), down, p["MPC_TKO_SPEED"], yaw)]
         if command in LANDS:
             point = self._position(state.position_ned, item)
             point[2] = float(state.position_ned[2])
-            return [FlyTo(point, LANDING_APPROACH_RADIUS), LandAt(point[0:2].copy())]
+            return [FlyTo(point, LANDING_APPROACH_RADIUS, yaw=yaw), LandAt(point[0:2].copy(), yaw)]
         if command in (M.MAV_CMD_NAV_LOITER_TIME, M.MAV_CMD_NAV_LOITER_UNLIM):
             point = self._position(state.position_ned, item)
             seconds = max(item.param1, 0.0) if command == M.MAV_CMD_NAV_LOITER_TIME else None
-            return [FlyTo(point, p["NAV_ACC_RAD"]), HoldAt(point, seconds)]
+            return [FlyTo(point, p["NAV_ACC_RAD"], yaw=yaw), HoldAt(point, seconds, yaw)]
         if command == M.MAV_CMD_NAV_DELAY:
             return [HoldAt(state.position_ned.copy(), max(item.param1, 0.0))]
         if command == M.MAV_CMD_NAV_RETURN_TO_LAUNCH:

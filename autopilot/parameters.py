@@ -72,7 +72,11 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
       "2 Return, 3 Land, 5 Terminate, 6 Disarm (motors off)"),
     P("MPC_VEL_MANUAL", REAL32, 10.0, 3.0, 20.0, "m/s", "Position: horizontal speed at full stick"),
     P("MPC_HOLD_DZ", REAL32, 0.1, 0.0, 1.0, "", "stick deadzone of Position and Altitude (centred: hold)"),
-    P("MPC_MAN_Y_MAX", REAL32, 150.0, 0.0, 400.0, "deg/s", "yaw stick: rate of the sticks' heading at full stick"),
+    P("MPC_MAN_Y_MAX", REAL32, 150.0, 0.0, 400.0, "deg/s", "yaw stick: yaw rate at full stick (Position, Altitude)"),
+    P("MPC_YAWRAUTO_MAX", REAL32, 30.0, 5.0, 360.0, "deg/s", "fastest turn to a yaw set-point (Offboard, Mission, "
+      "Go-to, Orbit; PX4's default 45: docs/autopilot.md section 6)"),
+    P("MIS_YAW_ERR", REAL32, 12.0, 1.0, 90.0, "deg", "a mission waypoint with a yaw (param4) is reached once the "
+      "heading is within this of it (flown as a multicopter)"),
     P("COM_POS_FS_DELAY", INT32, 1, 1, 100, "s", "position loss failsafe (GPS OFF): Descend after this long"),
     P("GF_ACTION", INT32, 2, 0, 5, "", "geofence breach action: 0 none, 1 warning, 2 Hold, 3 Return, 4 terminate "
       "(motors off), 5 Land"),

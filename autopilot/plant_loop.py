@@ -187,6 +187,7 @@ class PlantLoop:
                 self._new_controller()
             if setpoint is not None and commander.flying:
                 self.controller.set_velocity_setpoint(setpoint)
+                self.controller.set_yaw_reference(commander.yaw_reference)
                 self.controller.set_attitude_setpoint(commander.attitude_setpoint)
                 if self.outputs.telemetry is not None:
                     self.outputs.telemetry.publish(t, self.controller)

@@ -20,6 +20,7 @@ from autopilot.pid_baseline import PidVelocityController
 from autopilot.vehicle_state import VehicleState
 from autopilot.velocity_command import VelocityCommand
 from autopilot.velocity_controller import VelocityController
+from autopilot.yaw_setpoint import YawReference
 
 TICKS = 25  # 0.25 s at 100 Hz per case
 MPC_OVERLAPPED = "mpc-overlapped"  # the MPC solving one tick ahead in its own process (VT_MPC_OVERLAP = 1)
@@ -121,3 +122,19 @@ def test_the_same_inputs_give_the_same_commands(airframe, kind):
 @pytest.mark.parametrize("kind", VARIANTS)
 def test_a_controller_starts_without_mode_switches(airframe, kind):
     assert build(airframe, kind).mode_switches == 0
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_a_yaw_reference_turns_the_yaw_set_point_towards_it(airframe, kind):
+    """The contract's yaw input: the attitude set-point's yaw moves towards the reference (here 60 deg left of the
+    nose, turning left at 0.3 rad/s), within the limits, and a hover without one keeps the nose."""
+    controller = build(airframe, kind)
+    reference = YawReference(math.radians(-60.0), -0.3)
+    for tick in range(TICKS):
+        command = controller.update(state_at(tick * VELOCITY_PERIOD_USEC, (0, 0, 0), (0, 0, 0)), np.zeros(3),
+                                    np.zeros(4), reference)  # fmt: skip
+        assert np.all(np.isfinite(command.euler_sp)) and np.all(np.abs(command.euler_sp[0:2]) <= attitude_limit(
+            controller) + TOLERANCE)  # fmt: skip
+        assert command.euler_sp[2] < math.radians(-5.0)
+    held = fly(build(airframe, kind), "hover, hold")[-1]
+    assert abs(held.euler_sp[2]) < math.radians(1.0)

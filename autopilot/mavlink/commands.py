@@ -40,6 +40,7 @@ from autopilot.requests import (
     StartMission,
     Takeoff,
     Transition,
+    TurnTo,
 )
 from autopilot.vehicle_status import InjectionOutcome
 from transport.geodesy import Home, ned_from_geodetic
@@ -49,6 +50,8 @@ Params = tuple[float, float, float, float, float, float, float]
 MIN_TARGET_HEIGHT_M = 1.0  # a go-to or orbit target lower than this above home would fly into the ground
 ORBIT_DEFAULT_RADIUS, ORBIT_MIN_RADIUS, ORBIT_MAX_RADIUS = 20.0, 1.0, 10000.0  # m (PX4: MC_ORBIT_RAD_MAX 1000)
 ORBIT_DEFAULT_SPEED = 5.0  # m/s
+ORBIT_YAW_DEFAULT = M.ORBIT_YAW_BEHAVIOUR_HOLD_FRONT_TO_CIRCLE_CENTER
+ORBIT_YAW_BEHAVIOURS = range(M.ORBIT_YAW_BEHAVIOUR_UNCHANGED)  # 0..4: front to centre ... RC controlled
 NO_STATE_YET = (M.MAV_RESULT_TEMPORARILY_REJECTED, "No vehicle state from the plant yet")
 
 
@@ -95,6 +98,7 @@ class CommandService:
             M.MAV_CMD_NAV_RETURN_TO_LAUNCH: lambda origin, p, frame: self.flight_stack.handle(ReturnToLaunch()),
             M.MAV_CMD_DO_REPOSITION: self._reposition,
             M.MAV_CMD_DO_ORBIT: self._orbit,
+            M.MAV_CMD_CONDITION_YAW: self._condition_yaw,
             M.MAV_CMD_DO_CHANGE_SPEED: self._change_speed,
             M.MAV_CMD_INJECT_FAILURE: self._inject_failure,
             M.MAV_CMD_REQUEST_MESSAGE: self._request_message,
@@ -239,10 +243,13 @@ class CommandService:
         return float(position[0]), float(position[1]), float(position[2])
 
     def _reposition(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
-        """MAV_CMD_DO_REPOSITION (MAVSDK goto_location): param1 speed (-1/NaN default), params 5-7 lat, lon, alt
-        (NaN lat/lon: here; NaN alt: the current altitude)."""
+        """MAV_CMD_DO_REPOSITION (MAVSDK goto_location): param1 speed (-1/NaN default), param4 yaw (rad, as PX4 and
+        MAVSDK take it; NaN: the controllers' own rule), params 5-7 lat, lon, alt (NaN lat/lon: here; NaN alt: the
+        current altitude)."""
         if self.view.status is None:
             return NO_STATE_YET
+        if math.isinf(p[3]):
+            return M.MAV_RESULT_DENIED, "Reposition denied: param4 (yaw) infinite"
         here = self._current_position()
         target: tuple[float, float, float | None] | str
         if math.isnan(p[4]) or math.isnan(p[5]):
@@ -255,7 +262,7 @@ class CommandService:
         north, east, down = target
         speed = p[0] if math.isfinite(p[0]) and p[0] > 0 else None
         position = np.array([north, east, here[2] if down is None else down])
-        return self.flight_stack.handle(Reposition(position, speed))
+        return self.flight_stack.handle(Reposition(position, speed, None if math.isnan(p[3]) else p[3]))
 
     def _change_speed(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
         """MAV_CMD_DO_CHANGE_SPEED: param2 the speed (> 0; -1, -2 or 0: back to the defaults, as PX4's navigator);
@@ -266,7 +273,11 @@ class CommandService:
 
     def _orbit(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
         """MAV_CMD_DO_ORBIT: param1 radius (sign: direction, positive clockwise), param2 velocity (NaN: default),
-        param3 yaw behaviour (yaw is not commanded here), params 5-7 centre (NaN: here)."""
+        param3 ORBIT_YAW_BEHAVIOUR (NaN or UNCHANGED: HOLD_FRONT_TO_CIRCLE_CENTER, PX4's default), params 5-7 centre
+        (NaN: here)."""
+        behaviour = ORBIT_YAW_DEFAULT if math.isnan(p[2]) or p[2] == M.ORBIT_YAW_BEHAVIOUR_UNCHANGED else int_param(p[2])
+        if behaviour is None or behaviour not in ORBIT_YAW_BEHAVIOURS:
+            return M.MAV_RESULT_DENIED, f"Orbit denied: param3 (yaw behaviour) {p[2]:g} not 0..5"
         radius = p[0] if math.isfinite(p[0]) and p[0] != 0 else ORBIT_DEFAULT_RADIUS
         if not ORBIT_MIN_RADIUS <= abs(radius) <= ORBIT_MAX_RADIUS:
             return M.MAV_RESULT_DENIED, (f"Orbit denied: radius {abs(radius):g} m not in "
@@ -283,7 +294,15 @@ class CommandService:
             if isinstance(target, str):
                 return M.MAV_RESULT_DENIED, f"Orbit denied: {target}"
             center, down = np.array(target[0:2]), target[2]
-        return self.flight_stack.handle(Orbit(center, down, abs(radius), radius > 0, speed))
+        return self.flight_stack.handle(Orbit(center, down, abs(radius), radius > 0, speed, behaviour))
+
+    def _condition_yaw(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
+        """MAV_CMD_CONDITION_YAW: param1 angle (deg), param3 direction for a relative turn (-1 counter-clockwise, 1 or
+        0 clockwise), param4 0 absolute / 1 relative; param2 (rate) is not taken: the turn is at MPC_YAWRAUTO_MAX."""
+        relative = int_param(p[3])
+        if not math.isfinite(p[0]) or relative not in (0, 1) or int_param(p[2]) not in (-1, 0, 1):
+            return M.MAV_RESULT_DENIED, "Condition yaw denied: param1 finite, param3 -1/0/1, param4 0 or 1"
+        return self.flight_stack.handle(TurnTo(math.radians(p[0]), relative == 1, p[2] >= 0))
 
     def _inject_failure(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
         try:

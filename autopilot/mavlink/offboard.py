@@ -1,11 +1,12 @@
 """Offboard set-points: SET_POSITION_TARGET_LOCAL_NED and SET_POSITION_TARGET_GLOBAL_INT with velocity (MAVSDK's
 type_mask 0x9C7), position (0x9F8), or position with a velocity feed-forward, in local, body or global frames,
-to typed requests. Acceleration set-points are refused; yaw and yaw rate are not taken (both velocity controllers
-point the nose along the set-point's course, docs/mavlink.md). Anything refused is dropped with a STATUSTEXT
-saying why; a non-finite value never reaches the flight stack."""
+to typed requests, each with its yaw and/or yaw rate unless the type_mask ignores them (a NaN one is ignored too,
+as PX4 does; the yaw is a NED heading in every frame, as PX4 takes it). Acceleration set-points are refused.
+Anything refused is dropped with a STATUSTEXT saying why; a non-finite value never reaches the flight stack."""
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -17,6 +18,7 @@ from autopilot.mavlink.router import GroundLink
 from autopilot.mavlink.statustext import Announcer
 from autopilot.mavlink.view import StatusView
 from autopilot.requests import OffboardPosition, OffboardVelocity, RequestHandler
+from autopilot.yaw_setpoint import YawSetpoint
 from transport.geodesy import Home
 from transport.mavlink import mavlink as M
 
@@ -28,6 +30,17 @@ POSITION_IGNORE = 0b111
 VELOCITY_IGNORE = 0b111 << 3
 ACCELERATION_IGNORE = 0b111 << 6
 FORCE_SETPOINT = 1 << 9
+YAW_IGNORE = M.POSITION_TARGET_TYPEMASK_YAW_IGNORE
+YAW_RATE_IGNORE = M.POSITION_TARGET_TYPEMASK_YAW_RATE_IGNORE
+
+
+def yaw_setpoint(message: Any) -> YawSetpoint | None:
+    """The message's yaw (rad) and yaw rate (rad/s), each unless ignored by the type_mask or NaN; None when neither is
+    given. Infinite values are the caller's to refuse."""
+    mask = message.type_mask
+    heading = None if mask & YAW_IGNORE or math.isnan(message.yaw) else float(message.yaw)
+    rate = None if mask & YAW_RATE_IGNORE or math.isnan(message.yaw_rate) else float(message.yaw_rate)
+    return None if heading is None and rate is None else YawSetpoint(heading, rate)
 
 
 class OffboardService:
@@ -91,10 +104,14 @@ class OffboardService:
         if not np.all(np.isfinite(velocity)) or (uses_position and not np.all(np.isfinite(position))):
             self._drop("not finite (NaN/Inf)")
             return
+        yaw = yaw_setpoint(message)
+        if yaw is not None and any(math.isinf(value) for value in (yaw.heading or 0.0, yaw.rate or 0.0)):
+            self._drop("yaw or yaw rate infinite")
+            return
         if uses_position:
-            self.flight_stack.handle(OffboardPosition(position, velocity, relative, body))
+            self.flight_stack.handle(OffboardPosition(position, velocity, relative, body, yaw))
         else:
-            self.flight_stack.handle(OffboardVelocity(velocity, body, message.time_boot_ms))
+            self.flight_stack.handle(OffboardVelocity(velocity, body, message.time_boot_ms, yaw))
 
     def _drop(self, why: str) -> None:
         self.dropped += 1
