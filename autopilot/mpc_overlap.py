@@ -38,6 +38,7 @@ from autopilot.mpc_controller import MpcVelocityController, euler_rates
 from autopilot.mpc_model import CHI, PSI, PSI_DOT, PSI_INDEX, V, discrete_dynamics
 from autopilot.vehicle_state import VehicleState
 from autopilot.velocity_command import SetpointTrajectory, VelocityCommand
+from autopilot.yaw_setpoint import YawReference
 
 STOP_WAIT_S = 5.0
 
@@ -101,6 +102,7 @@ class SolveRequest:
     v_sp: np.ndarray
     tilts: np.ndarray
     previous_rates: np.ndarray  # the MPC's Psi_dot_prev for this state: the rates of the tick before
+    yaw_ref: YawReference | None  # the yaw asked for at this state's tick (None: the MPC's own rule)
 
 
 @dataclass(frozen=True)
@@ -138,7 +140,7 @@ def serve(mpc: MpcVelocityController, connection: Connection, parent_end: Connec
             continue
         try:
             mpc.previous_rates = request.previous_rates
-            command = mpc.update(request.state, request.v_sp, request.tilts)
+            command = mpc.update(request.state, request.v_sp, request.tilts, request.yaw_ref)
             reply: SolveReply | SolveError = SolveReply(command, mpc.last_solution, mpc.fallback_requested,
                                                         mpc.failures_in_row)  # fmt: skip
         except Exception:  # handed to the autopilot, which raises it
@@ -190,14 +192,15 @@ class OverlappedMpc:
         """The solving process's id."""
         return self._process.pid
 
-    def update(self, state: VehicleState, v_sp: np.ndarray, tilts: np.ndarray) -> VelocityCommand:
+    def update(self, state: VehicleState, v_sp: np.ndarray, tilts: np.ndarray,
+               yaw_ref: YawReference | None = None) -> VelocityCommand:  # fmt: skip
         """The command solved one tick ago for this tick (the first tick: solved now); starts the next solve."""
         rates = euler_rates(state.euler, state.body_rates)
         previous = rates if self._previous_rates is None else self._previous_rates
         self._previous_rates = rates
         self._trajectory.update(state.time_usec, v_sp)
         if not self._in_flight and self._held is None:
-            self._send(SolveRequest(state, v_sp.copy(), tilts.copy(), previous))
+            self._send(SolveRequest(state, v_sp.copy(), tilts.copy(), previous, yaw_ref))
         reply, self._held = self._held or self._receive(), None
         self.last_solution = reply.solution
         self.fallback_requested, self.failures_in_row = reply.fallback_requested, reply.failures_in_row
@@ -210,8 +213,10 @@ class OverlappedMpc:
         x_next = np.asarray(self._predict(x_now, solution.u[0])).ravel()
         next_tilts = np.clip(x_next[CHI], self.airframe.tilt_min, self.airframe.tilt_max)
         next_state = predicted_state(state, x_next, self.period_usec)
-        # At tick k+1 the previous tick's rates are the ones measured now.
-        self._send(SolveRequest(next_state, self._trajectory.now(next_state.time_usec), next_tilts, rates))
+        # At tick k+1 the previous tick's rates are the ones measured now; the yaw reference has turned on by a tick.
+        next_yaw_ref = None if yaw_ref is None else YawReference(yaw_ref.at(self.period_usec / 1e6), yaw_ref.rate)
+        self._send(SolveRequest(next_state, self._trajectory.now(next_state.time_usec), next_tilts, rates,
+                                next_yaw_ref))  # fmt: skip
         return reply.command
 
     def health_changed(self, allocator: ControlAllocator, servos: ServoEstimate) -> None:

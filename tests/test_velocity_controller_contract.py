@@ -124,7 +124,7 @@ def test_a_controller_starts_without_mode_switches(airframe, kind):
     assert build(airframe, kind).mode_switches == 0
 
 
-@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("kind", VARIANTS)
 def test_a_yaw_reference_turns_the_yaw_set_point_towards_it(airframe, kind):
     """The contract's yaw input: the attitude set-point's yaw moves towards the reference (here 60 deg left of the
     nose, turning left at 0.3 rad/s), within the limits, and a hover without one keeps the nose."""
