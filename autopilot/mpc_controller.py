@@ -21,6 +21,7 @@ from autopilot.actuator_health import ServoEstimate
 from autopilot.allocation import ControlAllocator
 from autopilot.attitude import wrap
 from autopilot.mpc import MpcSolution, RtiSolver, planned_force_function
+from autopilot.mpc_horizon import PAPER, MpcHorizon
 from autopilot.mpc_model import (
     CHI,
     NP,
@@ -41,8 +42,7 @@ from autopilot.mpc_model import (
 from autopilot.vehicle_state import VehicleState
 from autopilot.velocity_command import SetpointTrajectory, VelocityCommand, course_rate
 
-HORIZON = 25  # stages (paper)
-STEP_S = 0.01  # s per stage (paper)
+DEFAULT_HORIZON = PAPER  # the stages' lengths and the weights that go with them (docs/mpc.md 2.9)
 MAX_FAILURES = 3
 LEVENBERG = 0.1  # Marquardt damping of each RTI step (mpc.py)
 WARM_UP_ITERATIONS = 10  # RTI iterations at the first state, so the first plan is converged
@@ -72,18 +72,18 @@ class MpcVelocityController:
         airframe: Airframe,
         allocator: ControlAllocator,
         servos: ServoEstimate,
-        horizon: int = HORIZON,
-        dt: float = STEP_S,
+        horizon: MpcHorizon = DEFAULT_HORIZON,
         limits: MpcLimits = MpcLimits(),
     ) -> None:
         self.airframe = airframe
         self.allocator = allocator
         self.servos = servos
         self.limits = limits
-        self.solver = RtiSolver(airframe, horizon, dt, limits)
+        grid = horizon.grid
+        self.solver = RtiSolver(airframe, grid, limits, weights=horizon.weights)
         self.solver.levenberg = LEVENBERG
         self.force_function = planned_force_function(airframe)
-        self.params = np.zeros((NP, horizon + 1))
+        self.params = np.zeros((NP, grid.stages + 1))
         self.previous_rates: np.ndarray | None = None
         self.mode_switches = 0  # the MPC has no modes (VelocityController's counter)
         self.failures_in_row = 0
@@ -94,7 +94,7 @@ class MpcVelocityController:
         self.last_x0 = np.zeros(NX)
         self.trajectory = SetpointTrajectory()
         # The servos lag by their time constant (30 ms): command the plan's tilt that far (3 stages) ahead.
-        self.tilt_lead_stages = min(round(airframe.servo_tau / dt), horizon)
+        self.tilt_lead_stages = grid.node_at(airframe.servo_tau)
 
     def _bounds_from_health(self) -> None:
         """What the allocator and the servo estimate know of failures, as the MPC's bounds (docs/mpc.md 3.5)."""
@@ -111,7 +111,7 @@ class MpcVelocityController:
         solver, params = self.solver, self.params
         rate = self.trajectory.update(time_usec, v_sp)
         v_sp = self.trajectory.now(time_usec)
-        stage_times = np.arange(solver.horizon + 1) * solver.dt
+        stage_times = solver.grid.times_s
         params[P_V_SP, :] = v_sp[:, None] + rate[:, None] * stage_times[None, :]
         params[P_FREE_TILT, :] = np.isnan(self.servos.stuck)[:, None]
         yaw_gain = solver.gains.attitude[2]

@@ -22,6 +22,7 @@ from aircraft.airframe import load_airframe
 from autopilot.controllers import MPC, build_flight_controller
 from autopilot.mpc import QpBackend, ReferenceNlp, RtiSolver, solve_reference_nlp
 from autopilot.mpc_controller import LEVENBERG, WARM_UP_ITERATIONS
+from autopilot.mpc_horizon import MpcHorizon, StageGrid
 from autopilot.mpc_hpipm import HpipmMode, HpipmSettings
 from autopilot.mpc_model import THRUST
 from autopilot.vehicle_state import VehicleState, euler_from_quaternion
@@ -66,7 +67,7 @@ def closed_loop(seconds: float, horizon: int = 25):
     """Fly the acceleration profile; returns the controller and the MPC's (x0, parameters) of every solve."""
     airframe = load_airframe()
     plant = Plant(airframe, Spawn(altitude=100.0))
-    controller = build_flight_controller(airframe, MPC, mpc_horizon=horizon)
+    controller = build_flight_controller(airframe, MPC, mpc_horizon=MpcHorizon(f"N = {horizon}", StageGrid.uniform(horizon)))
     state = VehicleState()
     records: list[Record] = []
     for _ in range(int(seconds * 400)):
