@@ -112,7 +112,7 @@ class RtiSolver:
     def __init__(
         self,
         airframe: Airframe,
-        grid: StageGrid = PAPER,
+        grid: StageGrid = PAPER.grid,
         limits: MpcLimits = MpcLimits(),
         gains: AttitudeGains = DEFAULT_GAINS,
         weights: MpcWeights = MpcWeights(),
@@ -121,8 +121,10 @@ class RtiSolver:
         qp_tolerance: float = 1e-5,
         backend: QpBackend = QpBackend.HPIPM_C,
         hpipm: HpipmSettings | None = None,
+        gauss_newton_steps: int = 1,
     ) -> None:
         """grid: the stages' lengths (autopilot/mpc_horizon.py; the paper's 25 x 10 ms by default).
+        gauss_newton_steps: QPs per solve (1: the real-time iteration).
         qp_tolerance: HPIPM's stationarity tolerance (feasibility and complementarity 100x tighter, at least
         1e-8); 1e-5 for real time, 1e-8 to reproduce a converged NLP solution exactly. hpipm: all of HPIPM's
         settings instead (HPIPM_C only). compile_model: False keeps everything in CasADi's virtual machine (the
@@ -130,6 +132,7 @@ class RtiSolver:
         self.airframe = airframe
         self.gains = gains
         self.grid = grid
+        self.gauss_newton_steps = gauss_newton_steps
         self.horizon = n = grid.stages
         self.dt = grid.tick_s
         self.limits = limits
@@ -296,10 +299,21 @@ class RtiSolver:
         self.w[NX + PSI_D_INDEX :: stride] += delta
 
     def solve(self, x0: np.ndarray, params: np.ndarray) -> MpcSolution:
-        """One RTI: linearise at the current guess, solve the QP, take the full step."""
+        """One RTI (`gauss_newton_steps` of them at the same state, default one): linearise at the current guess,
+        solve the QP, take the full step."""
         started = time.perf_counter()
         self.params[:] = params
         self.params[P_SOLVER] = self.solver_rows
+        qp_iterations = 0
+        for _ in range(self.gauss_newton_steps):
+            ok, status, iterations, cost = self._gauss_newton_step(x0)
+            qp_iterations += iterations
+            if not ok:
+                break
+        elapsed = time.perf_counter() - started
+        return MpcSolution(ok, status, elapsed, qp_iterations, self.states(), self.inputs(), cost)
+
+    def _gauss_newton_step(self, x0: np.ndarray) -> tuple[bool, str, int, float]:
         if self.fast is not None:
             step = self.last_step = self.fast.solve(self.w, self.params, x0, self.lbw, self.ubw, self.levenberg)
             dw = self.fast.dw
@@ -316,8 +330,7 @@ class RtiSolver:
         ok = ok and bool(np.all(np.isfinite(dw)))
         if ok:
             self.w += dw
-        elapsed = time.perf_counter() - started
-        return MpcSolution(ok, status, elapsed, iterations, self.states(), self.inputs(), cost)
+        return ok, status, iterations, cost
 
 
 class ReferenceNlp:

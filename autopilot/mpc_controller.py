@@ -21,7 +21,7 @@ from autopilot.actuator_health import ServoEstimate
 from autopilot.allocation import ControlAllocator
 from autopilot.attitude import wrap
 from autopilot.mpc import MpcSolution, RtiSolver, planned_force_function
-from autopilot.mpc_horizon import PAPER, MpcHorizon
+from autopilot.mpc_horizon import PAPER, MpcHorizon, extrapolate_setpoint
 from autopilot.mpc_model import (
     CHI,
     NP,
@@ -79,8 +79,10 @@ class MpcVelocityController:
         self.allocator = allocator
         self.servos = servos
         self.limits = limits
+        self.horizon = horizon
         grid = horizon.grid
-        self.solver = RtiSolver(airframe, grid, limits, weights=horizon.weights)
+        self.solver = RtiSolver(airframe, grid, limits, weights=horizon.weights,
+                                gauss_newton_steps=horizon.gauss_newton_steps)
         self.solver.levenberg = LEVENBERG
         self.force_function = planned_force_function(airframe)
         self.params = np.zeros((NP, grid.stages + 1))
@@ -111,8 +113,7 @@ class MpcVelocityController:
         solver, params = self.solver, self.params
         rate = self.trajectory.update(time_usec, v_sp)
         v_sp = self.trajectory.now(time_usec)
-        stage_times = solver.grid.times_s
-        params[P_V_SP, :] = v_sp[:, None] + rate[:, None] * stage_times[None, :]
+        params[P_V_SP, :], rates = extrapolate_setpoint(v_sp, rate, solver.grid.times_s, self.horizon.turning_setpoint)
         params[P_FREE_TILT, :] = np.isnan(self.servos.stuck)[:, None]
         yaw_gain = solver.gains.attitude[2]
         psi_ref = yaw
@@ -120,9 +121,9 @@ class MpcVelocityController:
             v_sp_k = params[P_V_SP, k]
             psi_ref = yaw_reference(v_sp_k[0], v_sp_k[1], psi_ref)
             # The set-point's course rate, while it has a course (the yaw reference follows it).
-            turn_rate = course_rate(v_sp_k, rate)
+            turn_rate = course_rate(v_sp_k, rates[:, k])
             params[P_PSI_REF, k] = psi_ref
-            params[P_PHI_REF, k] = coordinated_roll(rate, psi_ref, self.airframe.gravity, self.limits.attitude[0])
+            params[P_PHI_REF, k] = coordinated_roll(rates[:, k], psi_ref, self.airframe.gravity, self.limits.attitude[0])
             params[P_PSI_RATE_REF, k] = turn_rate
             # The yaw set-point that holds the attitude loop on a yaw turning at turn_rate: it leads by rate / K_att.
             params[P_PSI_D_REF, k] = psi_ref + turn_rate / yaw_gain

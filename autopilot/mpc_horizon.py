@@ -1,9 +1,10 @@
-"""The MPC's time grid: how long each stage of the horizon is (docs/mpc.md 2.9).
+"""The MPC's horizon (docs/mpc.md 2.9): how long each stage is, and the velocity set-point laid along it.
 
 Every stage lasts a whole number of fine steps (the controller's 10 ms tick), so the grid's node times are exact
 multiples of the tick and the warm start can be moved on by one tick by interpolation (`shift_sources`). The
 paper's grid is 25 stages of one tick (0.25 s); the long grid starts with fine stages (the plan flown now and
 the servo lead) and continues with coarse ones to see seconds ahead for about the same number of stages.
+Over seconds, a set-point that turns must be extrapolated as a turn, not as the straight line its rate gives.
 """
 
 from __future__ import annotations
@@ -81,9 +82,40 @@ class MpcHorizon:
     name: str
     grid: StageGrid
     weights: MpcWeights = MpcWeights()
+    gauss_newton_steps: int = 1  # QPs per controller tick (RtiSolver)
+    turning_setpoint: bool = False  # the set-point extrapolated as a steady turn (extrapolate_setpoint)
+
+
+def extrapolate_setpoint(
+    v_sp: np.ndarray, rate: np.ndarray, times_s: np.ndarray, turning: bool
+) -> tuple[np.ndarray, np.ndarray]:
+    """The velocity set-point (3, T) and its rate (3, T) at `times_s` ahead, from the set-point v_sp now and its
+    rate (m/s^2, NED). Straight: v_sp + rate t, the rate held (the paper's horizon). Turning: the horizontal part's
+    speed changes at its along-track rate and its course turns at the steady rate the cross-track rate gives
+    (a circle flown at constant speed stays on the circle); the vertical part is straight. Without a horizontal
+    speed to turn (under 1 m/s) it is straight."""
+    straight = v_sp[:, None] + rate[:, None] * times_s[None, :]
+    rates = np.repeat(rate[:, None], times_s.size, axis=1)
+    speed = float(np.hypot(v_sp[0], v_sp[1]))
+    if not turning or speed < 1.0:
+        return straight, rates
+    along = v_sp[0:2] / speed
+    across = np.array([-along[1], along[0]])
+    rate_along, rate_across = float(rate[0:2] @ along), float(rate[0:2] @ across)
+    turn_rate = rate_across / speed
+    angle = turn_rate * times_s
+    speeds = speed + rate_along * times_s
+    heading = np.outer(along, np.cos(angle)) + np.outer(across, np.sin(angle))
+    normal = np.outer(across, np.cos(angle)) - np.outer(along, np.sin(angle))
+    velocities, rates = straight.copy(), rates.copy()
+    velocities[0:2] = heading * speeds
+    rates[0:2] = heading * rate_along + normal * speeds * turn_rate
+    return velocities, rates
 
 
 PAPER = MpcHorizon("paper", StageGrid.uniform(25))
 # 10 stages of 10 ms, then 15 of 130 ms: 2.05 s. See docs/mpc.md 2.9 for the variants measured.
-LONG = MpcHorizon("long", StageGrid((1,) * 10 + (13,) * 15))
+LONG = MpcHorizon(
+    "long", StageGrid((1,) * 10 + (13,) * 15), gauss_newton_steps=2, turning_setpoint=True
+)
 HORIZONS = {h.name: h for h in (PAPER, LONG)}

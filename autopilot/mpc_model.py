@@ -89,6 +89,9 @@ class MpcWeights:
     # The first stage's roll and pitch set-point away from the one flown at the previous tick, per rad^2 (move
     # suppression, docs/mpc.md 2.9); 0: none, as the paper.
     q_attitude_sp_move: float = 0.0
+    # Each stage's cost weighed by its length over REFERENCE_STAGE_S (the same integral on any grid), or each stage
+    # alike (as the paper's uniform stages are).
+    weigh_by_length: bool = True
 
 
 @dataclass(frozen=True)
@@ -218,7 +221,8 @@ def stage_residual(
     airspeed = ca.sqrt(ca.sumsqr(x[V]) + 1e-6)
     thrust_ref = airframe.mass * airframe.gravity / 4 * (1 - aero_effectiveness(airframe, airspeed))
     sq = ca.sqrt
-    return sq(p[P_DT] / REFERENCE_STAGE_S) * ca.vertcat(
+    scale = sq(p[P_DT] / REFERENCE_STAGE_S) if weights.weigh_by_length else 1
+    return scale * ca.vertcat(
         sq(ca.DM(weights.q_ref)) * (x[V] - v_sp),
         sq(ca.DM(weights.q_psi)) * ca.vertcat(euler[0] - phi_ref, euler[1], wrap_angle(euler[2] - psi_ref)),
         sq(ca.DM(weights.q_psi_dot)) * (x[PSI_DOT] - ca.vertcat(0, 0, psi_rate_ref)),

@@ -61,7 +61,7 @@ def fly(horizon: MpcHorizon, profile_name: str, seconds: float) -> dict:
 
 def parse_horizon(text: str) -> MpcHorizon:
     """A horizon by name (paper, long) or a grid as COUNTxTICKS+..., e.g. 10x1+15x13 (10 one-tick stages, 15 of 13
-    ticks), with the long horizon's weights; options after it: /sM (M RK4 steps per stage), /qQ (q_tilt_spread), /mQ (q_attitude_sp_move)."""
+    ticks), with the long horizon's weights; options after it: /sM (M RK4 steps per stage), /qQ (q_tilt_spread), /mQ (q_attitude_sp_move), /u (stages weighed alike), /iK (K Gauss-Newton steps per tick)."""
     text, *options = text.split("/")
     if text in HORIZONS:
         horizon = HORIZONS[text]
@@ -71,15 +71,19 @@ def parse_horizon(text: str) -> MpcHorizon:
             count, length = part.split("x")
             ticks += [int(length)] * int(count)
         horizon = MpcHorizon(text, StageGrid(tuple(ticks)), LONG.weights)
-    grid, weights = horizon.grid, horizon.weights
+    grid, weights, steps = horizon.grid, horizon.weights, horizon.gauss_newton_steps
     for option in options:
         if option.startswith("s"):
             grid = grid.but(substeps=int(option[1:]))
         elif option.startswith("q"):
             weights = dataclasses.replace(weights, q_tilt_spread=float(option[1:]))
+        elif option.startswith("i"):
+            steps = int(option[1:])
+        elif option == "u":
+            weights = dataclasses.replace(weights, weigh_by_length=False)
         elif option.startswith("m"):
             weights = dataclasses.replace(weights, q_attitude_sp_move=float(option[1:]))
-    return MpcHorizon(horizon.name, grid, weights)
+    return MpcHorizon(horizon.name, grid, weights, steps)
 
 
 def main() -> None:
