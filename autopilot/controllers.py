@@ -52,7 +52,8 @@ def build_flight_controller(
     mpc_horizon: MpcHorizon = DEFAULT_HORIZON,
 ) -> FlightController:
     """A fresh flight controller of `kind` ("mpc" or "pid"); transition_airspeeds: VT_ARSP_BLEND / VT_ARSP_TRANS
-    for the PID (None: PidParameters' defaults); mpc_horizon: the MPC's horizon (autopilot/mpc_horizon.py). Raises ValueError for another kind."""
+    for the PID (None: PidParameters' defaults); mpc_horizon: the MPC's horizon (autopilot/mpc_horizon.py). Raises
+    ValueError for another kind."""
     if kind not in KINDS:
         raise ValueError(f"controller must be one of {', '.join(KINDS)}, got {kind!r}")
     u_initial = np.zeros(ALLOCATED_COUNT)

@@ -113,7 +113,8 @@ class MpcVelocityController:
         solver, params = self.solver, self.params
         rate = self.trajectory.update(time_usec, v_sp)
         v_sp = self.trajectory.now(time_usec)
-        params[P_V_SP, :], rates = extrapolate_setpoint(v_sp, rate, solver.grid.times_s, self.horizon.turning_setpoint)
+        turning = self.horizon.turning_setpoint
+        params[P_V_SP, :], rates = extrapolate_setpoint(v_sp, rate, solver.grid.times_s, turning)
         params[P_FREE_TILT, :] = np.isnan(self.servos.stuck)[:, None]
         yaw_gain = solver.gains.attitude[2]
         psi_ref = yaw
@@ -123,7 +124,8 @@ class MpcVelocityController:
             # The set-point's course rate, while it has a course (the yaw reference follows it).
             turn_rate = course_rate(v_sp_k, rates[:, k])
             params[P_PSI_REF, k] = psi_ref
-            params[P_PHI_REF, k] = coordinated_roll(rates[:, k], psi_ref, self.airframe.gravity, self.limits.attitude[0])
+            bank_limit = self.limits.attitude[0]
+            params[P_PHI_REF, k] = coordinated_roll(rates[:, k], psi_ref, self.airframe.gravity, bank_limit)
             params[P_PSI_RATE_REF, k] = turn_rate
             # The yaw set-point that holds the attitude loop on a yaw turning at turn_rate: it leads by rate / K_att.
             params[P_PSI_D_REF, k] = psi_ref + turn_rate / yaw_gain

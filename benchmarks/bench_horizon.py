@@ -61,7 +61,9 @@ def fly(horizon: MpcHorizon, profile_name: str, seconds: float) -> dict:
 
 def parse_horizon(text: str) -> MpcHorizon:
     """A horizon by name (paper, long) or a grid as COUNTxTICKS+..., e.g. 10x1+15x13 (10 one-tick stages, 15 of 13
-    ticks), with the long horizon's weights; options after it: /sM (M RK4 steps per stage), /qQ (q_tilt_spread), /mQ (q_attitude_sp_move), /u (stages weighed alike), /iK (K Gauss-Newton steps per tick)."""
+    ticks), with the long horizon's weights and one Gauss-Newton step per tick; options after it: /sM (M RK4 steps
+    per stage), /qQ (q_tilt_spread), /mQ (q_attitude_sp_move), /u (stages weighed alike), /iK (K Gauss-Newton
+    steps per tick)."""
     text, *options = text.split("/")
     if text in HORIZONS:
         horizon = HORIZONS[text]
@@ -98,7 +100,8 @@ def main() -> None:
         r = fly(horizon, args.profile, args.seconds)
         print(f"{name:12s} span {grid.span_s:5.2f} s  braking |v err| max {r['braking_error_max']:5.2f} m/s  "
               f"vx RMS {r['vx_rmse']:5.2f}  |vz| max {r['vz_max']:5.2f}  |pitch| max {r['pitch_max']:5.1f} deg  "
-              f"pitch sp step max {r['pitch_sp_step_max']:5.1f} (braking {r['braking_pitch_sp_step_max']:5.1f}) deg  failed {r['failed']}  PID {r['fell_back']}  "
+              f"pitch sp step max {r['pitch_sp_step_max']:5.1f} (braking {r['braking_pitch_sp_step_max']:5.1f}) deg  "
+              f"failed {r['failed']}  PID {r['fell_back']}  "
               f"{spread(r['ms']) if r['ms'] else ''}", flush=True)  # fmt: skip
 
 

@@ -1,4 +1,5 @@
-"""`vtol scenario NAME|all [--controller mpc|pid|both] [--mpc-horizon paper|long] [--out DIR] [--instance I] [--no-record]`.
+"""`vtol scenario NAME|all [--controller mpc|pid|both] [--mpc-horizon paper|long]
+[--out DIR] [--instance I] [--no-record]`.
 
 Flies each (scenario, controller) run with a progress bar, writes the run folders and the figures with the
 controllers overlaid, prints the metrics, and for `all` writes `<out>/report.md`.

@@ -108,7 +108,8 @@ def run_scenario(
                                  env=deterministic_environment())  # fmt: skip
         processes.append(plant)
         autopilot_command = AutopilotCommand(
-            sim_port=ports.plant, links=ports.links, spawn_alt=SPAWN_ALT_M, controller=controller, mpc_horizon=mpc_horizon,
+            sim_port=ports.plant, links=ports.links, spawn_alt=SPAWN_ALT_M, controller=controller,
+            mpc_horizon=mpc_horizon,
             offboard_lockstep=True, duration_s=duration_s, log=run_dir / "autopilot_log.csv",
             params=run_dir / "params.json", summary=True, quiet=True,
             zenoh=Zenoh.listening(ports.zenoh_autopilot) if record else Zenoh.off(),
