@@ -9,22 +9,29 @@ A route is a list of targets flown one after the other:
     HoldAt   hold a position for some seconds (None: for ever)
     LandAt   fly to a point, stop over it, descend (MPC_Z_VEL_MAX_DN, MPC_LAND_SPEED below MPC_LAND_ALT2) until
              the commander's land detector sees the touchdown
-    Circle   circle a centre (Orbit) for ever
+    Circle   circle a centre (Orbit) for ever, the nose as DO_ORBIT's yaw behaviour asks
 
 The set-point is ramped at MPC_ACC_HOR (guidance.ramp) like the Offboard position set-points. The speeds are
 velocity set-points only: the unified MPC flies a leg at FW_AIRSPD_TRIM in forward flight with no mode logic.
+A target's yaw (rad; None: the velocity controllers' own rule) is its yaw set-point; a FlyTo with a yaw flown as a
+multicopter is done only once the heading is within MIS_YAW_ERR of it (PX4's waypoint yaw check); a HoldAt without
+one holds the yaw of the last target that had one.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from autopilot.attitude import wrap
 from autopilot.guidance import (circle_velocity, leg_cruise_speed, leg_velocity, limit_norm, ramp, turn_ramp,
                                 vertical_velocity)  # fmt: skip
 from autopilot.parameters import ParameterStore
 from autopilot.vehicle_state import VehicleState
+from autopilot.yaw_setpoint import YawSetpoint
+from transport.mavlink import mavlink as M
 
 TICK_S = 0.01
 ALTITUDE_ACCEPTANCE = 3.0  # m: a FlyTo is done within this of its altitude (and its radius horizontally)
@@ -33,11 +40,20 @@ OVER_LANDING_POINT = 1.0  # m and m/s: over the landing point and slow: descend
 CIRCLE_CONVERGENCE = 50.0  # m (at most; a quarter of the radius for small circles)
 
 
+ORBIT_FRONT_TO_CENTER = M.ORBIT_YAW_BEHAVIOUR_HOLD_FRONT_TO_CIRCLE_CENTER
+ORBIT_INITIAL_HEADING = M.ORBIT_YAW_BEHAVIOUR_HOLD_INITIAL_HEADING
+ORBIT_UNCONTROLLED = M.ORBIT_YAW_BEHAVIOUR_UNCONTROLLED
+ORBIT_TANGENT = M.ORBIT_YAW_BEHAVIOUR_HOLD_FRONT_TANGENT_TO_CIRCLE
+ORBIT_RC_CONTROLLED = M.ORBIT_YAW_BEHAVIOUR_RC_CONTROLLED
+ORBIT_CENTER_MIN = 1.0  # m: closer to the centre than this, the centre has no direction to face
+
+
 @dataclass(frozen=True)
 class Climb:
     xy: np.ndarray
     down: float
     rate: float  # m/s
+    yaw: float | None = None
 
 
 @dataclass(frozen=True)
@@ -45,17 +61,20 @@ class FlyTo:
     position: np.ndarray  # NED
     acceptance: float  # m
     speed: float | None = None  # None: guidance.leg_cruise_speed
+    yaw: float | None = None
 
 
 @dataclass(frozen=True)
 class HoldAt:
     position: np.ndarray
     seconds: float | None  # None: for ever
+    yaw: float | None = None  # None: the last target's yaw (if any)
 
 
 @dataclass(frozen=True)
 class LandAt:
     xy: np.ndarray
+    yaw: float | None = None
 
 
 @dataclass(frozen=True)
@@ -65,6 +84,27 @@ class Circle:
     radius: float
     speed: float
     clockwise: bool
+    yaw_behaviour: int = ORBIT_FRONT_TO_CENTER  # ORBIT_YAW_BEHAVIOUR
+    initial_heading: float = 0.0  # rad: the heading when the orbit began (HOLD_INITIAL_HEADING)
+
+
+def orbit_yaw(circle: Circle, position: np.ndarray) -> YawSetpoint | None:
+    """The yaw set-point of DO_ORBIT's yaw behaviour (PX4's FlightTaskOrbit): facing the centre or along the circle,
+    turning at the orbit's rate as feed-forward; the initial heading; None for UNCONTROLLED (and RC_CONTROLLED,
+    which the Orbit mode flies from the yaw stick)."""
+    behaviour = circle.yaw_behaviour
+    if behaviour == ORBIT_INITIAL_HEADING:
+        return YawSetpoint(circle.initial_heading)
+    if behaviour not in (ORBIT_FRONT_TO_CENTER, ORBIT_TANGENT):
+        return None
+    to_center = circle.center - position[0:2]
+    if float(np.hypot(*to_center)) < ORBIT_CENTER_MIN:
+        return None
+    direction = 1.0 if circle.clockwise else -1.0  # clockwise seen from above: the heading grows
+    heading = math.atan2(float(to_center[1]), float(to_center[0]))
+    if behaviour == ORBIT_TANGENT:
+        heading -= direction * math.pi / 2
+    return YawSetpoint(wrap(heading), direction * circle.speed / circle.radius)
 
 
 Target = Climb | FlyTo | HoldAt | LandAt | Circle
@@ -82,6 +122,7 @@ class AutoFlight:
         self.descending = False
         self.mission_speed: float | None = None  # DO_CHANGE_SPEED (None: the default cruise speeds)
         self.forward_flight: bool | None = None  # the phase DO_VTOL_TRANSITION asked for (None: by leg length)
+        self.last_yaw: float | None = None  # the yaw of the last target that had one (HoldAt holds it)
         self._target_since_usec = 0
 
     # ---- routes ------------------------------------------------------------------------------------------------
@@ -89,6 +130,7 @@ class AutoFlight:
         """A new route from here (the set-point starts from the vehicle's velocity), in no fixed-wing phase."""
         self.velocity = state.velocity_ned.copy()
         self.forward_flight = None
+        self.last_yaw = None
         self.follow(state, route)
 
     def follow(self, state: VehicleState, route: list[Target]) -> None:
@@ -111,8 +153,26 @@ class AutoFlight:
     def climbing(self) -> bool:
         return isinstance(self.target, Climb)
 
+    def yaw(self, state: VehicleState) -> YawSetpoint | None:
+        """The current target's yaw set-point (after step(): the target it flies)."""
+        target = self.target
+        if isinstance(target, Circle):
+            return orbit_yaw(target, state.position_ned)
+        if target is None or target.yaw is None:
+            return YawSetpoint(self.last_yaw) if isinstance(target, HoldAt) and self.last_yaw is not None else None
+        return YawSetpoint(target.yaw)
+
+    def _yaw_reached(self, state: VehicleState, yaw: float | None) -> bool:
+        """No yaw, or the heading within MIS_YAW_ERR of it; in a mission's fixed-wing phase the nose follows the
+        track, so the yaw is not waited for (PX4 ignores it in fixed-wing flight too)."""
+        if yaw is None or self.forward_flight:
+            return True
+        return abs(wrap(yaw - float(state.euler[2]))) <= math.radians(self.params["MIS_YAW_ERR"])
+
     def _next(self, state: VehicleState) -> None:
         target = self.route[self.index]
+        if not isinstance(target, Circle) and target.yaw is not None:
+            self.last_yaw = target.yaw
         if isinstance(target, FlyTo | HoldAt):
             self.leg_start = target.position.copy()
         else:
@@ -153,10 +213,11 @@ class AutoFlight:
                 if float(position[2]) <= down + CLIMB_DONE:
                     return None
                 return np.array([*self._to_point(state, xy), self._vertical(state, down, rate)])
-            case FlyTo(position=end, acceptance=acceptance, speed=speed):
+            case FlyTo(position=end, acceptance=acceptance, speed=speed, yaw=yaw):
                 start = self.leg_start
                 offset = end - position
-                if float(np.hypot(offset[0], offset[1])) <= acceptance and abs(float(offset[2])) <= ALTITUDE_ACCEPTANCE:
+                if (float(np.hypot(offset[0], offset[1])) <= acceptance and abs(float(offset[2])) <= ALTITUDE_ACCEPTANCE
+                        and self._yaw_reached(state, yaw)):
                     return None
                 length = float(np.hypot(*(end[0:2] - start[0:2])))
                 cruise = speed if speed is not None else leg_cruise_speed(

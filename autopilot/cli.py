@@ -198,7 +198,8 @@ def main(argv: list[str] | None = None) -> int:
         """Built at start and at every takeoff from the ground, with the parameters of the moment."""
         return build_flight_controller(airframe, controller_kind(args.controller, params.get_int("VT_CTRL")),
                                        TransitionAirspeeds(params["VT_ARSP_BLEND"], params["VT_ARSP_TRANS"]),
-                                       mpc_horizon=mpc_horizon(args.mpc_horizon, params.get_int("VT_MPC_HRZN")))
+                                       mpc_horizon=mpc_horizon(args.mpc_horizon, params.get_int("VT_MPC_HRZN")),
+                                       mpc_overlap=params.get_int("VT_MPC_OVERLAP") == 1)
 
     outputs = LoopOutputs(
         log=None if log is None else FlightLogger(log),

@@ -3,7 +3,8 @@
 
 Modes (PX4 custom modes): Hold (AUTO.LOITER), Takeoff (AUTO.TAKEOFF), Land (AUTO.LAND), Offboard, Mission
 (AUTO.MISSION), Return (AUTO.RTL), Orbit (POSCTL.ORBIT), one class each in flight_modes.py: the commander chooses
-the mode, the mode gives the velocity set-point for the flight controller.
+the mode, the mode gives the velocity set-point for the flight controller, and its yaw set-point, shaped into the
+yaw reference the controllers follow while the set-point is a multicopter's (autopilot/yaw_setpoint.py).
 
 On the ground the flight controller does not run: disarmed, the rotors are off; armed, they idle until a
 takeoff (Takeoff mode, or an Offboard set-point that climbs). A takeoff starts a fresh flight controller, so
@@ -38,6 +39,7 @@ from autopilot.offboard_setpoint import AttitudeTarget, OffboardSetpoint
 from autopilot.parameters import ParameterStore
 from autopilot.requests import ManualControlInput, Reply
 from autopilot.vehicle_state import VehicleState
+from autopilot.yaw_setpoint import YawReference, YawShaper, multicopter_speed
 from transport.geodesy import Home
 from transport.mavlink import mavlink
 
@@ -55,6 +57,7 @@ TAKING_OFF = mavlink.MAV_LANDED_STATE_TAKEOFF
 LANDING = mavlink.MAV_LANDED_STATE_LANDING
 
 MAX_LEVEL_TILT = math.radians(30.0)  # arming on the ground: roll and pitch within this
+TICK_S = 0.01  # the commander's tick (the velocity controller's 100 Hz)
 
 
 @dataclass(frozen=True)
@@ -89,14 +92,16 @@ class Commander:
         self.hold = HoldMode(navigator, auto)
         self.takeoff_mode = TakeoffMode(navigator)
         self.land_mode = LandMode(navigator)
-        self.orbit = OrbitMode(auto)
+        self.orbit = OrbitMode(auto, self.manual.yaw_rate)
         self.mission_mode = MissionMode(mission)
         self.modes: dict[str, FlightMode] = {mode.name: mode for mode in (
             self.hold, self.takeoff_mode, self.land_mode, OffboardMode(navigator, self.offboard, hover_fraction),
             self.mission_mode,
-            ReturnMode(params, auto, mission), self.orbit, StickMode(POSITION, params, self.manual),
+            ReturnMode(params, auto, mission, say), self.orbit, StickMode(POSITION, params, self.manual),
             StickMode(ALTITUDE, params, self.manual))}  # fmt: skip
         self.land_detector = LandDetector(hover_fraction)
+        self.yaw_shaper = YawShaper()
+        self.yaw_reference: YawReference | None = None  # the tick's, for the flight controller (None: its own rule)
         self.say = say
         self.profile = profile
         self.armed = armed
@@ -195,6 +200,8 @@ class Commander:
         """The first valid state: a vehicle spawned in the air holds where it is."""
         self.started = True
         self.now_usec = self._start_usec = state.time_usec
+        if self.on_ground:
+            self.homes.set_here(state.position_ned)  # PX4: home at the first valid position on the ground
         if self.flying and self.profile is None:
             self.hold.activate(state)
         if self.armed:
@@ -240,6 +247,8 @@ class Commander:
         if not force and self.mode == MISSION and self.feasibility.check() is not None:
             return DENIED, "Arming denied: no valid mission"
         self._set_armed(True, "Armed")
+        if not self.failsafe.position_lost:
+            self.homes.set_here(state.position_ned)  # PX4: home where the vehicle arms (not over a manual home)
         if self.mode == MISSION:
             self.mission_mode.activate(state)  # a takeoff item first: the mission takes off
         if self.mode == OFFBOARD and not self._offboard_fresh():
@@ -332,7 +341,16 @@ class Commander:
         self.state_version += 1
 
     def tick(self, state: VehicleState, time_usec: int, mean_thrust_fraction: float) -> np.ndarray | None:
-        """Mode logic at 100 Hz; the velocity set-point while flying (None on the ground)."""
+        """Mode logic at 100 Hz; the velocity set-point while flying (None on the ground), and the yaw reference."""
+        setpoint = self._mode_tick(state, time_usec, mean_thrust_fraction)
+        yaw = None if setpoint is None or self.profile is not None else self.active.yaw(state)
+        if yaw is not None and not multicopter_speed(setpoint, self.params["MPC_XY_VEL_MAX"]):
+            yaw = None  # forward flight: the nose follows the course
+        self.yaw_reference = self.yaw_shaper.update(yaw, float(state.euler[2]),
+                                                    math.radians(self.params["MPC_YAWRAUTO_MAX"]), TICK_S)  # fmt: skip
+        return setpoint
+
+    def _mode_tick(self, state: VehicleState, time_usec: int, mean_thrust_fraction: float) -> np.ndarray | None:
         self.now_usec = time_usec
         self.offboard.take_due(time_usec)
         if self.profile is not None:
@@ -345,6 +363,8 @@ class Commander:
         if decision is not None:
             self._failsafe(decision, state)
         if not self.armed:
+            if self.on_ground and not self.failsafe.position_lost:
+                self.homes.follow(state.position_ned)
             return None
         if self.on_ground:
             return self._on_ground(state, time_usec)

@@ -17,6 +17,7 @@ from autopilot.allocation import ControlAllocator
 from autopilot.flight_controller import MPC, PID, VELOCITY_PERIOD_USEC, ControllerKind, FlightController
 from autopilot.mpc_controller import DEFAULT_HORIZON, MpcVelocityController
 from autopilot.mpc_horizon import HORIZONS, LONG, PAPER, MpcHorizon
+from autopilot.mpc_overlap import OverlappedMpc
 from autopilot.pid_baseline import PidVelocityController, TransitionAirspeeds
 
 KINDS: tuple[ControllerKind, ...] = (MPC, PID)
@@ -50,9 +51,12 @@ def build_flight_controller(
     transition_airspeeds: TransitionAirspeeds | None = None,
     *,
     mpc_horizon: MpcHorizon = DEFAULT_HORIZON,
+    mpc_overlap: bool = False,
 ) -> FlightController:
     """A fresh flight controller of `kind` ("mpc" or "pid"); transition_airspeeds: VT_ARSP_BLEND / VT_ARSP_TRANS
-    for the PID (None: PidParameters' defaults); mpc_horizon: the MPC's horizon (autopilot/mpc_horizon.py). Raises
+    for the PID (None: PidParameters' defaults); mpc_horizon: the MPC's horizon (autopilot/mpc_horizon.py);
+    mpc_overlap: solve one tick ahead in a process of its own (autopilot/mpc_overlap.py, VT_MPC_OVERLAP) instead of
+    the paper's synchronous solve. Raises
     ValueError for another kind."""
     if kind not in KINDS:
         raise ValueError(f"controller must be one of {', '.join(KINDS)}, got {kind!r}")
@@ -63,5 +67,8 @@ def build_flight_controller(
     pid = PidVelocityController(airframe, dt=VELOCITY_PERIOD_USEC / 1e6)
     if transition_airspeeds is not None:
         pid.set_transition_airspeeds(*transition_airspeeds)
-    mpc = MpcVelocityController(airframe, allocator, servos, horizon=mpc_horizon) if kind == MPC else None
-    return FlightController(airframe, allocator, servos, pid, mpc)
+    if kind != MPC:
+        return FlightController(airframe, allocator, servos, pid)
+    mpc = MpcVelocityController(airframe, allocator, servos, horizon=mpc_horizon)
+    flying = OverlappedMpc(mpc, VELOCITY_PERIOD_USEC) if mpc_overlap else mpc
+    return FlightController(airframe, allocator, servos, pid, flying)

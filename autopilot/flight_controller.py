@@ -15,6 +15,7 @@ the servo estimate are built by autopilot.controllers.build_flight_controller an
 from __future__ import annotations
 
 import dataclasses
+import math
 from typing import Literal
 
 import casadi as ca
@@ -30,12 +31,14 @@ from autopilot.attitude import AttitudeController
 from autopilot.attitude_setpoint import attitude_command
 from autopilot.mpc import MpcSolution
 from autopilot.mpc_controller import MpcVelocityController
+from autopilot.mpc_overlap import OverlappedMpc
 from autopilot.offboard_setpoint import AttitudeTarget
 from autopilot.pid_baseline import PidVelocityController
 from autopilot.vehicle_state import VehicleState
 from autopilot.velocity_command import VelocityCommand
 from autopilot.velocity_controller import VelocityController
 from autopilot.velocity_estimate import VelocityEstimate
+from autopilot.yaw_setpoint import YawReference
 
 ControllerKind = Literal["mpc", "pid"]
 MPC: ControllerKind = "mpc"  # the unified MPC, with the PID baseline as its back-up
@@ -89,7 +92,8 @@ class YawByTilt:
 class FlightController:
     """Velocity set-point in, physical actuator commands out (thrust fractions, tilts rad, deflections).
 
-    Flies `mpc` when given, with `pid` as its back-up after repeated failed solves (paper), else `pid`.
+    Flies `mpc` when given (synchronous, the paper's way, or overlapped: autopilot/mpc_overlap.py), with `pid` as
+    its back-up after repeated failed solves (paper), else `pid`.
     """
 
     def __init__(
@@ -98,7 +102,7 @@ class FlightController:
         allocator: ControlAllocator,
         servos: ServoEstimate,
         pid: PidVelocityController,
-        mpc: MpcVelocityController | None = None,
+        mpc: MpcVelocityController | OverlappedMpc | None = None,
     ) -> None:
         self.airframe = airframe
         self.allocator = allocator
@@ -114,6 +118,7 @@ class FlightController:
         self.velocity_command = VelocityCommand()
         self.velocity_estimate = VelocityEstimate(airframe.gravity)
         self.velocity_setpoint = np.zeros(3)
+        self.yaw_reference: YawReference | None = None  # None: the velocity controller's own yaw rule
         self.attitude_setpoint: AttitudeTarget | None = None  # Offboard attitude: the velocity controller idles
         self.command = np.zeros(CHANNELS)
         set_allocated(self.command, allocator.u)  # rotors and surfaces where the allocator starts
@@ -153,6 +158,15 @@ class FlightController:
         self.velocity_setpoint[:] = velocity_ned
         return True
 
+    def set_yaw_reference(self, reference: YawReference | None) -> bool:
+        """The yaw the velocity controller follows (None: its own rule); a non-finite one is refused (False) and the
+        controller's own rule flies."""
+        if reference is not None and not (math.isfinite(reference.yaw) and math.isfinite(reference.rate)):
+            self.yaw_reference = None
+            return False
+        self.yaw_reference = reference
+        return True
+
     def set_attitude_setpoint(self, target: AttitudeTarget | None) -> None:
         """Offboard attitude: fly `target` with the attitude loop alone (None: the velocity controller flies)."""
         self.attitude_setpoint = target
@@ -164,6 +178,8 @@ class FlightController:
     def apply_failure(self, failure: Failure) -> None:
         """Tell the allocator and the servo estimate about a failure the plant accepted."""
         self.health.apply(failure)
+        if isinstance(self.mpc, OverlappedMpc):  # its solving process keeps its own copy of the MPC's bounds
+            self.mpc.health_changed(self.allocator, self.servos)
 
     def pop_events(self) -> list[str]:
         """Events since the last call (the MPC falling back to the PID), for STATUSTEXT."""
@@ -199,7 +215,8 @@ class FlightController:
             self._next_velocity_usec += VELOCITY_PERIOD_USEC
             tilts = self._velocity_controller_tilts()
             if self.attitude_setpoint is None:
-                self.velocity_command = self.velocity_controller.update(state, self.velocity_setpoint, tilts)
+                self.velocity_command = self.velocity_controller.update(state, self.velocity_setpoint, tilts,
+                                                                        self.yaw_reference)  # fmt: skip
             else:  # the velocity controller tracks the vehicle's own velocity, warm for when it flies again
                 self.velocity_controller.update(state, state.velocity_ned, tilts)
                 self.velocity_command = attitude_command(self.attitude_setpoint, state.euler,
@@ -234,12 +251,12 @@ class FlightController:
         return command.yaw_by_tilt or (self.velocity_controller is not self.pid
                                        and not bool(np.all(np.isnan(self.servos.stuck))))
 
-    def _fall_back_to_pid(self, state: VehicleState, mpc: MpcVelocityController) -> None:
+    def _fall_back_to_pid(self, state: VehicleState, mpc: MpcVelocityController | OverlappedMpc) -> None:
         """Paper: the PID is the MPC's back-up after repeated failed solves; it flies from this tick on."""
         self.fell_back_to_pid = True
         self.velocity_controller = self.pid
         self.events.append(f"MPC: {mpc.failures_in_row} failed solves in a row, PID back-up flying")
-        self.velocity_command = self.pid.update(state, self.velocity_setpoint, self.servos.tilt)
+        self.velocity_command = self.pid.update(state, self.velocity_setpoint, self.servos.tilt, self.yaw_reference)
 
     def _attitude_and_allocation(self, state: VehicleState) -> None:
         command = self.velocity_command

@@ -5,6 +5,7 @@ velocity set-point (NED, m/s) at 100 Hz.
     activate(state)     the mode is entered (or entered again) here
     setpoint(state)     the velocity set-point of this tick
     lifts_off(state)    armed on the ground, the mode asks to take off
+    yaw(state)          the yaw set-point of this tick (None: the velocity controllers' own rule), after setpoint()
     landing             it is descending onto a landing point (reported as MAV_LANDED_STATE_LANDING)
     detects_landing     the commander's land detector watches for a touchdown
     touched_down(state) the land detector saw the touchdown
@@ -15,16 +16,20 @@ DO_REPOSITION fly routes of targets (auto_flight.py, mission_flight.py).
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 
 import numpy as np
 
-from autopilot.auto_flight import AutoFlight, Circle, FlyTo, HoldAt
-from autopilot.mission_flight import MissionFlight, return_route
+from autopilot.auto_flight import ORBIT_RC_CONTROLLED, AutoFlight, Circle, FlyTo, HoldAt, LandAt
+from autopilot.mission_flight import MissionFlight
 from autopilot.navigator import Navigator
 from autopilot.offboard_setpoint import OffboardSetpoint
 from autopilot.parameters import ParameterStore
+from autopilot.return_route import plan_return
 from autopilot.vehicle_state import VehicleState
+from autopilot.yaw_setpoint import YawSetpoint
 from transport.mavlink import mavlink
 
 HOLD, TAKEOFF, LAND, OFFBOARD = "Hold", "Takeoff", "Land", "Offboard"
@@ -53,6 +58,9 @@ class FlightMode(ABC):
 
     @abstractmethod
     def setpoint(self, state: VehicleState) -> np.ndarray: ...
+
+    def yaw(self, state: VehicleState) -> YawSetpoint | None:
+        return None
 
     def lifts_off(self, state: VehicleState) -> bool:
         return False
@@ -83,9 +91,10 @@ class HoldMode(FlightMode):
         self.navigator.hold_xy = xy.copy()
         self.navigator.hold_down = down
 
-    def reposition(self, state: VehicleState, position: np.ndarray, speed: float | None) -> None:
+    def reposition(self, state: VehicleState, position: np.ndarray, speed: float | None, yaw: float | None) -> None:
+        """Fly to `position` and hold there; `yaw` (rad; None: the controllers' own rule) on the way and there."""
         self.repositioning = True
-        self.auto.start(state, [FlyTo(position, REPOSITION_ACCEPTANCE, speed), HoldAt(position, None)])
+        self.auto.start(state, [FlyTo(position, REPOSITION_ACCEPTANCE, speed, yaw), HoldAt(position, None, yaw)])
 
     def transition(self, target: int, state: VehicleState) -> str | None:
         """MAV_CMD_DO_VTOL_TRANSITION in Hold: to FW circle at cruise speed, to MC brake and hover; what to say
@@ -101,6 +110,9 @@ class HoldMode(FlightMode):
 
     def setpoint(self, state: VehicleState) -> np.ndarray:
         return self.auto.step(state) if self.repositioning else self.navigator.hold(state)
+
+    def yaw(self, state: VehicleState) -> YawSetpoint | None:
+        return self.auto.yaw(state) if self.repositioning else None
 
 
 class TakeoffMode(FlightMode):
@@ -177,6 +189,9 @@ class OffboardMode(FlightMode):
             return self.offboard.velocity
         return self.navigator.track(state, self.offboard.position, self.offboard.velocity)
 
+    def yaw(self, state: VehicleState) -> YawSetpoint | None:
+        return None if self.offboard.attitude is not None else self.offboard.yaw
+
     def lifts_off(self, state: VehicleState) -> bool:
         return bool(self.setpoint(state)[2] < -OFFBOARD_TAKEOFF_CLIMB)
 
@@ -207,41 +222,71 @@ class MissionMode(FlightMode):
     def setpoint(self, state: VehicleState) -> np.ndarray:
         return self.mission.step(state)
 
+    def yaw(self, state: VehicleState) -> YawSetpoint | None:
+        return self.mission.auto.yaw(state)
+
     def touched_down(self, state: VehicleState) -> None:
         self.mission.landed(state)
 
 
 class ReturnMode(FlightMode):
-    """AUTO.RTL: climb to RTL_RETURN_ALT, fly to the closest of home and the rally points, land there."""
+    """AUTO.RTL: climb to the return altitude, fly to the closest of home and the rally points, loiter there if
+    RTL_LAND_DELAY asks, land (autopilot/return_route.py); it says PX4's texts as it goes."""
 
     name = RETURN
 
-    def __init__(self, params: ParameterStore, auto: AutoFlight, mission: MissionFlight) -> None:
+    def __init__(self, params: ParameterStore, auto: AutoFlight, mission: MissionFlight,
+                 say: Callable[..., None]) -> None:  # fmt: skip
         self.params = params
         self.auto = auto
         self.mission = mission
+        self.say = say
+        self._announced = -1  # the route's target last announced
 
     def activate(self, state: VehicleState) -> None:
-        self.auto.start(state, return_route(self.params, state, self.mission.rally_points(), self.mission.homes.position.ned))
+        home = self.mission.homes.position
+        plan = plan_return(self.params, state, self.mission.rally_points(), home.ned)
+        self.auto.start(state, plan.route)
+        self._announced = -1
+        self.say(mavlink.MAV_SEVERITY_INFO, f"RTL: start return at {math.ceil(home.alt + plan.height)} m "
+                 f"({math.ceil(plan.height)} m above destination)")  # fmt: skip
 
     @property
     def landing(self) -> bool:
         return self.auto.descending
 
     def setpoint(self, state: VehicleState) -> np.ndarray:
-        return self.auto.step(state)
+        setpoint = self.auto.step(state)
+        if self.auto.index != self._announced:
+            self._announced = self.auto.index
+            target = self.auto.target
+            if isinstance(target, HoldAt) and target.seconds is None:
+                self.say(mavlink.MAV_SEVERITY_INFO, "RTL: completed, loitering")
+            elif isinstance(target, LandAt):
+                self.say(mavlink.MAV_SEVERITY_INFO, "RTL: land at destination")
+        return setpoint
 
 
 class OrbitMode(FlightMode):
-    """Orbit (PX4's POSCTL.ORBIT navigation state): circle a centre for ever."""
+    """Orbit (PX4's POSCTL.ORBIT navigation state): circle a centre for ever; the nose as the orbit's yaw behaviour
+    asks, RC_CONTROLLED: turned by the yaw stick (`stick_yaw_rate`: rad/s at a simulation time, None without fresh
+    sticks)."""
 
     name = ORBIT
 
-    def __init__(self, auto: AutoFlight) -> None:
+    def __init__(self, auto: AutoFlight, stick_yaw_rate: Callable[[int], float | None]) -> None:
         self.auto = auto
+        self.stick_yaw_rate = stick_yaw_rate
 
     def start(self, state: VehicleState, circle: Circle) -> None:
         self.auto.start(state, [circle])
 
     def setpoint(self, state: VehicleState) -> np.ndarray:
         return self.auto.step(state)
+
+    def yaw(self, state: VehicleState) -> YawSetpoint | None:
+        target = self.auto.target
+        if isinstance(target, Circle) and target.yaw_behaviour == ORBIT_RC_CONTROLLED:
+            rate = self.stick_yaw_rate(state.time_usec)
+            return None if rate is None else YawSetpoint(rate=rate)
+        return self.auto.yaw(state)

@@ -17,7 +17,7 @@ from autopilot.parameters import ParameterStore
 from autopilot.requests import (Arm, ChangeSpeed, ClearMission, Disarm, GcsHeartbeat, InjectFailure, Land,
                                 ManualControlInput, OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit,
                                 Reply, Reposition, Request, ReturnToLaunch, SetMissionCurrent, SetMode,
-                                SetHome, StartMission, StoreMission, Takeoff, Transition)  # fmt: skip
+                                SetHome, StartMission, StoreMission, Takeoff, Transition, TurnTo)  # fmt: skip
 from transport.mavlink import mavlink
 
 
@@ -76,6 +76,8 @@ class FlightStack:
                 return guided.change_speed(speed)
             case Reposition() | Orbit():
                 return guided.route(request, state)
+            case TurnTo():
+                return guided.turn_to(request, state)
             case OffboardVelocity() | OffboardPosition() | OffboardAttitude():
                 return guided.offboard_request(request)
             case ManualControlInput():

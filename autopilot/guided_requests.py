@@ -1,5 +1,6 @@
 """Guided requests: the commands that steer the vehicle beside arming and the mode choice (Land, Go-to, Orbit, VTOL
-transition, cruise speed, home, Offboard set-points), judged against the commander's state as PX4's commander does."""
+transition, cruise speed, home, Offboard set-points, a turn in Hold), judged against the commander's state as PX4's
+commander does."""
 
 from __future__ import annotations
 
@@ -7,7 +8,9 @@ from autopilot.auto_flight import Circle
 from autopilot.commander import ACCEPTED, DENIED, TEMPORARILY_REJECTED, Commander
 from autopilot.flight_modes import HOLD, LAND, OFFBOARD, ORBIT, VTOL_FW, VTOL_MC
 from autopilot.offboard_setpoint import SETPOINT_LIMITS
-from autopilot.requests import OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit, Reply, Reposition, SetHome
+from autopilot.attitude import wrap
+from autopilot.requests import (OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit, Reply, Reposition, SetHome,
+                                TurnTo)  # fmt: skip
 from autopilot.vehicle_state import VehicleState
 from transport.mavlink import mavlink
 
@@ -63,7 +66,8 @@ class GuidedRequests:
                       "deg/s, thrust 0..1)", key="attitude clamped")  # fmt: skip
             return ACCEPTED, None
         if c.offboard.accept(request, c.state, c.now_usec):
-            c.say(mavlink.MAV_SEVERITY_WARNING, "Set-point clamped to |v| <= (30, 30, 10) m/s", key="clamped")
+            c.say(mavlink.MAV_SEVERITY_WARNING, "Set-point clamped to |v| <= (30, 30, 10) m/s, |yaw rate| <= 180 "
+                  "deg/s", key="clamped")  # fmt: skip
         return ACCEPTED, None
 
     def route(self, request: Reposition | Orbit, state: VehicleState) -> Reply:
@@ -76,12 +80,27 @@ class GuidedRequests:
             return TEMPORARILY_REJECTED, f"{name} denied: not flying"
         if isinstance(request, Reposition):
             c.switch_mode(HOLD, state, "Reposition: Hold")
-            c.hold.reposition(state, request.position, request.speed)
+            c.hold.reposition(state, request.position, request.speed, request.yaw)
             return ACCEPTED, None
         center = state.position_ned[0:2].copy() if request.center is None else request.center
         down = float(state.position_ned[2]) if request.down is None else request.down
         c.switch_mode(ORBIT, state, f"Orbit: radius {request.radius:g} m at {request.speed:g} m/s")
-        c.orbit.start(state, Circle(center, down, request.radius, request.speed, request.clockwise))
+        c.orbit.start(state, Circle(center, down, request.radius, request.speed, request.clockwise,
+                                    request.yaw_behaviour, float(state.euler[2])))  # fmt: skip
+        return ACCEPTED, None
+
+    def turn_to(self, request: TurnTo, state: VehicleState) -> Reply:
+        """MAV_CMD_CONDITION_YAW: in Hold, hold here turned to the heading (PX4 takes it in missions only; ArduPilot
+        in its Guided mode, which Hold stands for here)."""
+        c = self.commander
+        if (refusal := c.refusal("Condition yaw", positional=True)) is not None:
+            return refusal
+        if not c.flying or c.mode != HOLD:
+            return TEMPORARILY_REJECTED, f"Condition yaw denied: in {c.mode if c.flying else 'no flight'} (Hold only)"
+        heading = request.angle
+        if request.relative:
+            heading = float(state.euler[2]) + (heading if request.clockwise else -heading)
+        c.hold.reposition(state, state.position_ned.copy(), None, wrap(heading))
         return ACCEPTED, None
 
     def change_speed(self, speed: float | None) -> Reply:

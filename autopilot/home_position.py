@@ -1,9 +1,13 @@
 """Home: where Return lands and the geofence's GF_MAX_HOR_DIST / GF_MAX_VER_DIST are measured from.
 
-At start home is the origin of the local NED frame (the `--home` of both processes, PX4_HOME_LAT/LON/ALT or PX4
-SITL's default). MAV_CMD_DO_SET_HOME moves home, never the origin: as in PX4, home and the local frame's reference
-are two things, and local positions (LOCAL_POSITION_NED, the set-points) stay relative to the origin. HOME_POSITION
-carries home's latitude, longitude and altitude, and its x, y, z in the local frame.
+The local NED frame's origin is fixed (the `--home` of both processes, PX4_HOME_LAT/LON/ALT or PX4 SITL's
+default). Home is set as PX4's commander sets it (its HomePosition): where the vehicle is at the first valid
+position on the ground, at every arming, and, disarmed on the ground, again when the vehicle has moved more than
+1 m horizontally or 1.5 m vertically from it; never over a home a ground station gave in coordinates
+(MAV_CMD_DO_SET_HOME, PX4's manual_home), which stays until the next DO_SET_HOME. A vehicle spawned in the air
+has the origin (the ground under its spawn point) as home until one of these sets it. Home never moves the origin:
+local positions (LOCAL_POSITION_NED, the set-points) stay relative to it. HOME_POSITION carries home's latitude,
+longitude and altitude, and its x, y, z in the local frame.
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ import pymap3d
 from transport.geodesy import Home, ned_from_geodetic
 
 MIN_ALT, MAX_ALT = -500.0, 10_000.0  # m AMSL: the altitudes a home may have (as --home)
+MOVED_HORIZONTAL, MOVED_VERTICAL = 1.0, 1.5  # m: PX4's kMinHomePositionChangeEPH / EPV (the estimate is exact here)
 
 
 @dataclass(frozen=True)
@@ -27,7 +32,7 @@ class HomePosition:
     north: float  # m from the local origin
     east: float
     down: float
-    manual: bool = False  # set by DO_SET_HOME (PX4's manual_home)
+    manual: bool = False  # set by DO_SET_HOME's coordinates (PX4's manual_home): arming leaves it
 
     @property
     def ned(self) -> np.ndarray:
@@ -56,16 +61,36 @@ def home_at(origin: Home, lat: float, lon: float, alt: float) -> HomePosition:
 
 
 def home_here(origin: Home, position_ned: np.ndarray) -> HomePosition:
-    """A home set where the vehicle is (`position_ned` from the origin)."""
+    """A home set where the vehicle is (`position_ned` from the origin); not manual, as PX4's setHomePosition."""
     north, east, down = (float(x) for x in position_ned[0:3])
     lat, lon, alt = (float(x) for x in pymap3d.ned2geodetic(north, east, down, origin.lat, origin.lon, origin.alt))
-    return HomePosition(lat, lon, alt, north, east, down, manual=True)
+    return HomePosition(lat, lon, alt, north, east, down)
+
+
+def moved_from(home: HomePosition, position_ned: np.ndarray) -> bool:
+    """The vehicle is far enough from home that a disarmed vehicle on the ground takes home with it (PX4's
+    hasMovedFromCurrentHomeLocation)."""
+    horizontal = math.hypot(float(position_ned[0]) - home.north, float(position_ned[1]) - home.east)
+    return horizontal > MOVED_HORIZONTAL or abs(float(position_ned[2]) - home.down) > MOVED_VERTICAL
 
 
 class HomeKeeper:
     """The local frame's origin (fixed) and the current home, shared by the commander and the parts that fly to
-    or measure from home (the commander alone sets it)."""
+    or measure from home (the commander alone sets it). `position` is replaced, never changed: a new object is a
+    new home."""
 
     def __init__(self, origin: Home) -> None:
         self.origin = origin
         self.position = at_origin(origin)
+
+    def set_here(self, position_ned: np.ndarray) -> bool:
+        """Home where the vehicle is, unless a ground station set it in coordinates (arming, the first valid
+        position); True if it was set."""
+        if self.position.manual:
+            return False
+        self.position = home_here(self.origin, position_ned)
+        return True
+
+    def follow(self, position_ned: np.ndarray) -> bool:
+        """Disarmed on the ground: home follows a vehicle that was moved (not over a manual home)."""
+        return moved_from(self.position, position_ned) and self.set_here(position_ned)

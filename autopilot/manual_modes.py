@@ -5,7 +5,9 @@
     y  roll stick, -1..1: right (+) / left
     z  throttle, 0..1 (MAVLink 0..1000), 0.5 centre: climb above centre up to MPC_Z_VEL_MAX_UP, descend below it
        down to MPC_Z_VEL_MAX_DN; centred: hold the altitude
-    r  yaw stick, -1..1: turns the sticks' frame at up to MPC_MAN_Y_MAX (the velocity controllers choose the nose)
+    r  yaw stick, -1..1: yaw rate up to MPC_MAN_Y_MAX from the nose; centred, the turn is stopped and the heading
+       where it stopped is held, as PX4's heading lock (docs/autopilot.md section 6); the sticks' frame is that
+       heading
 
 Position: horizontal velocity up to MPC_VEL_MANUAL; centred horizontal sticks brake, then hold the position.
 Altitude: the same horizontal velocity with no position hold (centred sticks: zero velocity, the vehicle may drift);
@@ -23,11 +25,13 @@ from autopilot.guidance import limit_norm, ramp, vertical_velocity
 from autopilot.parameters import ParameterStore
 from autopilot.requests import ManualControlInput, Reply
 from autopilot.vehicle_state import VehicleState
+from autopilot.yaw_setpoint import YawSetpoint
 from transport.mavlink import mavlink
 
 POSITION, ALTITUDE = "Position", "Altitude"
 TICK_S = 0.01
 BRAKED_SPEED = 1.0  # m/s: a centred stick locks the position (or altitude) once slower than this
+YAW_STOPPED = math.radians(5.0)  # rad/s: a centred yaw stick locks the heading once the yaw rate is below this
 NO_MAVLINK_MANUAL_CONTROL = (0, 4)  # COM_RC_IN_MODE: RC only (there is no RC here), manual control disabled
 
 
@@ -76,6 +80,14 @@ class ManualControl:
                                                             f"the last {self.params['COM_RC_LOSS_T']:g} s")  # fmt: skip
         return None
 
+    def stick_yaw_rate(self) -> float:
+        """The latest yaw stick as a rate (rad/s, MPC_MAN_Y_MAX at full stick)."""
+        return math.radians(self.params["MPC_MAN_Y_MAX"]) * deadzone(self.sticks.yaw, self.params["MPC_HOLD_DZ"])
+
+    def yaw_rate(self, now_usec: int) -> float | None:
+        """stick_yaw_rate, None without fresh sticks."""
+        return self.stick_yaw_rate() if self.fresh(now_usec) else None
+
     def restart(self) -> None:
         self.received_usec = None
 
@@ -91,13 +103,15 @@ class StickMode(FlightMode):
         self.name = name
         self.params = params
         self.manual = manual
-        self.heading = 0.0  # rad: the sticks' frame (forward = x)
+        self.heading = 0.0  # rad: the sticks' frame (forward = x): the nose while the yaw stick turns it, then held
+        self.turn_rate = 0.0  # rad/s: the yaw stick's
         self.hold_xy: np.ndarray | None = None
         self.hold_down: float | None = None
         self.velocity = np.zeros(3)
 
     def activate(self, state: VehicleState) -> None:
         self.heading = float(state.euler[2])
+        self.turn_rate = 0.0
         self.hold_xy = None
         self.hold_down = None
         self.velocity = state.velocity_ned.copy()
@@ -108,7 +122,9 @@ class StickMode(FlightMode):
     def setpoint(self, state: VehicleState) -> np.ndarray:
         p, sticks = self.params, self.manual.sticks
         zone = p["MPC_HOLD_DZ"]
-        self.heading += math.radians(p["MPC_MAN_Y_MAX"]) * deadzone(sticks.yaw, zone) * TICK_S
+        self.turn_rate = self.manual.stick_yaw_rate()
+        if self.turning(state):
+            self.heading = float(state.euler[2])
         forward, right = deadzone(sticks.pitch, zone), deadzone(sticks.roll, zone)
         c, s = math.cos(self.heading), math.sin(self.heading)
         horizontal = limit_norm(np.array([c * forward - s * right, s * forward + c * right]), 1.0) * p["MPC_VEL_MANUAL"]
@@ -118,6 +134,14 @@ class StickMode(FlightMode):
         down = self._altitude_hold(state, down, climb == 0.0)
         self.velocity = ramp(self.velocity, np.array([*horizontal, down]), p["MPC_ACC_HOR"], TICK_S)
         return self.velocity.copy()
+
+    def turning(self, state: VehicleState) -> bool:
+        """The yaw stick is out, or the turn it made has not stopped yet (the heading is locked once it has: locked
+        at once, the weak hover yaw overshot a fast turn's lock by 110 deg and swung back)."""
+        return self.turn_rate != 0.0 or abs(float(state.body_rates[2])) > YAW_STOPPED
+
+    def yaw(self, state: VehicleState) -> YawSetpoint | None:
+        return YawSetpoint(rate=self.turn_rate) if self.turning(state) else YawSetpoint(self.heading)
 
     def _horizontal_hold(self, state: VehicleState, wanted: np.ndarray, centred: bool) -> np.ndarray:
         if not centred or self.name == ALTITUDE:

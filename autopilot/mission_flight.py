@@ -2,10 +2,12 @@
 through item by item, each navigation item turned into targets for AutoFlight (autopilot/auto_flight.py), the
 progress reported to the mission store (MISSION_CURRENT, MISSION_ITEM_REACHED).
 
-    NAV_WAYPOINT                  FlyTo, acceptance radius param2 (0: NAV_ACC_RAD)
-    NAV_TAKEOFF, NAV_VTOL_TAKEOFF Climb over the current position to the item's altitude
-    NAV_LAND, NAV_VTOL_LAND       FlyTo over the point (at the current altitude), LandAt (lat/lon 0: here)
-    NAV_LOITER_TIME / _UNLIM      FlyTo, then HoldAt for param1 s (for ever)
+    NAV_WAYPOINT                  FlyTo, acceptance radius param2 (0: NAV_ACC_RAD), yaw param4
+    NAV_TAKEOFF, NAV_VTOL_TAKEOFF Climb over the current position to the item's altitude, yaw param4
+    NAV_LAND, NAV_VTOL_LAND       FlyTo over the point (at the current altitude), LandAt (lat/lon 0: here), yaw
+                                  param4
+    NAV_LOITER_TIME / _UNLIM      FlyTo, then HoldAt for param1 s (for ever); _UNLIM: yaw param4 (LOITER_TIME's
+                                  param4 is not a yaw)
     NAV_DELAY                     HoldAt here for param1 s
     NAV_RETURN_TO_LAUNCH          the Return route (to the closest of home and the rally points)
     DO_CHANGE_SPEED               param2 > 0: the cruise speed of the following legs (-1: back to the defaults)
@@ -19,6 +21,9 @@ progress reported to the mission store (MISSION_CURRENT, MISSION_ITEM_REACHED).
 A mission with a DO_VTOL_TRANSITION item flies as PX4 flies it: in multicopter until the item to fixed wing,
 back to multicopter at the item to MC (so the PID back-transitions before its landing). A mission without one
 chooses each leg's speed by its length: the unified MPC transitions by itself (docs/mavlink.md, "Mission").
+
+A yaw (param4, degrees; NaN: the velocity controllers' own rule, the nose along the leg) is the item's targets' yaw
+set-point (autopilot/auto_flight.py: a waypoint with one is reached once the heading is within MIS_YAW_ERR).
 
 A mission started on the ground whose first navigation item is a waypoint or loiter (no takeoff item) takes off
 first, as PX4's mission does: a climb over the current position to the higher of the item's altitude and
@@ -37,15 +42,24 @@ from autopilot.auto_flight import AutoFlight, Climb, FlyTo, HoldAt, LandAt, Targ
 from autopilot.mission_items import MissionItem
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
+from autopilot.return_route import LANDING_APPROACH_RADIUS, plan_return
 from autopilot.vehicle_state import VehicleState
 from autopilot.home_position import HomeKeeper
 from transport.geodesy import ned_from_geodetic
 from transport.mavlink import mavlink as M
 
-LANDING_APPROACH_RADIUS = 1.0  # m: the FlyTo before a landing stops within this of the landing point
+YAW_ITEMS = (M.MAV_CMD_NAV_WAYPOINT, M.MAV_CMD_NAV_LOITER_UNLIM, M.MAV_CMD_NAV_TAKEOFF, M.MAV_CMD_NAV_VTOL_TAKEOFF,
+             M.MAV_CMD_NAV_LAND, M.MAV_CMD_NAV_VTOL_LAND)  # param4 is their yaw (deg)
 LANDS = (M.MAV_CMD_NAV_LAND, M.MAV_CMD_NAV_VTOL_LAND)
 TAKEOFFS = (M.MAV_CMD_NAV_TAKEOFF, M.MAV_CMD_NAV_VTOL_TAKEOFF)
 TAKEOFF_BEFORE = (M.MAV_CMD_NAV_WAYPOINT, M.MAV_CMD_NAV_LOITER_TIME, M.MAV_CMD_NAV_LOITER_UNLIM)
+
+
+def item_yaw(item: MissionItem) -> float | None:
+    """The item's yaw (rad) from param4 (degrees) for the items that have one; None when NaN or not theirs."""
+    if item.command not in YAW_ITEMS or not math.isfinite(item.param4):
+        return None
+    return math.radians(item.param4)
 
 
 def takeoff_down(item_down: float, ground_down: float, takeoff_alt: float) -> float:
@@ -53,39 +67,6 @@ def takeoff_down(item_down: float, ground_down: float, takeoff_alt: float) -> fl
     item's, but at least `takeoff_alt` (MIS_TAKEOFF_ALT) above the ground (PX4's calculate_takeoff_altitude)."""
     return min(item_down, ground_down - takeoff_alt)
 VTOL_FW, VTOL_MC = M.MAV_VTOL_STATE_FW, M.MAV_VTOL_STATE_MC
-
-
-def closest_safe_point(position_ned: np.ndarray, rally_points: list[np.ndarray],
-                       home_ned: np.ndarray = np.zeros(3)) -> np.ndarray:  # fmt: skip
-    """The closest (horizontally) of home and the rally points, (north, east) from the local origin (PX4's RTL_TYPE
-    0)."""
-    return min([home_ned[0:2].copy(), *(point[0:2] for point in rally_points)],
-               key=lambda point: float(np.hypot(*(point - position_ned[0:2]))))  # fmt: skip
-
-
-def return_height(height: float, distance: float, return_alt: float, cone_deg: int) -> float:
-    """PX4's return altitude (its calculate_return_alt_from_cone_half_angle), as the height above the destination:
-    RTL_RETURN_ALT, lowered within the RTL_CONE_ANG cone over the destination to the cone's height at `distance`
-    (m, horizontal); never below `height` (where the vehicle is now). cone_deg 0: no cone; 90: no climb."""
-    if height > return_alt or cone_deg >= 90:
-        return height
-    if cone_deg <= 0:
-        return return_alt
-    cone = math.radians(min(max(cone_deg, 1), 89))
-    return max(height, min(max(distance / math.tan(cone), 0.0), return_alt))
-
-
-def return_route(params: ParameterStore, state: VehicleState, rally_points: list[np.ndarray],
-                 home_ned: np.ndarray) -> list[Target]:  # fmt: skip
-    """Climb to the return altitude above home (return_height) over here, fly at it to the closest of home and the
-    rally points, land there."""
-    destination = closest_safe_point(state.position_ned, rally_points, home_ned)
-    distance = float(np.hypot(*(state.position_ned[0:2] - destination)))
-    height = float(home_ned[2]) - float(state.position_ned[2])
-    down = float(home_ned[2]) - return_height(height, distance, params["RTL_RETURN_ALT"],
-                                              params.get_int("RTL_CONE_ANG"))  # fmt: skip
-    return [Climb(state.position_ned[0:2].copy(), down, params["MPC_Z_VEL_MAX_UP"]),
-            FlyTo(np.array([*destination, down]), LANDING_APPROACH_RADIUS), LandAt(destination.copy())]  # fmt: skip
 
 
 class MissionFlight:
@@ -213,23 +194,23 @@ class MissionFlight:
 
     def _targets(self, state: VehicleState, item: MissionItem) -> list[Target]:
         p = self.params
-        command = item.command
+        command, yaw = item.command, item_yaw(item)
         if command == M.MAV_CMD_NAV_WAYPOINT:
             radius = item.param2 if math.isfinite(item.param2) and item.param2 > 0 else p["NAV_ACC_RAD"]
-            return [FlyTo(self._position(state.position_ned, item), radius)]
+            return [FlyTo(self._position(state.position_ned, item), radius, yaw=yaw)]
         if command in TAKEOFFS:
             down = float(self._position(state.position_ned, item)[2])
-            return [Climb(state.position_ned[0:2].copy(), down, p["MPC_TKO_SPEED"])]
+            return [Climb(state.position_ned[0:2].copy(), down, p["MPC_TKO_SPEED"], yaw)]
         if command in LANDS:
             point = self._position(state.position_ned, item)
             point[2] = float(state.position_ned[2])
-            return [FlyTo(point, LANDING_APPROACH_RADIUS), LandAt(point[0:2].copy())]
+            return [FlyTo(point, LANDING_APPROACH_RADIUS, yaw=yaw), LandAt(point[0:2].copy(), yaw)]
         if command in (M.MAV_CMD_NAV_LOITER_TIME, M.MAV_CMD_NAV_LOITER_UNLIM):
             point = self._position(state.position_ned, item)
             seconds = max(item.param1, 0.0) if command == M.MAV_CMD_NAV_LOITER_TIME else None
-            return [FlyTo(point, p["NAV_ACC_RAD"]), HoldAt(point, seconds)]
+            return [FlyTo(point, p["NAV_ACC_RAD"], yaw=yaw), HoldAt(point, seconds, yaw)]
         if command == M.MAV_CMD_NAV_DELAY:
             return [HoldAt(state.position_ned.copy(), max(item.param1, 0.0))]
         if command == M.MAV_CMD_NAV_RETURN_TO_LAUNCH:
-            return return_route(p, state, self.rally_points(), self.homes.position.ned)
+            return plan_return(p, state, self.rally_points(), self.homes.position.ned).route
         return []  # DO_CHANGE_SPEED, DO_VTOL_TRANSITION (done above), DO_SET_HOME: nothing to fly

@@ -41,6 +41,7 @@ from autopilot.mpc_model import (
 )
 from autopilot.vehicle_state import VehicleState
 from autopilot.velocity_command import SetpointTrajectory, VelocityCommand, course_rate
+from autopilot.yaw_setpoint import YawReference
 
 DEFAULT_HORIZON = PAPER  # the stages' lengths and the weights that go with them (docs/mpc.md 2.9)
 MAX_FAILURES = 3
@@ -107,9 +108,9 @@ class MpcVelocityController:
         thrust_min = np.where(working, allocator.lower[ALLOCATED_ROTORS] * a.thrust_max, 0.0)
         self.solver.set_actuator_limits(thrust_max, self.servos.stuck, thrust_min, self.servos.rate_scale)
 
-    def _set_parameters(self, v_sp: np.ndarray, yaw: float, time_usec: int) -> None:
-        """Per stage: the extrapolated set-point, its course (psi_ref), the working servos and the bank of a
-        coordinated turn (phi_ref)."""
+    def _set_parameters(self, v_sp: np.ndarray, yaw: float, time_usec: int, reference: YawReference | None) -> None:
+        """Per stage: the extrapolated set-point, its course (psi_ref; the yaw reference instead when given), the
+        working servos and the bank of a coordinated turn (phi_ref)."""
         solver, params = self.solver, self.params
         rate = self.trajectory.update(time_usec, v_sp)
         v_sp = self.trajectory.now(time_usec)
@@ -120,9 +121,13 @@ class MpcVelocityController:
         psi_ref = yaw
         for k in range(solver.horizon + 1):
             v_sp_k = params[P_V_SP, k]
-            psi_ref = yaw_reference(v_sp_k[0], v_sp_k[1], psi_ref)
-            # The set-point's course rate, while it has a course (the yaw reference follows it).
-            turn_rate = course_rate(v_sp_k, rates[:, k])
+            if reference is None:
+                psi_ref = yaw_reference(v_sp_k[0], v_sp_k[1], psi_ref)
+                # The set-point's course rate, while it has a course (the yaw reference follows it).
+                turn_rate = course_rate(v_sp_k, rates[:, k])
+            else:  # each stage within pi of the one before, stage 0 of the (continuous) yaw
+                psi_ref = psi_ref + wrap(reference.at(solver.grid.times_s[k]) - psi_ref)
+                turn_rate = reference.rate
             params[P_PSI_REF, k] = psi_ref
             bank_limit = self.limits.attitude[0]
             params[P_PHI_REF, k] = coordinated_roll(rates[:, k], psi_ref, self.airframe.gravity, bank_limit)
@@ -130,7 +135,8 @@ class MpcVelocityController:
             # The yaw set-point that holds the attitude loop on a yaw turning at turn_rate: it leads by rate / K_att.
             params[P_PSI_D_REF, k] = psi_ref + turn_rate / yaw_gain
 
-    def update(self, state: VehicleState, v_sp: np.ndarray, tilts: np.ndarray) -> VelocityCommand:
+    def update(self, state: VehicleState, v_sp: np.ndarray, tilts: np.ndarray,
+               yaw_ref: YawReference | None = None) -> VelocityCommand:  # fmt: skip
         rates = euler_rates(state.euler, state.body_rates)
         previous = rates if self.previous_rates is None else self.previous_rates
         self.previous_rates = rates
@@ -151,7 +157,7 @@ class MpcVelocityController:
         x0 = np.concatenate((state.velocity_ned, tilts, euler, rates, previous))
         self.last_x0 = x0
         self._bounds_from_health()
-        self._set_parameters(v_sp, yaw, state.time_usec)
+        self._set_parameters(v_sp, yaw, state.time_usec, yaw_ref)
         if not solver.initialised:
             solver.initialise(x0, self.airframe.hover_thrust_per_rotor)
             for _ in range(WARM_UP_ITERATIONS):

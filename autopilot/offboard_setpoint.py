@@ -1,5 +1,5 @@
 """The Offboard set-point as the commander keeps it: the latest velocity, position with a velocity
-feed-forward, or attitude (or body rates) with thrust, when it arrived (for the COM_OF_LOSS_T failsafe), and, with
+feed-forward (each with its yaw set-point, if any), or attitude (or body rates) with thrust, when it arrived (for the COM_OF_LOSS_T failsafe), and, with
 `--offboard-lockstep`, the stamped velocity set-points waiting for their simulation time.
 """
 
@@ -13,10 +13,11 @@ import numpy as np
 from autopilot.requests import OffboardAttitude, OffboardPosition, OffboardVelocity
 from autopilot.stamped_setpoints import StampedSetpoints
 from autopilot.vehicle_state import VehicleState
+from autopilot.yaw_setpoint import YawSetpoint
 
 SETPOINT_LIMITS = np.array([30.0, 30.0, 10.0])  # m/s: the MPC's velocity envelope; set-points are clamped to it
 TILT_LIMIT = math.radians(45.0)  # rad: Offboard roll and pitch set-points are clamped to this
-RATE_LIMIT = math.pi  # rad/s: the attitude loop's rate limit; body-rate set-points are clamped to it
+RATE_LIMIT = math.pi  # rad/s: the attitude loop's rate limit; body-rate and yaw-rate set-points are clamped to it
 ATTITUDE_CLIMB = 1.0  # m/s: the climb (or descent) an Offboard thrust above (below) hover stands for
 
 
@@ -50,6 +51,13 @@ def attitude_in_limits(request: OffboardAttitude, last_thrust: float) -> tuple[A
     return AttitudeTarget(euler, rates, clamped_thrust), clamped
 
 
+def yaw_in_limits(yaw: YawSetpoint | None) -> tuple[YawSetpoint | None, bool]:
+    """The yaw rate clamped to RATE_LIMIT; True when clamped."""
+    if yaw is None or yaw.rate is None or abs(yaw.rate) <= RATE_LIMIT:
+        return yaw, False
+    return YawSetpoint(yaw.heading, math.copysign(RATE_LIMIT, yaw.rate)), True
+
+
 def to_ned(vector: np.ndarray, yaw: float) -> np.ndarray:
     """A vector of a yaw-rotated (body NED) frame in NED."""
     c, s = math.cos(yaw), math.sin(yaw)
@@ -70,6 +78,7 @@ class OffboardSetpoint:
         self.velocity = np.zeros(3)  # NED, m/s (with a position: its feed-forward)
         self.position: np.ndarray | None = None  # NED from home, m; None: a velocity set-point
         self.attitude: AttitudeTarget | None = None  # SET_ATTITUDE_TARGET's (the velocity is then unused)
+        self.yaw: YawSetpoint | None = None  # the velocity's or position's yaw set-point (None: none given)
         self.received_usec: int | None = None
         self.stamped = StampedSetpoints() if stamped else None
         self.clamped = 0  # set-points accept() had to clamp so far
@@ -89,38 +98,45 @@ class OffboardSetpoint:
             self.attitude, clamped = attitude_in_limits(request, last_thrust)
             self.velocity = np.zeros(3)
             self.position = None
+            self.yaw = None
             self.received_usec = now_usec
             return clamped
         yaw = float(state.euler[2])
         velocity, clamped = in_envelope(request.velocity, request.body, yaw)
+        yaw_setpoint, rate_clamped = yaw_in_limits(request.yaw)
         if isinstance(request, OffboardVelocity):
-            self.receive(velocity, request.stamp_ms, now_usec)
-            return clamped
+            self.receive(velocity, request.stamp_ms, now_usec, yaw_setpoint)
+            return clamped or rate_clamped
         offset = to_ned(request.position, yaw) if request.body else request.position
-        self.receive_position(state.position_ned + offset if request.relative else offset, velocity, now_usec)
-        return clamped
+        self.receive_position(state.position_ned + offset if request.relative else offset, velocity, now_usec,
+                              yaw_setpoint)  # fmt: skip
+        return clamped or rate_clamped
 
-    def receive(self, velocity_ned: np.ndarray, stamp_ms: int | None, now_usec: int) -> None:
+    def receive(self, velocity_ned: np.ndarray, stamp_ms: int | None, now_usec: int,
+                yaw: YawSetpoint | None = None) -> None:  # fmt: skip
         """A set-point received now; a stamped one (--offboard-lockstep) takes effect at its time_boot_ms."""
         if self.stamped is not None and stamp_ms is not None:
-            self.stamped.add(stamp_ms, velocity_ned)
+            self.stamped.add(stamp_ms, (velocity_ned, yaw))
             return
         self.velocity = velocity_ned
+        self.yaw = yaw
         self.position = None
         self.attitude = None
         self.received_usec = now_usec
 
-    def receive_position(self, position_ned: np.ndarray, velocity_ned: np.ndarray, now_usec: int) -> None:
+    def receive_position(self, position_ned: np.ndarray, velocity_ned: np.ndarray, now_usec: int,
+                         yaw: YawSetpoint | None = None) -> None:  # fmt: skip
         """A position set-point (NED from home) with its velocity feed-forward, received now."""
         self.position = position_ned
         self.velocity = velocity_ned
+        self.yaw = yaw
         self.attitude = None
         self.received_usec = now_usec
 
     def take_due(self, time_usec: int) -> None:
         """The newest stamped set-point whose time has come takes effect."""
         if self.stamped is not None and (due := self.stamped.due(time_usec)) is not None:
-            self.velocity = due
+            self.velocity, self.yaw = due
             self.position = None
             self.attitude = None
             self.received_usec = time_usec

@@ -56,6 +56,8 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
     P("VT_MPC_HRZN", INT32, 0, 0, 1, "", "the MPC's horizon: 0 the paper's 25 stages of 10 ms, 1 the long one "
       "(2.05 s, docs/mpc.md 2.9) (at the next start or takeoff from the ground; --mpc-horizon overrides at start)",
       px4=False),
+    P("VT_MPC_OVERLAP", INT32, 0, 0, 1, "", "MPC solve: 0 synchronous (the paper's), 1 one control tick ahead on a "
+      "second core, from the predicted state (at the next start or takeoff from the ground)", px4=False),
     P("SYS_FAILURE_EN", INT32, 0, 0, 1, "", "1 enables MAV_CMD_INJECT_FAILURE"),
     P("SYS_FAILURE_DLY", REAL32, 0.0, 0.0, 60.0, "s", "delay before the controllers learn of an injected failure",
       px4=False),
@@ -73,7 +75,11 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
       "2 Return, 3 Land, 5 Terminate, 6 Disarm (motors off)"),
     P("MPC_VEL_MANUAL", REAL32, 10.0, 3.0, 20.0, "m/s", "Position: horizontal speed at full stick"),
     P("MPC_HOLD_DZ", REAL32, 0.1, 0.0, 1.0, "", "stick deadzone of Position and Altitude (centred: hold)"),
-    P("MPC_MAN_Y_MAX", REAL32, 150.0, 0.0, 400.0, "deg/s", "yaw stick: rate of the sticks' heading at full stick"),
+    P("MPC_MAN_Y_MAX", REAL32, 150.0, 0.0, 400.0, "deg/s", "yaw stick: yaw rate at full stick (Position, Altitude)"),
+    P("MPC_YAWRAUTO_MAX", REAL32, 30.0, 5.0, 360.0, "deg/s", "fastest turn to a yaw set-point (Offboard, Mission, "
+      "Go-to, Orbit; PX4's default 45: docs/autopilot.md section 6)"),
+    P("MIS_YAW_ERR", REAL32, 12.0, 1.0, 90.0, "deg", "a mission waypoint with a yaw (param4) is reached once the "
+      "heading is within this of it (flown as a multicopter)"),
     P("COM_POS_FS_DELAY", INT32, 1, 1, 100, "s", "position loss failsafe (GPS OFF): Descend after this long"),
     P("GF_ACTION", INT32, 2, 0, 5, "", "geofence breach action: 0 none, 1 warning, 2 Hold, 3 Return, 4 terminate "
       "(motors off), 5 Land"),
@@ -105,7 +111,13 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
     P("RTL_RETURN_ALT", REAL32, 60.0, 0.0, 1000.0, "m", "Return: climb to this height above home (if lower) before "
       "flying to the closest of home and the rally points"),
     P("RTL_CONE_ANG", INT32, 45, 0, 90, "deg", "Return: half-angle of the cone over the destination that lowers the "
-      "return altitude near it (0: always RTL_RETURN_ALT; 90: no climb)"),
+      "return altitude within RTL_MIN_DIST of it (0: always RTL_RETURN_ALT)"),
+    P("RTL_MIN_DIST", REAL32, 10.0, 0.5, 10000.0, "m", "Return: within this horizontal distance of the destination "
+      "the return altitude is the RTL_CONE_ANG cone's"),
+    P("RTL_DESCEND_ALT", REAL32, 30.0, 0.0, 1000.0, "m", "Return: with RTL_LAND_DELAY not 0, descend over the "
+      "destination to this height above home (if lower) and wait there before landing"),
+    P("RTL_LAND_DELAY", REAL32, 0.0, -1.0, 3600.0, "s", "Return: wait this long at RTL_DESCEND_ALT before landing "
+      "(0: land at once; -1: wait for ever, no landing)"),
     P("NAV_LOITER_RAD", REAL32, 250.0, 100.0, 2000.0, "m", "radius of the fixed-wing Hold circle"),
 )
 del P

@@ -26,6 +26,7 @@ from aircraft.airframe import Airframe
 from autopilot.attitude import DEFAULT_GAINS, wrap
 from autopilot.vehicle_state import VehicleState
 from autopilot.velocity_command import SetpointTrajectory, VelocityCommand, course_rate, setpoint_course
+from autopilot.yaw_setpoint import YawReference
 
 MC, TRANSITION_FW, FW, TRANSITION_MC = "MC", "TRANSITION_FW", "FW", "TRANSITION_MC"
 YAW_ATTITUDE_GAIN = DEFAULT_GAINS.attitude[2]
@@ -52,6 +53,7 @@ class PidParameters:
     mc_acc_hor_max: float = 6.0  # MPC_ACC_HOR_MAX (m/s^2)
     mc_acc_up_max: float = 6.0  # MPC_ACC_UP_MAX (m/s^2)
     mc_acc_down_max: float = 4.0  # MPC_ACC_DOWN_MAX (m/s^2)
+    mc_yawrate_max_deg: float = 45.0  # MC_YAWRATE_MAX (PX4: 200): the fastest yaw reference rate the PID turns at
     mc_speed_max: float = 12.0  # MPC_XY_VEL_MAX (m/s): above it the set-point asks for forward flight
     arsp_blend: float = 13.5  # VT_ARSP_BLEND (m/s)
     arsp_trans: float = 23.0  # VT_ARSP_TRANS (m/s)
@@ -102,13 +104,15 @@ class PidVelocityController:
         self.p = replace(self.p, arsp_blend=blend, arsp_trans=trans)
 
     # ---- the controller ----------------------------------------------------------------------------------
-    def update(self, state: VehicleState, v_sp: np.ndarray, tilts: np.ndarray) -> VelocityCommand:
-        """One 100 Hz step. `tilts` is the autopilot's estimate of the rotors' present tilts (rad)."""
+    def update(self, state: VehicleState, v_sp: np.ndarray, tilts: np.ndarray,
+               yaw: YawReference | None = None) -> VelocityCommand:  # fmt: skip
+        """One 100 Hz step. `tilts` is the autopilot's estimate of the rotors' present tilts (rad); `yaw` the yaw
+        reference to follow (None: the set-point's course, or the yaw held at low speed)."""
         self.setpoint_rate = self.trajectory.update(state.time_usec, v_sp)
         v_sp = self.trajectory.now(state.time_usec)  # slower set-points carried on along their rate
         speed_sp = math.hypot(v_sp[0], v_sp[1])
         self.update_phase(state, speed_sp, float(np.mean(tilts)))
-        yaw_sp = self._yaw_setpoint(state, v_sp)
+        yaw_sp = self._yaw_setpoint(state, v_sp, yaw)
         if self.phase == MC:
             return self.multicopter(state, v_sp, yaw_sp)
         if self.phase == TRANSITION_FW:
@@ -226,7 +230,11 @@ class PidVelocityController:
         p = self.p
         return clamp((state.airspeed - p.arsp_blend) / (p.arsp_trans - p.arsp_blend), 0.0, 1.0)
 
-    def _yaw_setpoint(self, state: VehicleState, v_sp: np.ndarray) -> float:
+    def _yaw_setpoint(self, state: VehicleState, v_sp: np.ndarray, reference: YawReference | None) -> float:
+        if reference is not None:  # leads by the attitude loop's lag, so the yaw turns at the reference's rate
+            self.yaw_hold = None
+            limit = math.radians(self.p.mc_yawrate_max_deg)
+            return reference.yaw + clamp(reference.rate, -limit, limit) / YAW_ATTITUDE_GAIN
         course = setpoint_course(v_sp[0], v_sp[1])
         if course is not None:
             self.yaw_hold = None

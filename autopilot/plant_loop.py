@@ -187,6 +187,7 @@ class PlantLoop:
                 self._new_controller()
             if setpoint is not None and commander.flying:
                 self.controller.set_velocity_setpoint(setpoint)
+                self.controller.set_yaw_reference(commander.yaw_reference)
                 self.controller.set_attitude_setpoint(commander.attitude_setpoint)
                 if self.outputs.telemetry is not None:
                     self.outputs.telemetry.publish(t, self.controller)
@@ -205,7 +206,7 @@ class PlantLoop:
             vtol_state=vtol_state(c.servos.tilt, c.command[TILTS]), state_version=report.state_version,
             estimate=copy_state(self.state),
             position=GlobalPosition(hil.lat, hil.lon, hil.alt, hil.vx, hil.vy, hil.vz),
-            home=self.home, pwm=tuple(pwm), throttle_percent=throttle, controller=c.kind,
+            home=self.commander.homes.position, pwm=tuple(pwm), throttle_percent=throttle, controller=c.kind,
             failures=tuple(self.injection.known), events=self.events.drain(),
             injections=self.injection.drain_outcomes(), missions=self.missions.snapshot,
         )  # fmt: skip

@@ -16,6 +16,7 @@ import numpy as np
 from aircraft.failures import Failure
 from autopilot.home_position import HomePosition
 from autopilot.mission_items import MissionItem
+from autopilot.yaw_setpoint import YawSetpoint
 
 Reply = tuple[int, str | None]  # (MAV_RESULT, reason or None)
 
@@ -60,11 +61,13 @@ class Transition:
 
 @dataclass(frozen=True)
 class OffboardVelocity:
-    """A finite velocity set-point (m/s) received now; `body` when it is in a yaw-rotated (body) frame."""
+    """A finite velocity set-point (m/s) received now; `body` when it is in a yaw-rotated (body) frame; `yaw` the
+    finite heading (rad, NED in every frame, as PX4 takes it) and/or yaw rate (rad/s), None when both are ignored."""
 
     velocity: np.ndarray
     body: bool
     stamp_ms: int | None  # its time_boot_ms (with --offboard-lockstep it takes effect then)
+    yaw: YawSetpoint | None = None
 
 
 @dataclass(frozen=True)
@@ -76,6 +79,7 @@ class OffboardPosition:
     velocity: np.ndarray
     relative: bool
     body: bool
+    yaw: YawSetpoint | None = None  # as OffboardVelocity's
 
 
 @dataclass(frozen=True)
@@ -139,10 +143,22 @@ class ReturnToLaunch:
 
 @dataclass(frozen=True)
 class Reposition:
-    """MAV_CMD_DO_REPOSITION: fly to `position` (NED from home) and Hold there; `speed` None: the default."""
+    """MAV_CMD_DO_REPOSITION: fly to `position` (NED from home) and Hold there; `speed` None: the default; `yaw` the
+    heading (rad) on the way and there, None: the velocity controllers' own rule."""
 
     position: np.ndarray
     speed: float | None
+    yaw: float | None = None
+
+
+@dataclass(frozen=True)
+class TurnTo:
+    """MAV_CMD_CONDITION_YAW: turn to `angle` (rad, finite) in Hold; `relative`: by `angle` from the current heading,
+    `clockwise` or not."""
+
+    angle: float
+    relative: bool
+    clockwise: bool
 
 
 @dataclass(frozen=True)
@@ -161,6 +177,7 @@ class Orbit:
     radius: float  # m, > 0
     clockwise: bool
     speed: float  # m/s
+    yaw_behaviour: int = 0  # ORBIT_YAW_BEHAVIOUR (0: HOLD_FRONT_TO_CIRCLE_CENTER, PX4's default)
 
 
 @dataclass(frozen=True)
@@ -171,7 +188,7 @@ class GcsHeartbeat:
 Request = (Arm | Disarm | Takeoff | Land | SetMode | Transition | OffboardVelocity | OffboardPosition
            | OffboardAttitude | ManualControlInput | InjectFailure
            | StoreMission | ClearMission | SetMissionCurrent | StartMission | ReturnToLaunch | Reposition | ChangeSpeed
-           | Orbit | GcsHeartbeat | SetHome)  # fmt: skip
+           | Orbit | GcsHeartbeat | SetHome | TurnTo)  # fmt: skip
 
 
 class RequestHandler(Protocol):

@@ -15,35 +15,39 @@ import bisect
 
 import numpy as np
 
+from autopilot.yaw_setpoint import YawSetpoint
+
+Stamped = tuple[np.ndarray, YawSetpoint | None]  # a velocity set-point (NED, m/s) and its yaw set-point
+
 
 class StampedSetpoints:
     """The set-points received and not yet due, in stamp order (equal stamps: the later one wins)."""
 
     def __init__(self) -> None:
         self._stamps: list[int] = []
-        self._velocities: list[np.ndarray] = []
+        self._setpoints: list[Stamped] = []
         self.covered_ms = -1  # the newest stamp received: set-points cover the simulation up to here
 
-    def add(self, stamp_ms: int, velocity_ned: np.ndarray) -> None:
+    def add(self, stamp_ms: int, setpoint: Stamped) -> None:
         index = bisect.bisect_right(self._stamps, stamp_ms)
         self._stamps.insert(index, stamp_ms)
-        self._velocities.insert(index, velocity_ned)
+        self._setpoints.insert(index, setpoint)
         self.covered_ms = max(self.covered_ms, stamp_ms)
 
     def covers(self, time_usec: int) -> bool:
         """A set-point for this simulation time (or later) has arrived: the simulation may go on."""
         return self.covered_ms >= time_usec // 1000
 
-    def due(self, time_usec: int) -> np.ndarray | None:
+    def due(self, time_usec: int) -> Stamped | None:
         """The newest set-point whose stamp has been reached (those before it are dropped), or None."""
         count = bisect.bisect_right(self._stamps, time_usec // 1000)
         if count == 0:
             return None
-        velocity = self._velocities[count - 1]
-        del self._stamps[:count], self._velocities[:count]
-        return velocity
+        setpoint = self._setpoints[count - 1]
+        del self._stamps[:count], self._setpoints[:count]
+        return setpoint
 
     def clear(self) -> None:
         self._stamps.clear()
-        self._velocities.clear()
+        self._setpoints.clear()
         self.covered_ms = -1

@@ -1,10 +1,10 @@
 """The vehicle's status snapshot: what the flight stack publishes once per plant step for the MAVLink services.
 
 The services (autopilot/mavlink/) read only this: arming, mode, landed and VTOL state, the state estimate, the
-position as the GPS sees it, home, the actuator outputs, the controller flying, the failures known, the stored
-missions and their progress (MISSION_CURRENT, MISSION_ITEM_REACHED, downloads), and what
-happened since the last snapshot (events to announce, failure injections answered by the plant). As PX4's
-mavlink streams read vehicle_status and friends, never the commander.
+position as the GPS sees it, home as the commander keeps it (HOME_POSITION, relative altitudes), the actuator
+outputs, the controller flying, the failures known, the stored missions and their progress (MISSION_CURRENT,
+MISSION_ITEM_REACHED, downloads), and what happened since the last snapshot (events to announce, failure
+injections answered by the plant). As PX4's mavlink streams read vehicle_status and friends, never the commander.
 """
 
 from __future__ import annotations
@@ -16,10 +16,10 @@ from typing import TypeVar
 import numpy as np
 
 from aircraft.failures import Failure
+from autopilot.home_position import HomePosition
 from autopilot.mission_store import EMPTY as NO_MISSIONS
 from autopilot.mission_store import Missions
 from autopilot.vehicle_state import VehicleState
-from transport.geodesy import Home
 from transport.mavlink import mavlink
 
 T = TypeVar("T")
@@ -69,7 +69,7 @@ class VehicleStatus:
     state_version: int  # changes with every arming, mode or ground-state change (a HEARTBEAT is due)
     estimate: VehicleState
     position: GlobalPosition
-    home: Home
+    home: HomePosition  # the commander's (replaced on every change: a new object is a new home)
     pwm: tuple[int, ...]  # the 12 channels sent to the plant this step
     throttle_percent: int
     controller: str  # the velocity controller flying: "mpc" or "pid"

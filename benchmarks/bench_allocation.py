@@ -16,9 +16,7 @@ from __future__ import annotations
 import argparse
 import math
 import statistics
-import sys
 import time
-from pathlib import Path
 
 import casadi as ca
 import numpy as np

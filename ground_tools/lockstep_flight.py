@@ -36,8 +36,10 @@ def fly_lockstep(
     log_path: Path | None = None,
     autopilot_args: tuple[str, ...] = (),
     timeout_s: float = 900.0,
+    autopilot_profile: Path | None = None,
 ) -> LockstepFlight:
-    """Fly `profile` for `duration_s` simulated seconds from a hover at `spawn_alt`; raises FlightFailed."""
+    """Fly `profile` for `duration_s` simulated seconds from a hover at `spawn_alt`; raises FlightFailed.
+    autopilot_profile: run the autopilot under cProfile, its statistics written there (benchmarks)."""
     port = free_udp_port()
     plant = subprocess.Popen(
         deterministic_argv(SimCommand(port=port, spawn_alt=spawn_alt, zenoh=Zenoh.off(), duration_s=duration_s,
@@ -48,8 +50,11 @@ def fly_lockstep(
         sim_port=port, links=free_link_ports(), spawn_alt=spawn_alt, profile=profile, duration_s=duration_s,
         controller=controller, summary=True, zenoh=Zenoh.off(), quiet=True, log=log_path, extra=autopilot_args,
     )  # fmt: skip
+    argv = autopilot_command.argv()
+    if autopilot_profile is not None:  # [python, -m, module, ...] -> [python, -m, cProfile, -o, FILE, -m, module, ...]
+        argv = [argv[0], "-m", "cProfile", "-o", str(autopilot_profile), *argv[1:]]
     try:
-        autopilot = subprocess.run(deterministic_argv(autopilot_command.argv()), capture_output=True, text=True, timeout=timeout_s,
+        autopilot = subprocess.run(deterministic_argv(argv), capture_output=True, text=True, timeout=timeout_s,
                                    env=deterministic_environment())  # fmt: skip
         plant_out, plant_err = plant.communicate(timeout=120)
     finally:

@@ -7,8 +7,8 @@ One JSON object per line, in arrival order (gzip-compressed when the file name e
     {"key": "vtol/1/plant/state", "error": "plant state payload has 24 bytes, expected 344", "bytes": 24}
 
 A sample that cannot be decoded is written as an error record (never dropped, never fatal) and counted in
-`errors`. zenoh calls the subscriber on its own threads: the callback only queues (key, bytes); one writer
-thread decodes and writes. `stop()` returns once everything received before it is on disk.
+`errors`. zenoh queues the samples in a FIFO channel on its own threads; one writer thread drains it every
+DRAIN_S, decodes and writes. `stop()` returns once everything received before it is on disk.
 """
 
 from __future__ import annotations
@@ -16,7 +16,6 @@ from __future__ import annotations
 import argparse
 import gzip
 import json
-import queue
 import re
 import sys
 import threading
@@ -31,8 +30,9 @@ from transport.ports import Ports
 from transport.telemetry import decode_plant_state
 from transport.zenoh_bus import session_config
 
-_STOP = object()
 FLUSH_S = 0.5  # the file is flushed at least this often (wall s), so a killed recorder loses little
+DRAIN_S = 0.02  # the writer empties zenoh's channel this often (wall s)
+CHANNEL_CAPACITY = 1 << 17  # samples zenoh keeps for the writer: over 5 minutes of a 400 Hz stream
 
 
 def key_expression(sysid: int | None) -> str:
@@ -97,25 +97,13 @@ class TelemetryRecorder:
         self.sysid = sysid
         self.counts: Counter[str] = Counter()
         self.errors: Counter[str] = Counter()
-        self._queue: queue.SimpleQueue = queue.SimpleQueue()
-        self._lock = threading.Lock()
-        self._accepting = False
+        self._stopping = threading.Event()
         self._session: Any = None
         self._subscriber: Any = None
         self._writer: threading.Thread | None = None
         self._file: Any = None
         self._write_error: BaseException | None = None
         self._stopped = False
-
-    # zenoh thread: keep it short
-    def _on_sample(self, sample: Any) -> None:
-        try:
-            item = (str(sample.key_expr), sample.payload.to_bytes())
-        except Exception as exc:  # never let a bad sample escape into zenoh's thread
-            item = (str(getattr(sample, "key_expr", "?")), exc)
-        with self._lock:
-            if self._accepting:
-                self._queue.put(item)
 
     def start(self) -> TelemetryRecorder:
         """Open the output file and the session, subscribe. Raises OSError (file) or zenoh's error (endpoints)."""
@@ -126,49 +114,50 @@ class TelemetryRecorder:
         self._file = _open_text(self.path, "w")
         try:
             self._session = zenoh.open(session_config(listen=[], connect=self.endpoints))
+            # zenoh's own threads queue the samples without Python; the writer drains them every DRAIN_S, so a
+            # 400 Hz stream wakes this process 50 times a second rather than once per sample.
+            channel = zenoh.handlers.FifoChannel(CHANNEL_CAPACITY)
+            self._subscriber = self._session.declare_subscriber(key_expression(self.sysid), channel)
         except BaseException:
             self._file.close()
+            if self._session is not None:
+                self._session.close()
             raise
-        self._accepting = True
         self._writer = threading.Thread(target=self._write_loop, name="telemetry-recorder", daemon=True)
         self._writer.start()
-        self._subscriber = self._session.declare_subscriber(key_expression(self.sysid), self._on_sample)
         return self
 
     def _write_loop(self) -> None:
-        file = self._file
         flushed = time.monotonic()
         while True:
-            try:
-                item = self._queue.get(timeout=FLUSH_S)
-            except queue.Empty:
-                item = None
-            if time.monotonic() - flushed >= FLUSH_S and self._write_error is None:
-                try:
-                    file.flush()
-                except OSError as exc:
-                    self._write_error = exc
-                flushed = time.monotonic()
-            if item is None:
-                continue
-            if item is _STOP:
+            last_round = self._stopping.is_set()
+            self._drain()
+            if last_round:
                 break
-            key, payload = item
-            if isinstance(payload, BaseException):
-                line, ok = json.dumps({"key": key, "error": f"unreadable sample: {payload}", "bytes": 0}), False
-            else:
-                line, ok = encode_record(key, payload)
+            if time.monotonic() - flushed >= FLUSH_S:
+                self._flush()
+                flushed = time.monotonic()
+            self._stopping.wait(DRAIN_S)
+        self._flush()
+
+    def _drain(self) -> None:
+        """Write every sample waiting in the channel."""
+        while (sample := self._subscriber.try_recv()) is not None:
+            key = str(sample.key_expr)
+            line, ok = encode_record(key, sample.payload.to_bytes())
             self.counts[key] += 1
             if not ok:
                 self.errors[key] += 1
             if self._write_error is None:
                 try:
-                    file.write(line + "\n")
+                    self._file.write(line + "\n")
                 except OSError as exc:  # disk full: keep counting, report at stop()
                     self._write_error = exc
+
+    def _flush(self) -> None:
         if self._write_error is None:
             try:
-                file.flush()
+                self._file.flush()
             except OSError as exc:
                 self._write_error = exc
 
@@ -178,16 +167,13 @@ class TelemetryRecorder:
         if self._writer is None or self._stopped:
             return dict(self.counts)
         self._stopped = True
-        with self._lock:
-            self._accepting = False  # whatever a zenoh thread delivers from now on is after stop()
-            self._queue.put(_STOP)
+        self._stopping.set()
+        self._writer.join()  # its last round drained what had arrived
         try:
-            if self._subscriber is not None:
-                self._subscriber.undeclare()
+            self._subscriber.undeclare()
             self._session.close()
-        except Exception:
-            pass  # the session is going away in any case; the recording is what matters
-        self._writer.join()
+        except Exception as exc:  # the session is going away in any case; the recording is what matters
+            print(f"vtol: warning: closing the recorder's zenoh session: {short_error(exc)}", file=sys.stderr)
         try:
             self._file.close()
         except OSError as exc:

@@ -18,11 +18,11 @@ from autopilot.geofence import breach, fence_from_items, inside_polygon
 from autopilot.guided_requests import GuidedRequests
 from autopilot.manual_modes import ALTITUDE, POSITION
 from autopilot.mission_feasibility import geofence_violation
-from autopilot.mission_flight import closest_safe_point, return_height
 from autopilot.mission_items import MissionItem
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterRejected, ParameterStore
 from autopilot.requests import ManualControlInput, Reposition
+from autopilot.return_route import closest_safe_point, return_height
 from autopilot.vehicle_state import VehicleState
 from transport.geodesy import Home
 from transport.mavlink import mavlink as M
@@ -86,14 +86,18 @@ def test_return_goes_to_the_closest_of_home_and_the_rally_points():
     assert list(closest_safe_point(np.array([10.0, -100.0, -20.0]), rally)) == [0.0, 0.0]
 
 
-def test_return_altitude_follows_px4_s_cone_rtl_cone_ang():
-    assert return_height(10.0, 500.0, 60.0, 45) == 60.0  # far: RTL_RETURN_ALT
-    assert math.isclose(return_height(10.0, 30.0, 60.0, 45), 30.0)  # within the 45 deg cone: its height there
-    assert return_height(2.0, 30.0, 60.0, 80) == 30.0 / math.tan(math.radians(80))  # a narrower cone: lower
-    assert return_height(40.0, 30.0, 60.0, 45) == 40.0  # above the cone: no descent
-    assert return_height(10.0, 30.0, 60.0, 0) == 60.0  # 0: no cone
-    assert return_height(10.0, 30.0, 60.0, 90) == 10.0  # 90: no climb
-    assert return_height(70.0, 500.0, 60.0, 45) == 70.0  # above RTL_RETURN_ALT: stays
+def test_return_altitude_follows_px4_s_rule_rtl_min_dist_and_rtl_cone_ang():
+    # (height now, distance, RTL_RETURN_ALT, RTL_CONE_ANG, RTL_MIN_DIST, NAV_ACC_RAD)
+    assert return_height(10.0, 500.0, 60.0, 45, 100.0, 10.0) == 60.0  # beyond RTL_MIN_DIST: RTL_RETURN_ALT
+    assert math.isclose(return_height(10.0, 30.0, 60.0, 45, 100.0, 10.0), 30.0)  # within: the 45 deg cone's height
+    assert return_height(10.0, 30.0, 60.0, 45, 20.0, 10.0) == 60.0  # the cone only within RTL_MIN_DIST
+    assert return_height(2.0, 30.0, 60.0, 80, 100.0, 10.0) == 20.0  # a narrow cone: at least 2 x NAV_ACC_RAD
+    assert math.isclose(return_height(2.0, 30.0, 60.0, 80, 100.0, 1.0), 30.0 / math.tan(math.radians(80)))
+    assert return_height(2.0, 4.0, 60.0, 45, 100.0, 10.0) == 8.0  # within NAV_ACC_RAD: twice the distance
+    assert return_height(40.0, 30.0, 60.0, 45, 100.0, 10.0) == 40.0  # above the cone: no descent
+    assert return_height(10.0, 30.0, 60.0, 0, 100.0, 10.0) == 60.0  # 0: no cone
+    assert return_height(2.0, 30.0, 15.0, 10, 100.0, 10.0) == 15.0  # never above RTL_RETURN_ALT
+    assert return_height(70.0, 500.0, 60.0, 45, 100.0, 10.0) == 70.0  # above RTL_RETURN_ALT: stays
 
 
 # ---- the actions, through the commander -------------------------------------------------------------------------------

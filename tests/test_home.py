@@ -7,9 +7,11 @@ import math
 import os
 import subprocess
 
+import numpy as np
 import pytest
 from pymavlink import mavutil
 
+from autopilot.home_position import HomeKeeper, home_at
 from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, free_link_ports, free_udp_port
 from tiltrotor_sitl import Vehicle
 from transport.geodesy import Home, HomeRefused, home_from
@@ -61,6 +63,21 @@ def test_the_vehicle_reports_the_home_px4_home_variables_give(monkeypatch):
         finally:
             link.close()
     assert home is not None and position is not None
-    assert (home.latitude, home.longitude, home.altitude) == (-338688000, 1512093000, 58000)
+    # Home is where the vehicle stands (PX4: its first valid position), its centre of gravity on the gear over
+    # the ground at PX4_HOME_ALT.
+    assert (home.latitude, home.longitude) == (-338688000, 1512093000)
+    assert 58000 < home.altitude < 59000 and abs(home.altitude - position.alt) < 50
+    assert abs(home.z + (home.altitude - 58000) / 1000) < 0.01  # its place in the local frame: over the origin
     assert math.hypot(position.lat - home.latitude, position.lon - home.longitude) < 100  # within ~1 m
-    assert abs(position.alt - 58000) < 1000
+
+
+def test_home_follows_a_moved_vehicle_as_px4s_does_but_never_over_a_manual_home():
+    keeper = HomeKeeper(Home())
+    assert keeper.set_here(np.array([0.0, 0.0, -0.25])) and keeper.position.down == -0.25
+    assert not keeper.follow(np.array([0.9, 0.0, -0.25]))  # within 1 m: stays
+    assert not keeper.follow(np.array([0.0, 0.0, -1.7]))  # within 1.5 m vertically: stays
+    assert keeper.follow(np.array([0.0, 1.1, -0.25])) and keeper.position.east == 1.1 and not keeper.position.manual
+    keeper.position = home_at(Home(), Home().lat, Home().lon, Home().alt + 3.0)  # DO_SET_HOME's coordinates
+    assert keeper.position.manual and abs(keeper.position.down + 3.0) < 1e-6
+    assert not keeper.set_here(np.zeros(3)) and not keeper.follow(np.array([50.0, 0.0, 0.0]))
+    assert abs(keeper.position.down + 3.0) < 1e-6 and abs(keeper.position.north) < 1e-6

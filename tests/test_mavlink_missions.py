@@ -150,8 +150,17 @@ class Client:
         return self.next("MISSION_ACK").type
 
     def download(self, kind: int) -> list:
-        self.mav.mission_request_list_send(1, 1, kind)
-        count = self.next("MISSION_COUNT")
+        """As a ground station downloads: MISSION_REQUEST_LIST again every 2 s until the count comes (a request
+        sent while the autopilot is (re)starting is lost with its datagram)."""
+        for _ in range(7):
+            self.mav.mission_request_list_send(1, 1, kind)
+            try:
+                count = self.next("MISSION_COUNT", timeout_s=2.0)
+                break
+            except AssertionError:
+                continue
+        else:
+            raise AssertionError(f"no MISSION_COUNT for 7 requests; STATUSTEXT {self.statustexts[-4:]}")
         assert count.mission_type == kind
         items = []
         for seq in range(count.count):

@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 from autopilot.stamped_setpoints import StampedSetpoints
+from autopilot.yaw_setpoint import YawSetpoint
 from ground_tools.lockstep_client import PERIOD_MS, START_MS, grid_stamp, setpoint_for, tilt_commands_deg, yaw_turns
 from ground_tools.processes import AutopilotCommand
 from ground_tools.scenario_report import acceptance, velocity_rmse, write_report
@@ -38,14 +39,15 @@ def vtol(*args: str, timeout: float = 500) -> subprocess.CompletedProcess:
 def test_stamped_setpoints_take_effect_at_their_stamp_whatever_the_arrival_order() -> None:
     stamped = StampedSetpoints()
     assert not stamped.covers(0)
-    stamped.add(40, np.array([2.0, 0, 0]))
-    stamped.add(20, np.array([1.0, 0, 0]))
+    stamped.add(40, (np.array([2.0, 0, 0]), None))
+    stamped.add(20, (np.array([1.0, 0, 0]), YawSetpoint(heading=0.5)))
     assert stamped.covers(40_999) and not stamped.covers(41_000)  # whole milliseconds, like time_boot_ms
     assert stamped.due(19_999) is None
-    assert stamped.due(20_000)[0] == 1.0
+    velocity, yaw = stamped.due(20_000)
+    assert velocity[0] == 1.0 and yaw == YawSetpoint(heading=0.5)  # the yaw set-point goes with its velocity
     assert stamped.due(30_000) is None  # nothing new due: the last one goes on
-    stamped.add(40, np.array([3.0, 0, 0]))  # same stamp again: the later one wins
-    assert stamped.due(100_000)[0] == 3.0
+    stamped.add(40, (np.array([3.0, 0, 0]), None))  # same stamp again: the later one wins
+    assert stamped.due(100_000)[0][0] == 3.0
     stamped.clear()
     assert not stamped.covers(0)
 

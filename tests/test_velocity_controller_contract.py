@@ -15,12 +15,16 @@ from aircraft.frames import quaternion_from_euler
 from autopilot.controllers import KINDS, build_flight_controller
 from autopilot.flight_controller import MPC, VELOCITY_PERIOD_USEC
 from autopilot.mpc_controller import MpcVelocityController
+from autopilot.mpc_overlap import OverlappedMpc
 from autopilot.pid_baseline import PidVelocityController
 from autopilot.vehicle_state import VehicleState
 from autopilot.velocity_command import VelocityCommand
 from autopilot.velocity_controller import VelocityController
+from autopilot.yaw_setpoint import YawReference
 
 TICKS = 25  # 0.25 s at 100 Hz per case
+MPC_OVERLAPPED = "mpc-overlapped"  # the MPC solving one tick ahead in its own process (VT_MPC_OVERLAP = 1)
+VARIANTS = (*KINDS, MPC_OVERLAPPED)
 TOLERANCE = 1e-6  # rad: the MPC meets its bounds to the QP's tolerance
 
 
@@ -53,15 +57,18 @@ CASES = {
 }
 
 
-def build(airframe: Airframe, kind: str) -> VelocityController:
-    controller = build_flight_controller(airframe, kind).velocity_controller
-    assert isinstance(controller, MpcVelocityController if kind == MPC else PidVelocityController)
+def build(airframe: Airframe, variant: str) -> VelocityController:
+    overlapped = variant == MPC_OVERLAPPED
+    kind = MPC if overlapped else variant
+    controller = build_flight_controller(airframe, kind, mpc_overlap=overlapped).velocity_controller
+    expected = OverlappedMpc if overlapped else MpcVelocityController if kind == MPC else PidVelocityController
+    assert isinstance(controller, expected)
     return controller
 
 
 def attitude_limit(controller: VelocityController) -> float:
     """The largest roll or pitch set-point the controller may ask for (rad), from its own declared limits."""
-    if isinstance(controller, MpcVelocityController):
+    if isinstance(controller, (MpcVelocityController, OverlappedMpc)):
         return max(controller.limits.attitude_sp)
     p = controller.p
     return math.radians(max(p.mc_tilt_max_deg, p.fw_roll_max_deg, p.fw_pitch_max_deg))
@@ -85,7 +92,7 @@ def arrays(command: VelocityCommand) -> tuple[np.ndarray, ...]:
 
 
 @pytest.mark.parametrize("case", sorted(CASES))
-@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("kind", VARIANTS)
 def test_commands_are_finite_and_within_the_limits(airframe, kind, case):
     controller = build(airframe, kind)
     limit = attitude_limit(controller)
@@ -102,7 +109,7 @@ def test_commands_are_finite_and_within_the_limits(airframe, kind, case):
         switches = controller.mode_switches
 
 
-@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("kind", VARIANTS)
 def test_the_same_inputs_give_the_same_commands(airframe, kind):
     for case in ("hover, cruise asked", "cruise, turn and sink"):
         first, second = fly(build(airframe, kind), case), fly(build(airframe, kind), case)
@@ -112,6 +119,22 @@ def test_the_same_inputs_give_the_same_commands(airframe, kind):
                 assert np.array_equal(values_a, values_b)
 
 
-@pytest.mark.parametrize("kind", KINDS)
+@pytest.mark.parametrize("kind", VARIANTS)
 def test_a_controller_starts_without_mode_switches(airframe, kind):
     assert build(airframe, kind).mode_switches == 0
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_a_yaw_reference_turns_the_yaw_set_point_towards_it(airframe, kind):
+    """The contract's yaw input: the attitude set-point's yaw moves towards the reference (here 60 deg left of the
+    nose, turning left at 0.3 rad/s), within the limits, and a hover without one keeps the nose."""
+    controller = build(airframe, kind)
+    reference = YawReference(math.radians(-60.0), -0.3)
+    for tick in range(TICKS):
+        command = controller.update(state_at(tick * VELOCITY_PERIOD_USEC, (0, 0, 0), (0, 0, 0)), np.zeros(3),
+                                    np.zeros(4), reference)  # fmt: skip
+        assert np.all(np.isfinite(command.euler_sp)) and np.all(np.abs(command.euler_sp[0:2]) <= attitude_limit(
+            controller) + TOLERANCE)  # fmt: skip
+        assert command.euler_sp[2] < math.radians(-5.0)
+    held = fly(build(airframe, kind), "hover, hold")[-1]
+    assert abs(held.euler_sp[2]) < math.radians(1.0)

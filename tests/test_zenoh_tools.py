@@ -27,19 +27,9 @@ from ground_tools.telemetry_record import (
     read_recording,
     short_error,
 )
-from ground_tools.watch import (
-    TelemetryView,
-    build_figure,
-    draw,
-    euler_deg,
-    has_display,
-    new_events,
-    push,
-    run_window,
-    save_snapshot,
-    status_line,
-    time_series,
-)
+from ground_tools.telemetry_view import TelemetryView, euler_deg, push, status_line, time_series
+from ground_tools.watch import has_display, new_events, run_window
+from ground_tools.watch_figure import build_figure, draw, save_snapshot
 from tiltrotor_sitl import Vehicle
 from transport.telemetry import PLANT_STATE_FIELDS, control_key, encode_control, mpc_key, plant_state_key
 

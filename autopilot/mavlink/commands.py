@@ -18,6 +18,7 @@ from aircraft.failures import FailureRejected, parse_failure
 from autopilot.commander import FORCE_MAGIC
 from autopilot.home_position import home_at, home_here, home_refusal
 from autopilot.mavlink import messages
+from autopilot.mavlink.global_frames import altitude_amsl
 from autopilot.mavlink.px4_modes import mode_from_px4, px4_mode_name
 from autopilot.mavlink.router import COMP_ID, GroundLink
 from autopilot.mavlink.statustext import Announcer
@@ -39,6 +40,7 @@ from autopilot.requests import (
     StartMission,
     Takeoff,
     Transition,
+    TurnTo,
 )
 from autopilot.vehicle_status import InjectionOutcome
 from transport.geodesy import Home, ned_from_geodetic
@@ -46,9 +48,10 @@ from transport.mavlink import mavlink as M
 
 Params = tuple[float, float, float, float, float, float, float]
 MIN_TARGET_HEIGHT_M = 1.0  # a go-to or orbit target lower than this above home would fly into the ground
-RELATIVE_FRAMES = (M.MAV_FRAME_GLOBAL_RELATIVE_ALT, M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT)
 ORBIT_DEFAULT_RADIUS, ORBIT_MIN_RADIUS, ORBIT_MAX_RADIUS = 20.0, 1.0, 10000.0  # m (PX4: MC_ORBIT_RAD_MAX 1000)
 ORBIT_DEFAULT_SPEED = 5.0  # m/s
+ORBIT_YAW_DEFAULT = M.ORBIT_YAW_BEHAVIOUR_HOLD_FRONT_TO_CIRCLE_CENTER
+ORBIT_YAW_BEHAVIOURS = range(M.ORBIT_YAW_BEHAVIOUR_UNCHANGED)  # 0..4: front to centre ... RC controlled
 NO_STATE_YET = (M.MAV_RESULT_TEMPORARILY_REJECTED, "No vehicle state from the plant yet")
 
 
@@ -82,7 +85,7 @@ class CommandService:
         self.view = view
         self.announcer = announcer
         self.system_id = system_id
-        self.origin = home  # of the local frame (a DO_SET_HOME moves home, not it: self.view.home)
+        self.origin = home  # of the local frame (home, which arming and DO_SET_HOME move, is the status's)
         self._tickets: dict[int, Origin] = {}  # failure injections awaiting the plant's answer
         self._next_ticket = 1
         self._commands: dict[int, Callable[[Origin, Params, int | None], Reply | None]] = {
@@ -95,6 +98,7 @@ class CommandService:
             M.MAV_CMD_NAV_RETURN_TO_LAUNCH: lambda origin, p, frame: self.flight_stack.handle(ReturnToLaunch()),
             M.MAV_CMD_DO_REPOSITION: self._reposition,
             M.MAV_CMD_DO_ORBIT: self._orbit,
+            M.MAV_CMD_CONDITION_YAW: self._condition_yaw,
             M.MAV_CMD_DO_CHANGE_SPEED: self._change_speed,
             M.MAV_CMD_INJECT_FAILURE: self._inject_failure,
             M.MAV_CMD_REQUEST_MESSAGE: self._request_message,
@@ -167,12 +171,17 @@ class CommandService:
         return M.MAV_RESULT_DENIED, f"Arm/disarm: param1 must be 1 or 0, not {p[0]:g}"
 
     def _takeoff(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
-        altitude = p[6]
+        altitude, home = p[6], self.view.home
         if math.isnan(altitude):
             return self.flight_stack.handle(Takeoff(None))
         if not math.isfinite(altitude):
             return M.MAV_RESULT_DENIED, "Takeoff denied: param7 (altitude) is infinite"
-        above_home = altitude if frame in RELATIVE_FRAMES else altitude - self.view.home.alt
+        if home is None:
+            return NO_STATE_YET
+        amsl = altitude_amsl(frame, altitude, home.alt)
+        if isinstance(amsl, str):
+            return M.MAV_RESULT_DENIED, f"Takeoff denied: {amsl}"
+        above_home = amsl - home.alt
         if not 1.0 <= above_home <= 1000.0:
             return M.MAV_RESULT_DENIED, (f"Takeoff denied: {altitude:g} m AMSL is {above_home:.0f} m above home "
                                          f"(1..1000 m; NaN: MIS_TAKEOFF_ALT)")  # fmt: skip
@@ -209,16 +218,24 @@ class CommandService:
             return "altitude infinite"
         north, east, _ = ned_from_geodetic(self.origin, lat, lon, self.origin.alt)
         down = self._down(p[6], frame)
-        if down is not None and self.view.home.down - down < MIN_TARGET_HEIGHT_M:
-            return (f"altitude {self.view.home.down - down:.1f} m above home: targets stay at least "
-                    f"{MIN_TARGET_HEIGHT_M:g} m above it")  # fmt: skip
+        if isinstance(down, str):
+            return down
         return north, east, down
 
-    def _down(self, altitude: float, frame: int | None) -> float | None:
-        """A command's altitude (AMSL; above home in the RELATIVE_ALT frames) as NED down; None for NaN."""
-        if math.isnan(altitude):
+    def _down(self, altitude: float, frame: int | None) -> float | None | str:
+        """A command's altitude (in `frame`: global_frames.altitude_amsl) as NED down, checked to be at least
+        MIN_TARGET_HEIGHT_M above home; None for NaN; why not, if not (call with a status)."""
+        home = self.view.home
+        if math.isnan(altitude) or home is None:
             return None
-        return self.view.home.down - altitude if frame in RELATIVE_FRAMES else self.origin.alt - altitude
+        amsl = altitude_amsl(frame, altitude, home.alt)
+        if isinstance(amsl, str):
+            return amsl
+        down = self.origin.alt - amsl
+        if home.down - down < MIN_TARGET_HEIGHT_M:
+            return (f"altitude {home.down - down:.1f} m above home: targets stay at least {MIN_TARGET_HEIGHT_M:g} m "
+                    "above it")  # fmt: skip
+        return down
 
     def _current_position(self) -> tuple[float, float, float]:
         status = self.view.status
@@ -226,12 +243,18 @@ class CommandService:
         return float(position[0]), float(position[1]), float(position[2])
 
     def _reposition(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
-        """MAV_CMD_DO_REPOSITION (MAVSDK goto_location): param1 speed (-1/NaN default), params 5-7 lat, lon, alt
-        (NaN lat/lon: here; NaN alt: the current altitude)."""
+        """MAV_CMD_DO_REPOSITION (MAVSDK goto_location): param1 speed (-1/NaN default), param4 yaw (rad, as PX4 and
+        MAVSDK take it; NaN: the controllers' own rule), params 5-7 lat, lon, alt (NaN lat/lon: here; NaN alt: the
+        current altitude)."""
+        if self.view.status is None:
+            return NO_STATE_YET
+        if math.isinf(p[3]):
+            return M.MAV_RESULT_DENIED, "Reposition denied: param4 (yaw) infinite"
         here = self._current_position()
         target: tuple[float, float, float | None] | str
         if math.isnan(p[4]) or math.isnan(p[5]):
-            target = (here[0], here[1], self._down(p[6], frame))
+            down = self._down(p[6], frame)
+            target = down if isinstance(down, str) else (here[0], here[1], down)
         else:
             target = self._position(p, frame)
         if isinstance(target, str):
@@ -239,7 +262,7 @@ class CommandService:
         north, east, down = target
         speed = p[0] if math.isfinite(p[0]) and p[0] > 0 else None
         position = np.array([north, east, here[2] if down is None else down])
-        return self.flight_stack.handle(Reposition(position, speed))
+        return self.flight_stack.handle(Reposition(position, speed, None if math.isnan(p[3]) else p[3]))
 
     def _change_speed(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
         """MAV_CMD_DO_CHANGE_SPEED: param2 the speed (> 0; -1, -2 or 0: back to the defaults, as PX4's navigator);
@@ -250,20 +273,36 @@ class CommandService:
 
     def _orbit(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
         """MAV_CMD_DO_ORBIT: param1 radius (sign: direction, positive clockwise), param2 velocity (NaN: default),
-        param3 yaw behaviour (yaw is not commanded here), params 5-7 centre (NaN: here)."""
+        param3 ORBIT_YAW_BEHAVIOUR (NaN or UNCHANGED: HOLD_FRONT_TO_CIRCLE_CENTER, PX4's default), params 5-7 centre
+        (NaN: here)."""
+        behaviour = ORBIT_YAW_DEFAULT if math.isnan(p[2]) or p[2] == M.ORBIT_YAW_BEHAVIOUR_UNCHANGED else int_param(p[2])
+        if behaviour is None or behaviour not in ORBIT_YAW_BEHAVIOURS:
+            return M.MAV_RESULT_DENIED, f"Orbit denied: param3 (yaw behaviour) {p[2]:g} not 0..5"
         radius = p[0] if math.isfinite(p[0]) and p[0] != 0 else ORBIT_DEFAULT_RADIUS
         if not ORBIT_MIN_RADIUS <= abs(radius) <= ORBIT_MAX_RADIUS:
             return M.MAV_RESULT_DENIED, (f"Orbit denied: radius {abs(radius):g} m not in "
                                          f"{ORBIT_MIN_RADIUS:g}..{ORBIT_MAX_RADIUS:g} m")  # fmt: skip
         speed = abs(p[1]) if math.isfinite(p[1]) and p[1] != 0 else ORBIT_DEFAULT_SPEED
+        if self.view.status is None:
+            return NO_STATE_YET
         if math.isnan(p[4]) or math.isnan(p[5]):
             center, down = None, self._down(p[6], frame)
+            if isinstance(down, str):
+                return M.MAV_RESULT_DENIED, f"Orbit denied: {down}"
         else:
             target = self._position(p, frame)
             if isinstance(target, str):
                 return M.MAV_RESULT_DENIED, f"Orbit denied: {target}"
             center, down = np.array(target[0:2]), target[2]
-        return self.flight_stack.handle(Orbit(center, down, abs(radius), radius > 0, speed))
+        return self.flight_stack.handle(Orbit(center, down, abs(radius), radius > 0, speed, behaviour))
+
+    def _condition_yaw(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
+        """MAV_CMD_CONDITION_YAW: param1 angle (deg), param3 direction for a relative turn (-1 counter-clockwise, 1 or
+        0 clockwise), param4 0 absolute / 1 relative; param2 (rate) is not taken: the turn is at MPC_YAWRAUTO_MAX."""
+        relative = int_param(p[3])
+        if not math.isfinite(p[0]) or relative not in (0, 1) or int_param(p[2]) not in (-1, 0, 1):
+            return M.MAV_RESULT_DENIED, "Condition yaw denied: param1 finite, param3 -1/0/1, param4 0 or 1"
+        return self.flight_stack.handle(TurnTo(math.radians(p[0]), relative == 1, p[2] >= 0))
 
     def _inject_failure(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
         try:
@@ -283,7 +322,7 @@ class CommandService:
         if status is None:
             return NO_STATE_YET
         msgid = int_param(p[0])
-        message = messages.build(msgid, origin.link.mav, status, self.view.home) if msgid is not None else None
+        message = messages.build(msgid, origin.link.mav, status) if msgid is not None else None
         if message is None:
             return M.MAV_RESULT_DENIED, f"Message {p[0]:g} not available on request"
         self.ack(origin, M.MAV_RESULT_ACCEPTED)
@@ -295,6 +334,8 @@ class CommandService:
         return M.MAV_RESULT_ACCEPTED, None
 
     def _home(self, origin: Origin, p: Params, frame: int | None) -> Reply:
+        if self.view.home is None:
+            return NO_STATE_YET
         origin.link.queue(messages.home_position(origin.link.mav, self.view.home, self.view.now_usec))
         return M.MAV_RESULT_ACCEPTED, None
 
@@ -306,17 +347,14 @@ class CommandService:
         if status is None:
             return NO_STATE_YET
         if p[0] > 0.5:
-            home, current = home_here(self.origin, status.estimate.position_ned), True
-        else:
-            lat, lon = (p[4] * 1e-7, p[5] * 1e-7) if frame is not None else (p[4], p[5])
-            alt = p[6] + self.view.home.alt if frame in RELATIVE_FRAMES else p[6]
-            if (why := home_refusal(lat, lon, alt)) is not None:
-                return M.MAV_RESULT_DENIED, f"Set home denied: {why}"
-            home, current = home_at(self.origin, lat, lon, alt), False
-        reply = self.flight_stack.handle(SetHome(home, current))
-        if reply is not None and reply[0] == M.MAV_RESULT_ACCEPTED:
-            self.view.home = home  # the services' HOME_POSITION follows what the flight stack accepted
-        return reply
+            return self.flight_stack.handle(SetHome(home_here(self.origin, status.estimate.position_ned), True))
+        lat, lon = (p[4] * 1e-7, p[5] * 1e-7) if frame is not None else (p[4], p[5])
+        alt = altitude_amsl(frame, p[6], status.home.alt)
+        if isinstance(alt, str):
+            return M.MAV_RESULT_DENIED, f"Set home denied: {alt}"
+        if (why := home_refusal(lat, lon, alt)) is not None:
+            return M.MAV_RESULT_DENIED, f"Set home denied: {why}"
+        return self.flight_stack.handle(SetHome(home_at(self.origin, lat, lon, alt), False))
 
     def _set_interval(self, origin: Origin, p: Params, frame: int | None) -> Reply:
         msgid = int_param(p[0])

@@ -87,7 +87,7 @@ def local_position(mav: Any, status: VehicleStatus) -> Any:
 
 def global_position(mav: Any, status: VehicleStatus) -> Any:
     g = status.position
-    relative_mm = int(round(-float(status.estimate.position_ned[2]) * 1000))
+    relative_mm = int(round((status.home.down - float(status.estimate.position_ned[2])) * 1000))  # above home (PX4)
     return mav.global_position_int_encode(status.time_boot_ms, g.lat_e7, g.lon_e7, g.alt_mm, relative_mm, g.vn_cms,
                                           g.ve_cms, g.vd_cms, heading_cdeg(status))  # fmt: skip
 
@@ -156,12 +156,11 @@ BUILDERS: dict[int, Callable[[Any, VehicleStatus], Any]] = {
     M.MAVLINK_MSG_ID_SYSTEM_TIME: lambda mav, status: system_time(mav, status.time_usec),
     M.MAVLINK_MSG_ID_AUTOPILOT_VERSION: lambda mav, status: autopilot_version(mav),
     M.MAVLINK_MSG_ID_MISSION_CURRENT: mission_current,
+    M.MAVLINK_MSG_ID_HOME_POSITION: lambda mav, status: home_position(mav, status.home, status.time_usec),
 }
 
 
-def build(msgid: int, mav: Any, status: VehicleStatus, home: HomePosition) -> Any | None:
+def build(msgid: int, mav: Any, status: VehicleStatus) -> Any | None:
     """Message `msgid` now, or None if this vehicle has no such message."""
-    if msgid == M.MAVLINK_MSG_ID_HOME_POSITION:
-        return home_position(mav, home, status.time_usec)
     builder = BUILDERS.get(msgid)
     return None if builder is None else builder(mav, status)

@@ -17,7 +17,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from autopilot.home_position import at_origin
+from autopilot.home_position import HomePosition
 from autopilot.mavlink import messages
 from autopilot.mavlink.commands import CommandService
 from autopilot.mavlink.manual_control import ManualControlService
@@ -48,11 +48,11 @@ class MavlinkServices:
                  home: Home, events_publisher: Any | None = None, quiet: bool = False) -> None:  # fmt: skip
         self.router = router
         self.flight_stack = flight_stack
-        self.view = StatusView(at_origin(home))
-        self._announced_home = self.view.home
+        self.view = StatusView()
+        self._announced_home: HomePosition | None = None
         self.announcer = Announcer(router, self.view.clock, events_publisher, quiet)
         self.commands = CommandService(flight_stack, self.view, self.announcer, system_id=system_id, home=home)
-        self.offboard = OffboardService(flight_stack, self.announcer, system_id=system_id, home=home)
+        self.offboard = OffboardService(flight_stack, self.view, self.announcer, system_id=system_id, origin=home)
         self.offboard_attitude = OffboardAttitudeService(flight_stack, self.announcer, system_id=system_id)
         self.manual_control = ManualControlService(flight_stack, self.announcer, system_id=system_id)
         self.parameters = ParameterService(params, router, self.announcer, system_id=system_id)
@@ -112,12 +112,12 @@ class MavlinkServices:
             self._heartbeat_version = status.state_version
             self.router.queue_all(lambda link: messages.heartbeat(link.mav, status))
         self.missions.publish(status)
-        if self.view.home is not self._announced_home:  # a new home goes out at once, as PX4's stream sends it
-            self._announced_home = home = self.view.home
+        if status.home is not self._announced_home:  # a new home goes out at once, as PX4's stream sends it
+            self._announced_home = home = status.home
             self.router.queue_all(lambda link: messages.home_position(link.mav, home, status.time_usec))
         for link in self.router.links:
             for msgid in link.streams.due(status.time_usec, idle=not link.clients):
-                message = messages.build(msgid, link.mav, status, self.view.home)
+                message = messages.build(msgid, link.mav, status)
                 if message is not None:
                     link.queue(message)
         self.router.flush()

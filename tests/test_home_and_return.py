@@ -1,0 +1,175 @@
+"""Home as PX4's commander sets it and the rest of Return (issue 11 items 3, 4, 8; docs/mavlink.md "Home",
+docs/failsafes.md "Return and rally points"), through MAVLink, lockstep, the default controller (the MPC):
+home moves to where the vehicle is disarmed on the ground and arms, not over a DO_SET_HOME home; a
+GLOBAL_RELATIVE_ALT target is above home, not the local origin, and terrain altitudes are refused; Return's
+altitude follows RTL_MIN_DIST and RTL_CONE_ANG, it descends to RTL_DESCEND_ALT and waits RTL_LAND_DELAY (-1: for
+ever) before landing; bad values refused."""
+
+from __future__ import annotations
+
+import math
+
+import pymap3d
+import pytest
+
+from autopilot.parameters import BY_NAME, encode_value
+from tests.ground_station import HOLD, OFFBOARD
+from tests.test_mavlink_failsafes import hovering, set_param
+from tests.test_mavlink_navigation import RETURN_MODE, latlon_e7
+from transport.geodesy import Home
+from transport.mavlink import mavlink as M
+
+ORIGIN = Home()  # PX4 SITL's default: the local frame's origin of every vehicle here
+REL = M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+TERRAIN = M.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT
+POSITION_MASK = 0b110111111000  # MAVSDK's position set-point: x, y, z used
+
+
+def command_int(gs, command: int, frame: int, x: int, y: int, z: float, *params: float):
+    """COMMAND_INT to 1/1; the COMMAND_ACK for it."""
+    p = list(params) + [0.0] * (4 - len(params))
+    start = len(gs.acks)
+    gs.conn.mav.command_int_send(1, 1, frame, command, 0, 0, *p, x, y, z)
+    gs.wait(lambda: any(a.command == command for a in gs.acks[start:]), f"COMMAND_ACK for {command}")
+    return next(a for a in gs.acks[start:] if a.command == command)
+
+
+def home_after(gs, time_ms: int):
+    """The first HOME_POSITION sent after simulation time `time_ms`."""
+    gs.wait(lambda: "HOME_POSITION" in gs.latest and gs.latest["HOME_POSITION"].time_usec > time_ms * 1000,
+            "a HOME_POSITION")  # fmt: skip
+    return gs.latest["HOME_POSITION"]
+
+
+def said(gs, text: str, since: int = 0, timeout_s: float = 30.0) -> str:
+    gs.wait(lambda: any(text in t for t in gs.statustexts[since:]), f"the STATUSTEXT {text!r}", timeout_s)
+    return next(t for t in gs.statustexts[since:] if text in t)
+
+
+def here(gs) -> tuple[float, float, float]:
+    p = gs.latest["LOCAL_POSITION_NED"]
+    return p.x, p.y, p.z
+
+
+def test_home_follows_the_vehicle_on_the_ground_and_arming_but_not_over_a_set_home(tmp_path):
+    with hovering(tmp_path, 0.0) as gs:  # on the ground
+        # The first valid position: home is where the vehicle stands (its centre of gravity over the origin).
+        first = home_after(gs, 0)
+        x, y, z = here(gs)
+        assert math.hypot(first.x - x, first.y - y) < 0.05 and abs(first.z - z) < 0.05 and z < 0.0
+        # Fly 15 m north and land there: disarmed on the ground, home follows (PX4: moved more than 1 m).
+        assert gs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == M.MAV_RESULT_ACCEPTED
+        assert gs.command(M.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, math.nan, math.nan, math.nan).result == \
+            M.MAV_RESULT_ACCEPTED  # fmt: skip
+        gs.wait(lambda: gs.mode == HOLD and gs.altitude > 2.0, "the takeoff", 60)
+        lat, lon = latlon_e7(15.0, 0.0)
+        assert command_int(gs, M.MAV_CMD_DO_REPOSITION, REL, lat, lon, 3.0, -1, 1).result == M.MAV_RESULT_ACCEPTED
+        gs.wait(lambda: math.hypot(here(gs)[0] - 15.0, here(gs)[1]) < 1.0, "the go-to", 60)
+        assert gs.command(M.MAV_CMD_NAV_LAND).result == M.MAV_RESULT_ACCEPTED
+        gs.wait(lambda: not gs.armed, "the landing and the disarm", 90)
+        landed = here(gs)
+        moved = home_after(gs, gs.time_boot_ms)
+        assert math.hypot(moved.x - landed[0], moved.y - landed[1]) < 0.3 and abs(moved.z - landed[2]) < 0.3
+        # Arming there sets home there (the same place: PX4 sets it at every arming).
+        before = gs.time_boot_ms
+        assert gs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == M.MAV_RESULT_ACCEPTED
+        armed_home = home_after(gs, before)
+        assert math.hypot(armed_home.x - landed[0], armed_home.y - landed[1]) < 0.3
+        assert gs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 0).result == M.MAV_RESULT_ACCEPTED
+        # A home given in coordinates (PX4's manual home) stays: not moved by arming.
+        set_lat, set_lon, _ = pymap3d.ned2geodetic(-20.0, 5.0, 0.0, ORIGIN.lat, ORIGIN.lon, ORIGIN.alt)
+        assert gs.command(M.MAV_CMD_DO_SET_HOME, 0, 0, 0, math.nan, set_lat, set_lon, ORIGIN.alt + 3.0).result == \
+            M.MAV_RESULT_ACCEPTED  # fmt: skip
+        gs.wait(lambda: abs(gs.latest["HOME_POSITION"].x + 20.0) < 0.3, "the new home")
+        assert gs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == M.MAV_RESULT_ACCEPTED
+        gs.wait_sim(1.0)
+        kept = gs.latest["HOME_POSITION"]
+        assert abs(kept.x + 20.0) < 0.3 and abs(kept.y - 5.0) < 0.3 and abs(kept.z + 3.0) < 0.1
+
+
+def test_relative_altitudes_are_above_home_and_terrain_altitudes_are_refused(tmp_path):
+    with hovering(tmp_path, 12.0) as gs:
+        # Home 10 m above the origin, over it: a relative altitude of 15 m is 25 m above the origin.
+        assert gs.command(M.MAV_CMD_DO_SET_HOME, 0, 0, 0, math.nan, ORIGIN.lat, ORIGIN.lon, ORIGIN.alt + 10.0).result \
+            == M.MAV_RESULT_ACCEPTED  # fmt: skip
+        gs.wait(lambda: abs(gs.latest["HOME_POSITION"].z + 10.0) < 0.1, "the new home")
+        texts = len(gs.statustexts)
+        lat, lon = latlon_e7(10.0, 0.0)
+        assert command_int(gs, M.MAV_CMD_DO_REPOSITION, TERRAIN, lat, lon, 15.0, -1, 1).result == M.MAV_RESULT_DENIED
+        said(gs, "no terrain estimate", texts)
+        assert command_int(gs, M.MAV_CMD_DO_REPOSITION, REL, lat, lon, 15.0, -1, 1).result == M.MAV_RESULT_ACCEPTED
+        gs.wait(lambda: math.hypot(here(gs)[0] - 10.0, here(gs)[1]) < 1.0 and abs(gs.altitude - 25.0) < 1.0,
+                "the go-to at 15 m above home", 60)  # fmt: skip
+        # SET_POSITION_TARGET_GLOBAL_INT in GLOBAL_RELATIVE_ALT_INT: back over the origin, 5 m above home.
+        lat, lon = latlon_e7(0.0, 0.0)
+
+        def stream(frame: int = REL) -> None:
+            gs.conn.mav.set_position_target_global_int_send(gs.time_boot_ms, 1, 1, frame, POSITION_MASK, lat, lon,
+                                                            5.0, 0, 0, 0, 0, 0, 0, 0, 0)  # fmt: skip
+
+        texts = len(gs.statustexts)
+        stream(TERRAIN)
+        said(gs, "Set-point dropped: frame 11 (altitude above terrain) not supported", texts)
+        stream()
+        assert gs.set_mode(OFFBOARD).result == M.MAV_RESULT_ACCEPTED
+        gs.wait(lambda: math.hypot(*here(gs)[0:2]) < 1.0 and abs(gs.altitude - 15.0) < 1.0,
+                "the Offboard target 5 m above home", 60, every=stream)  # fmt: skip
+        assert gs.latest["GLOBAL_POSITION_INT"].relative_alt == pytest.approx(5000, abs=1000)  # above home too
+
+
+def test_return_altitude_descend_altitude_and_land_delay(tmp_path):
+    with hovering(tmp_path, 8.0) as gs:
+        for name, value in (("RTL_RETURN_ALT", 20.0), ("RTL_CONE_ANG", 60), ("NAV_ACC_RAD", 2.0),
+                            ("RTL_DESCEND_ALT", 5.0), ("RTL_LAND_DELAY", -1.0)):  # fmt: skip
+            set_param(gs, name, value)
+        # Bad values refused, the old ones kept.
+        texts = len(gs.statustexts)
+        assert gs.param_set("RTL_LAND_DELAY", -2.0, M.MAV_PARAM_TYPE_REAL32).param_value == -1.0
+        assert gs.param_set("RTL_MIN_DIST", 0.1, M.MAV_PARAM_TYPE_REAL32).param_value == 10.0
+        assert gs.param_set("RTL_DESCEND_ALT", math.nan, M.MAV_PARAM_TYPE_REAL32).param_value == 5.0
+        as_int32 = encode_value(BY_NAME["RTL_CONE_ANG"], 7)  # an INT32's encoding, for a REAL32 parameter
+        assert gs.param_set("RTL_DESCEND_ALT", as_int32, M.MAV_PARAM_TYPE_INT32).param_value == 5.0
+        for why in ("RTL_LAND_DELAY: -2 outside -1..3600", "RTL_MIN_DIST: 0.1 outside", "not a finite number",
+                    "Param set RTL_DESCEND_ALT: type 6"):  # fmt: skip
+            said(gs, why, texts)
+        # 25 m north at 8 m: beyond RTL_MIN_DIST (10 m) the return altitude is RTL_RETURN_ALT; within it (50 m)
+        # the 60 deg cone's height there, 25 / tan 60 = 14.4 m.
+        lat, lon = latlon_e7(25.0, 0.0)
+        assert command_int(gs, M.MAV_CMD_DO_REPOSITION, REL, lat, lon, 8.0, -1, 1).result == M.MAV_RESULT_ACCEPTED
+        gs.wait(lambda: math.hypot(here(gs)[0] - 25.0, here(gs)[1]) < 1.0, "the go-to", 60)
+        texts = len(gs.statustexts)
+        assert gs.command(M.MAV_CMD_NAV_RETURN_TO_LAUNCH).result == M.MAV_RESULT_ACCEPTED
+        assert said(gs, "RTL: start return", texts) == f"RTL: start return at {math.ceil(ORIGIN.alt + 20)} m (20 m " \
+            "above destination)"  # fmt: skip
+        assert gs.set_mode(HOLD).result == M.MAV_RESULT_ACCEPTED
+        set_param(gs, "RTL_MIN_DIST", 50.0)
+        texts = len(gs.statustexts)
+        assert gs.command(M.MAV_CMD_NAV_RETURN_TO_LAUNCH).result == M.MAV_RESULT_ACCEPTED
+        assert said(gs, "RTL: start return", texts).endswith("(15 m above destination)")
+        # RTL_LAND_DELAY -1: over home it descends to RTL_DESCEND_ALT and stays there, in Return, not landing.
+        highest = [0.0]
+        gs.wait(lambda: highest.__setitem__(0, max(highest[0], gs.altitude)) or any(
+            "RTL: completed, loitering" in t for t in gs.statustexts[texts:]), "the loiter", 120)  # fmt: skip
+        gs.wait(lambda: abs(gs.altitude - 5.0) < 0.5, "the descent to RTL_DESCEND_ALT", 60)
+        assert 13.9 < highest[0] < 15.5  # the cone's height
+        gs.wait_sim(5.0)
+        assert gs.mode == RETURN_MODE and abs(gs.altitude - 5.0) < 0.5 and math.hypot(*here(gs)[0:2]) < 1.0
+        assert gs.landed_state == M.MAV_LANDED_STATE_IN_AIR
+        # RTL_LAND_DELAY 3 s: Return again from here waits 3 s at RTL_DESCEND_ALT, then lands and disarms.
+        set_param(gs, "RTL_LAND_DELAY", 3.0)
+        assert gs.set_mode(HOLD).result == M.MAV_RESULT_ACCEPTED
+        texts, beats = len(gs.statustexts), len(gs.heartbeats)
+        assert gs.command(M.MAV_CMD_NAV_RETURN_TO_LAUNCH).result == M.MAV_RESULT_ACCEPTED
+        samples: list[tuple[float, float]] = []  # (simulation time, altitude)
+        gs.wait(lambda: samples.append((gs.sim_time, gs.altitude)) or gs.altitude < 4.0, "the landing", 60)
+        started = next(t for t, beat in gs.heartbeats[beats:] if beat.custom_mode == RETURN_MODE)
+        descending = next(t for t, altitude in samples if altitude < 4.0)
+        held = [altitude for t, altitude in samples if t <= started + 3.0]
+        print(f"Return: {descending - started:.2f} s from Return to 1 m below RTL_DESCEND_ALT, held "
+              f"{min(held):.2f}..{max(held):.2f} m")  # fmt: skip
+        # 3 s held, then at most MPC_LAND_SPEED (0.7 m/s) down: at least 1.4 s more to 1 m below.
+        assert 4.4 <= descending - started <= 9.0 and all(abs(altitude - 5.0) < 0.5 for altitude in held)
+        said(gs, "RTL: land at destination", texts)
+        gs.wait(lambda: not gs.armed, "the landing and the disarm", 120)
+        assert math.hypot(*here(gs)[0:2]) < 1.0
+

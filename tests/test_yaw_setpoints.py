@@ -1,0 +1,230 @@
+"""Yaw set-points end to end (docs/autopilot.md section 6, docs/mavlink.md "Yaw"): Offboard yaw and yaw rate, a mission
+waypoint's param4, DO_REPOSITION's param4, DO_ORBIT's yaw behaviour, the yaw stick, through MAVLink in lockstep,
+flown by the default controller (the MPC) and once by the PID; the shaping and the rule of where a yaw is honoured as
+pure functions."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from autopilot.attitude import wrap
+from autopilot.auto_flight import ORBIT_FRONT_TO_CENTER, ORBIT_INITIAL_HEADING, ORBIT_TANGENT, Circle, orbit_yaw
+from autopilot.yaw_setpoint import YawSetpoint, YawShaper, multicopter_speed
+from tests.ground_station import OFFBOARD
+from tests.test_mavlink_manual_control import POSCTL, set_param
+from tests.mavlink_sitl import start_sitl
+from tests.test_mavlink_missions import Client
+from tests.test_mavlink_navigation import MISSION_MODE, ORBIT_MODE, latlon_e7
+from transport.mavlink import mavlink as M
+
+ALTITUDE = 20.0
+VELOCITY_YAW = 0b100111000111  # velocity and yaw used (MAVSDK's VelocityNedYaw), yaw rate ignored
+VELOCITY_YAW_RATE = 0b010111000111  # velocity and yaw rate used (MAVSDK's VelocityBodyYawspeed), yaw ignored
+VELOCITY_ONLY = 0b110111000111
+
+
+# ---- the maths ----------------------------------------------------------------------------------------------------
+def test_a_heading_is_turned_to_at_the_auto_yaw_rate_and_a_rate_alone_turns_from_the_nose():
+    shaper, dt, limit = YawShaper(), 0.01, math.radians(45.0)
+    first = shaper.update(YawSetpoint(heading=math.pi / 2), 0.0, limit, dt)
+    assert math.isclose(first.yaw, limit * dt) and math.isclose(first.rate, limit)  # one step at 45 deg/s
+    for _ in range(300):
+        reference = shaper.update(YawSetpoint(heading=math.pi / 2), 0.0, limit, dt)
+    assert math.isclose(reference.yaw, math.pi / 2) and reference.rate == 0.0  # arrived, and held
+    across = YawShaper().update(YawSetpoint(heading=math.radians(-170.0)), math.radians(170.0), limit, dt)
+    assert across.yaw > math.radians(170.0)  # the short way round, through 180 deg, within pi of the nose
+    turning = shaper.update(YawSetpoint(rate=0.5), 1.0, limit, dt)
+    assert (turning.yaw, turning.rate) == (1.0, 0.5)
+    fast = YawShaper().update(YawSetpoint(heading=1.0, rate=2.0), 0.0, limit, dt)
+    assert math.isclose(fast.yaw, 0.02)  # a heading with a faster feed-forward moves at that rate
+    assert shaper.update(None, 0.0, limit, dt) is None and shaper.reference is None
+    assert multicopter_speed(np.array([3.0, 4.0, -2.0]), 5.0) and not multicopter_speed(np.array([12.1, 0, 0]), 12.0)
+
+
+def test_orbit_yaw_behaviours_face_the_centre_the_track_or_the_first_heading():
+    circle = Circle(np.zeros(2), -20.0, 20.0, 5.0, True)
+    north_of_centre = np.array([20.0, 0.0, -20.0])
+    centre = orbit_yaw(circle, north_of_centre)
+    assert math.isclose(abs(centre.heading), math.pi) and math.isclose(centre.rate, 0.25)  # south, turning clockwise
+    tangent = orbit_yaw(Circle(np.zeros(2), -20.0, 20.0, 5.0, True, ORBIT_TANGENT), north_of_centre)
+    assert math.isclose(tangent.heading, math.pi / 2)  # clockwise from the north: flying east
+    counter = orbit_yaw(Circle(np.zeros(2), -20.0, 20.0, 5.0, False, ORBIT_TANGENT), north_of_centre)
+    assert math.isclose(counter.heading, -math.pi / 2) and math.isclose(counter.rate, -0.25)
+    initial = orbit_yaw(Circle(np.zeros(2), -20.0, 20.0, 5.0, True, ORBIT_INITIAL_HEADING, 1.2), north_of_centre)
+    assert initial == YawSetpoint(1.2)
+    assert orbit_yaw(Circle(np.zeros(2), -20.0, 20.0, 5.0, True, ORBIT_FRONT_TO_CENTER), np.zeros(3)) is None
+
+
+# ---- through MAVLink -------------------------------------------------------------------------------------------------
+def yaw_deg(gs) -> float:
+    return math.degrees(gs.latest["ATTITUDE"].yaw)
+
+
+def hover(tmp_path, controller: str = "mpc"):
+    sitl = start_sitl(tmp_path / "params.json", spawn_alt=ALTITUDE, speed=None, controller=controller)
+    sitl.gs.connect()
+    return sitl
+
+
+@pytest.fixture
+def mpc_gs(tmp_path):
+    """A ground station on a vehicle hovering at 20 m in Hold, flown by the MPC, in lockstep."""
+    sitl = hover(tmp_path)
+    yield sitl.gs
+    sitl.kill()
+
+
+def offboard(gs, send) -> None:
+    send()
+    gs.pump(0.05)
+    assert gs.set_mode(OFFBOARD).result == M.MAV_RESULT_ACCEPTED
+
+
+def measured_rate(gs, send, seconds: float) -> float:
+    """The mean yaw rate (rad/s) over `seconds` of simulated time, the yaw unwrapped sample by sample."""
+    turned, last, start = 0.0, gs.latest["ATTITUDE"].yaw, gs.sim_time
+
+    def sample() -> None:
+        nonlocal turned, last
+        send()
+        yaw = gs.latest["ATTITUDE"].yaw
+        turned += wrap(yaw - last)
+        last = yaw
+
+    gs.wait_sim(seconds, every=sample)
+    return turned / (gs.sim_time - start)
+
+
+@pytest.mark.parametrize("controller", ["mpc", "pid"])
+def test_offboard_yaw_turns_the_hover_to_it_and_a_yaw_rate_turns_at_that_rate(tmp_path, controller):
+    sitl = hover(tmp_path, controller)
+    try:
+        gs = sitl.gs
+        mav = gs.conn.mav
+
+        def heading(yaw: float):
+            return lambda: mav.set_position_target_local_ned_send(gs.time_boot_ms, 1, 1, M.MAV_FRAME_LOCAL_NED,
+                                                                  VELOCITY_YAW, 0, 0, 0, 0, 0, 0, 0, 0, 0, yaw, 0)
+
+        offboard(gs, heading(math.radians(90.0)))
+        gs.wait_sim(6.0, every=heading(math.radians(90.0)))  # 90 deg at MPC_YAWRAUTO_MAX (30 deg/s) and settling
+        east = yaw_deg(gs)
+        gs.wait_sim(7.0, every=heading(math.radians(-135.0)))  # 135 deg the short way, through 180 deg
+        south_west = yaw_deg(gs)
+
+        def spin():
+            mav.set_position_target_local_ned_send(gs.time_boot_ms, 1, 1, M.MAV_FRAME_BODY_NED, VELOCITY_YAW_RATE,
+                                                   0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0.5)  # fmt: skip
+
+        gs.wait_sim(1.0, every=spin)  # spinning up
+        rate = measured_rate(gs, spin, 4.0)
+        position = gs.latest["LOCAL_POSITION_NED"]
+        print(f"{controller}: heading {east:.2f} deg for 90, {south_west:.2f} deg for -135; yaw rate {rate:.3f} rad/s "
+              f"for 0.5; drift {math.hypot(position.x, position.y):.2f} m, altitude {-position.z:.2f} m")  # fmt: skip
+        assert abs(east - 90.0) < 3.0 and abs(wrap(math.radians(south_west + 135.0))) < math.radians(3.0)
+        assert abs(rate - 0.5) < 0.05
+        assert abs(-position.z - ALTITUDE) < 1.0
+    finally:
+        sitl.kill()
+
+
+def test_a_yaw_in_forward_flight_is_not_honoured_and_bad_yaws_are_refused(mpc_gs):
+    gs = mpc_gs
+    mav = gs.conn.mav
+
+    def fast_north():  # 14 m/s north, asking the nose to point east
+        mav.set_position_target_local_ned_send(gs.time_boot_ms, 1, 1, M.MAV_FRAME_LOCAL_NED, VELOCITY_YAW, 0, 0,
+                                               0, 14.0, 0, 0, 0, 0, 0, math.radians(90.0), 0)  # fmt: skip
+
+    texts = len(gs.statustexts)
+    for yaw, rate in ((math.inf, 0.0), (0.0, -math.inf), (math.nan, 10.0)):  # dropped, dropped, clamped to pi rad/s
+        mav.set_position_target_local_ned_send(gs.time_boot_ms, 1, 1, M.MAV_FRAME_LOCAL_NED, 0b000111000111, 0, 0, 0,
+                                               0, 0, 0, 0, 0, 0, yaw, rate)  # fmt: skip
+    for why in ("yaw or yaw rate infinite", "|yaw rate| <= 180 deg/s"):
+        gs.wait(lambda: any(why in text for text in gs.statustexts[texts:]), f"the answer: {why}")
+    offboard(gs, fast_north)
+    gs.wait_sim(10.0, every=fast_north)
+    print(f"at {math.hypot(*gs.velocity[0:2]):.1f} m/s: heading {yaw_deg(gs):.2f} deg")
+    assert math.hypot(*gs.velocity[0:2]) > 12.0 and abs(yaw_deg(gs)) < 5.0
+
+
+def test_a_hover_waypoint_with_a_yaw_arrives_with_that_heading_and_holds_it(mpc_gs):
+    north, east = latlon_e7(15.0, 5.0)
+    rows = [(M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, M.MAV_CMD_NAV_WAYPOINT, 0, 2.0, 0, -120.0, north, east, ALTITUDE)]
+    gs = mpc_gs
+    assert Client(gs).upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
+    assert gs.set_mode(MISSION_MODE).result == M.MAV_RESULT_ACCEPTED
+    gs.wait(lambda: "MISSION_ITEM_REACHED" in gs.latest, "the waypoint reached", 120)
+    reached = yaw_deg(gs)
+    gs.wait_sim(3.0)
+    position = gs.latest["LOCAL_POSITION_NED"]
+    print(f"reached with heading {reached:.2f} deg, {yaw_deg(gs):.2f} deg 3 s later, at ({position.x:.2f}, "
+          f"{position.y:.2f})")  # fmt: skip
+    assert abs(reached + 120.0) <= 12.0  # MIS_YAW_ERR
+    assert abs(yaw_deg(gs) + 120.0) < 3.0 and math.hypot(position.x - 15.0, position.y - 5.0) < 2.0
+
+
+def test_an_orbit_faces_its_centre_by_default_goto_and_condition_yaw_turn_to_theirs(mpc_gs):
+    gs = mpc_gs
+    here = gs.latest["LOCAL_POSITION_NED"]
+    centre = (here.x + 15.0, here.y)
+    lat, lon = latlon_e7(*centre)
+    # DO_ORBIT radius 15 m, 3 m/s, yaw behaviour NaN (PX4's default: front to the centre), centre 15 m north.
+    ack = gs.command(M.MAV_CMD_DO_ORBIT, 15.0, 3.0, math.nan, math.nan, lat * 1e-7, lon * 1e-7, math.nan)
+    assert ack.result == M.MAV_RESULT_ACCEPTED and gs.mode == ORBIT_MODE
+    gs.wait_sim(25.0)  # on the circle, a quarter turn and more
+    errors = []
+
+    def sample() -> None:
+        p = gs.latest["LOCAL_POSITION_NED"]
+        errors.append(wrap(math.atan2(centre[1] - p.y, centre[0] - p.x) - gs.latest["ATTITUDE"].yaw))
+
+    gs.wait_sim(5.0, every=sample)
+    worst = math.degrees(max(abs(e) for e in errors))
+    print(f"orbit: nose off the centre by at most {worst:.2f} deg over 5 s")
+    assert worst < 5.0
+    bad = gs.command(M.MAV_CMD_DO_ORBIT, 15.0, 3.0, 7.0, math.nan, math.nan, math.nan, math.nan)
+    assert bad.result == M.MAV_RESULT_DENIED and "yaw behaviour" in gs.statustexts[-1]
+    assert gs.command(M.MAV_CMD_CONDITION_YAW, 0, 0, 0, 0).result == M.MAV_RESULT_TEMPORARILY_REJECTED  # Hold only
+
+    # Go-to here with a yaw (param4, rad as PX4 and MAVSDK send it): Hold, turned to it.
+    ack = gs.command(M.MAV_CMD_DO_REPOSITION, -1, 0, 0, math.radians(30.0), math.nan, math.nan, math.nan)
+    assert ack.result == M.MAV_RESULT_ACCEPTED
+    gs.wait_sim(6.0)
+    print(f"go-to: heading {yaw_deg(gs):.2f} deg for 30")
+    assert abs(yaw_deg(gs) - 30.0) < 3.0
+
+    # MAV_CMD_CONDITION_YAW in Hold: 60 deg clockwise from here (param4 1, relative).
+    assert gs.command(M.MAV_CMD_CONDITION_YAW, 60.0, 0, 1, 1).result == M.MAV_RESULT_ACCEPTED
+    gs.wait_sim(5.0)
+    print(f"condition yaw +60: heading {yaw_deg(gs):.2f} deg for 90")
+    assert abs(yaw_deg(gs) - 90.0) < 3.0
+    assert gs.command(M.MAV_CMD_CONDITION_YAW, 10.0, 0, 0, 2).result == M.MAV_RESULT_DENIED
+
+
+def test_the_yaw_stick_turns_the_hover_at_its_rate_and_centred_stops_and_holds_the_heading(mpc_gs):
+    gs = mpc_gs
+    stick_r = [300]  # 0.3: (0.3 - MPC_HOLD_DZ) / (1 - MPC_HOLD_DZ) of MPC_MAN_Y_MAX (150 deg/s) = 33.3 deg/s
+
+    def send() -> None:
+        gs.conn.mav.manual_control_send(1, 0, 0, 500, stick_r[0], 0)
+
+    set_param(gs, "COM_RC_LOSS_T", 5.0)  # lockstep runs faster than the wall clock the sticks are sent on
+    send()
+    gs.pump(0.1)
+    assert gs.set_mode(POSCTL).result == M.MAV_RESULT_ACCEPTED
+    gs.wait_sim(1.0, every=send)
+    rate = measured_rate(gs, send, 3.0)
+    stick_r[0] = 0
+    released = yaw_deg(gs)
+    gs.wait_sim(3.0, every=send)
+    held = yaw_deg(gs)
+    gs.wait_sim(2.0, every=send)
+    print(f"yaw stick 0.3: {math.degrees(rate):.1f} deg/s for 33.3; released at {released:.1f} deg, "
+          f"{held:.1f} deg 3 s later, {yaw_deg(gs):.1f} deg 2 s after that")  # fmt: skip
+    assert abs(math.degrees(rate) - 100.0 / 3.0) < 3.0
+    assert 0.0 < wrap(math.radians(held - released)) < math.radians(15.0)  # stopped, not turned back, and locked
+    assert abs(wrap(math.radians(yaw_deg(gs) - held))) < math.radians(0.5)
