@@ -12,7 +12,7 @@ from aircraft.airframe import AirframeError, load_airframe
 from aircraft.failures import FailureRejected, parse_failure
 from autopilot.commander import Commander
 from autopilot.control_telemetry import ControlTelemetry
-from autopilot.controllers import build_flight_controller, controller_kind
+from autopilot.controllers import build_flight_controller, controller_kind, mpc_horizon
 from autopilot.failure_injection import FailureInjection, ScheduledFailure
 from autopilot.flight_controller import FlightController
 from autopilot.flight_logger import FlightLogger
@@ -21,6 +21,7 @@ from autopilot.guided_requests import GuidedRequests
 from autopilot.mavlink.router import GroundLink, Router
 from autopilot.mavlink.services import MavlinkServices
 from autopilot.mission_store import MissionFileError, MissionStore, default_mission_path
+from autopilot.mpc_horizon import HORIZONS
 from autopilot.parameters import ParameterFileError, ParameterStore, default_parameter_path
 from autopilot.pid_baseline import TransitionAirspeeds
 from autopilot.plant_loop import LoopOutputs, PlantLoop
@@ -81,6 +82,9 @@ def build_parser() -> OneLineArgumentParser:
     parser.add_argument("--controller", choices=("pid", "mpc"),
                         help="velocity controller: mpc (the unified MPC, the PID its back-up) or pid (the baseline); "
                              "default: the VT_CTRL parameter (1 = mpc)")  # fmt: skip
+    parser.add_argument("--mpc-horizon", choices=sorted(HORIZONS),
+                        help="the MPC's horizon: paper (25 x 10 ms) or long (2.05 s, non-uniform); "
+                             "default: the VT_MPC_HRZN parameter")  # fmt: skip
     parser.add_argument("--params", metavar="FILE",
                         help="parameter file (default $XDG_STATE_HOME/tiltrotor-sitl/params-I.json, "
                              "~/.local/state when unset)")  # fmt: skip
@@ -194,6 +198,7 @@ def main(argv: list[str] | None = None) -> int:
         """Built at start and at every takeoff from the ground, with the parameters of the moment."""
         return build_flight_controller(airframe, controller_kind(args.controller, params.get_int("VT_CTRL")),
                                        TransitionAirspeeds(params["VT_ARSP_BLEND"], params["VT_ARSP_TRANS"]),
+                                       mpc_horizon=mpc_horizon(args.mpc_horizon, params.get_int("VT_MPC_HRZN")),
                                        mpc_overlap=params.get_int("VT_MPC_OVERLAP") == 1)
 
     outputs = LoopOutputs(

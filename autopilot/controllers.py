@@ -15,12 +15,14 @@ from aircraft.airframe import Airframe
 from autopilot.actuator_health import ServoEstimate
 from autopilot.allocation import ControlAllocator
 from autopilot.flight_controller import MPC, PID, VELOCITY_PERIOD_USEC, ControllerKind, FlightController
-from autopilot.mpc_controller import HORIZON, MpcVelocityController
+from autopilot.mpc_controller import DEFAULT_HORIZON, MpcVelocityController
+from autopilot.mpc_horizon import HORIZONS, LONG, PAPER, MpcHorizon
 from autopilot.mpc_overlap import OverlappedMpc
 from autopilot.pid_baseline import PidVelocityController, TransitionAirspeeds
 
 KINDS: tuple[ControllerKind, ...] = (MPC, PID)
 VT_CTRL_MPC = 1  # VT_CTRL: 0 the PID baseline, 1 the MPC
+VT_MPC_HRZN = (PAPER, LONG)  # the MPC's horizon by VT_MPC_HRZN
 
 
 def controller_kind(forced: str | None, vt_ctrl: int) -> ControllerKind:
@@ -32,17 +34,29 @@ def controller_kind(forced: str | None, vt_ctrl: int) -> ControllerKind:
     return MPC if forced == MPC else PID
 
 
+def mpc_horizon(forced: str | None, vt_mpc_hrzn: int) -> MpcHorizon:
+    """The MPC's horizon: `forced` (--mpc-horizon) when given, else VT_MPC_HRZN's. Raises ValueError for another."""
+    if forced is None:
+        if not 0 <= vt_mpc_hrzn < len(VT_MPC_HRZN):
+            raise ValueError(f"VT_MPC_HRZN must be 0 .. {len(VT_MPC_HRZN) - 1}, got {vt_mpc_hrzn}")
+        return VT_MPC_HRZN[vt_mpc_hrzn]
+    if forced not in HORIZONS:
+        raise ValueError(f"the MPC's horizon must be one of {', '.join(HORIZONS)}, got {forced!r}")
+    return HORIZONS[forced]
+
+
 def build_flight_controller(
     airframe: Airframe,
     kind: ControllerKind,
     transition_airspeeds: TransitionAirspeeds | None = None,
     *,
-    mpc_horizon: int = HORIZON,
+    mpc_horizon: MpcHorizon = DEFAULT_HORIZON,
     mpc_overlap: bool = False,
 ) -> FlightController:
     """A fresh flight controller of `kind` ("mpc" or "pid"); transition_airspeeds: VT_ARSP_BLEND / VT_ARSP_TRANS
-    for the PID (None: PidParameters' defaults); mpc_horizon: the MPC's stages; mpc_overlap: solve one tick ahead in a
-    process of its own (autopilot/mpc_overlap.py, VT_MPC_OVERLAP) instead of the paper's synchronous solve. Raises
+    for the PID (None: PidParameters' defaults); mpc_horizon: the MPC's horizon (autopilot/mpc_horizon.py);
+    mpc_overlap: solve one tick ahead in a process of its own (autopilot/mpc_overlap.py, VT_MPC_OVERLAP) instead of
+    the paper's synchronous solve. Raises
     ValueError for another kind."""
     if kind not in KINDS:
         raise ValueError(f"controller must be one of {', '.join(KINDS)}, got {kind!r}")

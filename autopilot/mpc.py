@@ -26,6 +26,7 @@ from aircraft.codegen import compiled
 from aircraft.frames import rotation_from_euler
 from aircraft.wrench import body_wrench
 from autopilot.attitude import DEFAULT_GAINS, AttitudeGains
+from autopilot.mpc_horizon import PAPER, StageGrid
 from autopilot.mpc_hpipm import HpipmSettings, RtiStep, build_hpipm_rti
 from autopilot.mpc_model import (
     CHI,
@@ -33,6 +34,10 @@ from autopilot.mpc_model import (
     NP,
     NU,
     NX,
+    P_ATTITUDE_SP_PREV,
+    P_GRID,
+    P_MOVE,
+    P_SOLVER,
     PSI,
     PSI_D,
     PSI_D_INDEX,
@@ -107,8 +112,7 @@ class RtiSolver:
     def __init__(
         self,
         airframe: Airframe,
-        horizon: int = 25,
-        dt: float = 0.01,
+        grid: StageGrid = PAPER.grid,
         limits: MpcLimits = MpcLimits(),
         gains: AttitudeGains = DEFAULT_GAINS,
         weights: MpcWeights = MpcWeights(),
@@ -117,21 +121,36 @@ class RtiSolver:
         qp_tolerance: float = 1e-5,
         backend: QpBackend = QpBackend.HPIPM_C,
         hpipm: HpipmSettings | None = None,
+        gauss_newton_steps: int = 1,
     ) -> None:
-        """qp_tolerance: HPIPM's stationarity tolerance (feasibility and complementarity 100x tighter, at least
+        """grid: the stages' lengths (autopilot/mpc_horizon.py; the paper's 25 x 10 ms by default).
+        gauss_newton_steps: QPs per solve (1: the real-time iteration).
+        qp_tolerance: HPIPM's stationarity tolerance (feasibility and complementarity 100x tighter, at least
         1e-8); 1e-5 for real time, 1e-8 to reproduce a converged NLP solution exactly. hpipm: all of HPIPM's
         settings instead (HPIPM_C only). compile_model: False keeps everything in CasADi's virtual machine (the
         CASADI_CONIC back-end)."""
         self.airframe = airframe
         self.gains = gains
-        self.horizon = horizon
-        self.dt = dt
+        self.grid = grid
+        self.gauss_newton_steps = gauss_newton_steps
+        self.horizon = n = grid.stages
+        self.dt = grid.tick_s
         self.limits = limits
-        functions = stage_functions(airframe, dt, gains, weights, soft, limits)
+        functions = stage_functions(airframe, gains, weights, soft, limits, grid.substeps)
         self.step_function = functions.step
         self.model = StageModel(airframe, weights, soft, limits)
         self.weights = weights
-        n = horizon
+        # The stage parameters P_SOLVER of every node (the terminal one's unused): each stage's length and whether it
+        # is one tick long (the delayed rate held, as the paper's stages), the roll and pitch set-point flown at the
+        # previous tick (set at each shift) and the weight of the move from it (the first stage's).
+        self.solver_rows = np.zeros((P_SOLVER.stop - P_SOLVER.start, n + 1))
+        rows = self._solver_row
+        self.solver_rows[rows(P_GRID)] = np.vstack(
+            (np.append(grid.lengths_s, grid.tick_s), np.append(np.equal(grid.ticks, 1), 1.0))
+        )
+        self.solver_rows[rows(P_MOVE), 0] = 1.0
+        self._shift_interval, self._shift_fraction = grid.shift_sources()
+        self._one_tick = np.array((grid.tick_s, 1.0))
         self.n_w = NX * (n + 1) + NU * n
         self.lbw, self.ubw = self._nominal_bounds()
         settings = hpipm or HpipmSettings.for_tolerance(qp_tolerance)
@@ -234,17 +253,43 @@ class RtiSolver:
             self.w[k * stride : k * stride + NX] = x0
             self.w[k * stride + NX : (k + 1) * stride] = u
         self.w[self.horizon * stride :] = x0
+        self._remember_flown_attitude_sp()
         self.initialised = True
 
+    @staticmethod
+    def _solver_row(rows: slice | int) -> slice | int:
+        """Stage-parameter rows (P_GRID, P_MOVE ...) as rows of solver_rows."""
+        if isinstance(rows, slice):
+            return slice(rows.start - P_SOLVER.start, rows.stop - P_SOLVER.start)
+        return rows - P_SOLVER.start
+
+    def stage_parameters(self, params: np.ndarray) -> np.ndarray:
+        """The stage parameters (NP, N+1) with the rows this solver keeps (P_SOLVER) written in, a copy."""
+        full = np.array(params, dtype=float)
+        full[P_SOLVER] = self.solver_rows
+        return full
+
+    def _remember_flown_attitude_sp(self) -> None:
+        """The plan's first roll and pitch set-point, the one flown: the move suppression's reference next tick."""
+        flown = self.w[NX + ROLL_PITCH_D.start : NX + ROLL_PITCH_D.stop]
+        self.solver_rows[self._solver_row(P_ATTITUDE_SP_PREV), :] = flown[:, None]
+
     def shift(self) -> None:
-        """Warm start for the next step: the plan moved one stage forward; the last input is repeated and the
-        new terminal state is its dynamics."""
+        """Warm start for the next step: the plan moved one tick (the first stage's length) forward. On the
+        paper's grid that is one stage; on a longer stage the states are interpolated and the input is the one
+        in force at the new node's time. The last input is repeated past the end, the new terminal state its
+        dynamics over one tick."""
         stride, n = NX + NU, self.horizon
-        old = self.w.copy()
-        self.w[0 : (n - 1) * stride] = old[stride : n * stride]
-        self.w[(n - 1) * stride : (n - 1) * stride + NX] = old[n * stride :]
-        u_last = old[(n - 1) * stride + NX : n * stride]
-        self.w[n * stride :] = np.asarray(self.step_function(old[n * stride :], u_last)).ravel()
+        self._remember_flown_attitude_sp()
+        states = self.states()
+        inputs = self.w[: n * stride].reshape(n, stride)[:, NX:].copy()
+        j, f = self._shift_interval, self._shift_fraction
+        moved = states[j] + f[:, None] * (states[np.minimum(j + 1, n)] - states[j])
+        moved[n] = np.asarray(self.step_function(states[n], inputs[n - 1], self._one_tick)).ravel()
+        stages = self.w[: n * stride].reshape(n, stride)
+        stages[:, :NX] = moved[:n]
+        stages[:, NX:] = inputs[np.minimum(j[:n], n - 1)]
+        self.w[n * stride :] = moved[n]
 
     def shift_yaw(self, delta: float) -> None:
         """Add delta (rad) to the yaw of every planned state and yaw set-point: the same plan, since the cost,
@@ -254,9 +299,21 @@ class RtiSolver:
         self.w[NX + PSI_D_INDEX :: stride] += delta
 
     def solve(self, x0: np.ndarray, params: np.ndarray) -> MpcSolution:
-        """One RTI: linearise at the current guess, solve the QP, take the full step."""
+        """One RTI (`gauss_newton_steps` of them at the same state, default one): linearise at the current guess,
+        solve the QP, take the full step."""
         started = time.perf_counter()
         self.params[:] = params
+        self.params[P_SOLVER] = self.solver_rows
+        qp_iterations = 0
+        for _ in range(self.gauss_newton_steps):
+            ok, status, iterations, cost = self._gauss_newton_step(x0)
+            qp_iterations += iterations
+            if not ok:
+                break
+        elapsed = time.perf_counter() - started
+        return MpcSolution(ok, status, elapsed, qp_iterations, self.states(), self.inputs(), cost)
+
+    def _gauss_newton_step(self, x0: np.ndarray) -> tuple[bool, str, int, float]:
         if self.fast is not None:
             step = self.last_step = self.fast.solve(self.w, self.params, x0, self.lbw, self.ubw, self.levenberg)
             dw = self.fast.dw
@@ -273,8 +330,7 @@ class RtiSolver:
         ok = ok and bool(np.all(np.isfinite(dw)))
         if ok:
             self.w += dw
-        elapsed = time.perf_counter() - started
-        return MpcSolution(ok, status, elapsed, iterations, self.states(), self.inputs(), cost)
+        return ok, status, iterations, cost
 
 
 class ReferenceNlp:
@@ -298,7 +354,7 @@ class ReferenceNlp:
         lbg, ubg = [0.0] * NX, [0.0] * NX
         for k in range(n):
             cost += ca.sumsqr(model.stage_residual(xs[k], us[k], params[:, k]))
-            constraints.append(solver.step_function(xs[k], us[k]) - xs[k + 1])
+            constraints.append(solver.step_function(xs[k], us[k], params[P_GRID, k]) - xs[k + 1])
             lbg += [0.0] * NX
             ubg += [0.0] * NX
             constraints.append(us[k][PSI_D_INDEX] - xs[k][PSI_INDEX])
@@ -318,7 +374,7 @@ class ReferenceNlp:
         cold = np.zeros(solver.n_w)
         for k in range(solver.horizon + 1):
             cold[k * stride : k * stride + NX] = x0
-        p = np.concatenate((x0, params.ravel(order="F")))
+        p = np.concatenate((x0, solver.stage_parameters(params).ravel(order="F")))
         result = self.nlp(x0=cold, p=p, lbx=solver.lbw, ubx=solver.ubw, lbg=self.lbg, ubg=self.ubg)
         if not self.nlp.stats()["success"]:
             raise RuntimeError(f"IPOPT did not converge: {self.nlp.stats()['return_status']}")

@@ -21,6 +21,7 @@ from autopilot.actuator_health import ServoEstimate
 from autopilot.allocation import ControlAllocator
 from autopilot.attitude import wrap
 from autopilot.mpc import MpcSolution, RtiSolver, planned_force_function
+from autopilot.mpc_horizon import PAPER, MpcHorizon, extrapolate_setpoint
 from autopilot.mpc_model import (
     CHI,
     NP,
@@ -42,8 +43,7 @@ from autopilot.vehicle_state import VehicleState
 from autopilot.velocity_command import SetpointTrajectory, VelocityCommand, course_rate
 from autopilot.yaw_setpoint import YawReference
 
-HORIZON = 25  # stages (paper)
-STEP_S = 0.01  # s per stage (paper)
+DEFAULT_HORIZON = PAPER  # the stages' lengths and the weights that go with them (docs/mpc.md 2.9)
 MAX_FAILURES = 3
 LEVENBERG = 0.1  # Marquardt damping of each RTI step (mpc.py)
 WARM_UP_ITERATIONS = 10  # RTI iterations at the first state, so the first plan is converged
@@ -73,18 +73,20 @@ class MpcVelocityController:
         airframe: Airframe,
         allocator: ControlAllocator,
         servos: ServoEstimate,
-        horizon: int = HORIZON,
-        dt: float = STEP_S,
+        horizon: MpcHorizon = DEFAULT_HORIZON,
         limits: MpcLimits = MpcLimits(),
     ) -> None:
         self.airframe = airframe
         self.allocator = allocator
         self.servos = servos
         self.limits = limits
-        self.solver = RtiSolver(airframe, horizon, dt, limits)
+        self.horizon = horizon
+        grid = horizon.grid
+        self.solver = RtiSolver(airframe, grid, limits, weights=horizon.weights,
+                                gauss_newton_steps=horizon.gauss_newton_steps)
         self.solver.levenberg = LEVENBERG
         self.force_function = planned_force_function(airframe)
-        self.params = np.zeros((NP, horizon + 1))
+        self.params = np.zeros((NP, grid.stages + 1))
         self.previous_rates: np.ndarray | None = None
         self.mode_switches = 0  # the MPC has no modes (VelocityController's counter)
         self.failures_in_row = 0
@@ -95,7 +97,7 @@ class MpcVelocityController:
         self.last_x0 = np.zeros(NX)
         self.trajectory = SetpointTrajectory()
         # The servos lag by their time constant (30 ms): command the plan's tilt that far (3 stages) ahead.
-        self.tilt_lead_stages = min(round(airframe.servo_tau / dt), horizon)
+        self.tilt_lead_stages = grid.node_at(airframe.servo_tau)
 
     def _bounds_from_health(self) -> None:
         """What the allocator and the servo estimate know of failures, as the MPC's bounds (docs/mpc.md 3.5)."""
@@ -112,8 +114,8 @@ class MpcVelocityController:
         solver, params = self.solver, self.params
         rate = self.trajectory.update(time_usec, v_sp)
         v_sp = self.trajectory.now(time_usec)
-        stage_times = np.arange(solver.horizon + 1) * solver.dt
-        params[P_V_SP, :] = v_sp[:, None] + rate[:, None] * stage_times[None, :]
+        turning = self.horizon.turning_setpoint
+        params[P_V_SP, :], rates = extrapolate_setpoint(v_sp, rate, solver.grid.times_s, turning)
         params[P_FREE_TILT, :] = np.isnan(self.servos.stuck)[:, None]
         yaw_gain = solver.gains.attitude[2]
         psi_ref = yaw
@@ -122,12 +124,13 @@ class MpcVelocityController:
             if reference is None:
                 psi_ref = yaw_reference(v_sp_k[0], v_sp_k[1], psi_ref)
                 # The set-point's course rate, while it has a course (the yaw reference follows it).
-                turn_rate = course_rate(v_sp_k, rate)
+                turn_rate = course_rate(v_sp_k, rates[:, k])
             else:  # each stage within pi of the one before, stage 0 of the (continuous) yaw
-                psi_ref = psi_ref + wrap(reference.at(stage_times[k]) - psi_ref)
+                psi_ref = psi_ref + wrap(reference.at(solver.grid.times_s[k]) - psi_ref)
                 turn_rate = reference.rate
             params[P_PSI_REF, k] = psi_ref
-            params[P_PHI_REF, k] = coordinated_roll(rate, psi_ref, self.airframe.gravity, self.limits.attitude[0])
+            bank_limit = self.limits.attitude[0]
+            params[P_PHI_REF, k] = coordinated_roll(rates[:, k], psi_ref, self.airframe.gravity, bank_limit)
             params[P_PSI_RATE_REF, k] = turn_rate
             # The yaw set-point that holds the attitude loop on a yaw turning at turn_rate: it leads by rate / K_att.
             params[P_PSI_D_REF, k] = psi_ref + turn_rate / yaw_gain

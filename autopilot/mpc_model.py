@@ -52,9 +52,18 @@ CHI_DOT, THRUST, PSI_D = slice(0, 4), slice(4, 8), slice(8, 11)
 ROLL_PITCH_D, PSI_D_INDEX = slice(8, 10), 10  # within PSI_D
 # Parameters per stage: v_sp (3), psi_ref, free_tilt (4: 1 for a working servo, 0 for a stuck one; the MPC's own
 # layout, not the actuators'), and the rest of the set-point trajectory's coordinated-turn attitude: phi_ref,
-# psi_rate_ref, psi_d_ref (docs/mpc.md 2.5).
-NP = 11
+# psi_rate_ref, psi_d_ref (docs/mpc.md 2.5); and the stage's place on the time grid (docs/mpc.md 2.9): its length dt
+# (s) and rate_held (1: Psi_dot_prev is the previous stage's rate, held over this one, as in the paper's 10 ms
+# stages; 0: a long stage, on which the delayed rate is taken in its continuous-time form); the roll and pitch
+# set-point flown at the previous tick and the weight (0 or 1) of the move from it (the first stage only). The
+# solver writes P_SOLVER itself (RtiSolver.stage_parameters).
+NP = 16
 P_V_SP, P_PSI_REF, P_FREE_TILT, P_PHI_REF, P_PSI_RATE_REF, P_PSI_D_REF = slice(0, 3), 3, slice(4, 8), 8, 9, 10
+P_DT, P_RATE_HELD, P_ATTITUDE_SP_PREV, P_MOVE = 11, 12, slice(13, 15), 15
+P_GRID, P_SOLVER = slice(11, 13), slice(11, 16)
+# The stage the paper's weights are given for (Table 2: 25 stages of 10 ms); a stage of length dt weighs dt / this,
+# so the cost stays the same integral on any grid. Also the delay of Psi_dot_prev in the continuous-time form.
+REFERENCE_STAGE_S = 0.01
 
 
 @dataclass(frozen=True)
@@ -74,6 +83,15 @@ class MpcWeights:
     # makes it the paper's hard state bound again.
     q_attitude_bound: float = 1e6
     attitude_bound_width: float = math.radians(3.0)
+    # Each working servo's tilt away from the working servos' mean, per rad^2 (docs/mpc.md 2.9); 0 leaves the four
+    # tilts independent, as the paper does.
+    q_tilt_spread: float = 0.0
+    # The first stage's roll and pitch set-point away from the one flown at the previous tick, per rad^2 (move
+    # suppression, docs/mpc.md 2.9); 0: none, as the paper.
+    q_attitude_sp_move: float = 0.0
+    # Each stage's cost weighed by its length over REFERENCE_STAGE_S (the same integral on any grid), or each stage
+    # alike (as the paper's uniform stages are).
+    weigh_by_length: bool = True
 
 
 @dataclass(frozen=True)
@@ -111,32 +129,43 @@ class MpcLimits:
     # The thrust bound per rotor (the paper's 23 N) is the airframe's thrust_planned_max; the tilt range its own.
 
 
-def continuous_dynamics(airframe: Airframe, gains: AttitudeGains, x: ca.SX, u: ca.SX) -> ca.SX:
-    """d/dt of (v, chi, Psi, Psi_dot); Psi_dot_prev is held over the interval."""
+def continuous_dynamics(airframe: Airframe, gains: AttitudeGains, x: ca.SX, u: ca.SX, rate_held: ca.SX = 1) -> ca.SX:
+    """d/dt of (v, chi, Psi, Psi_dot). rate_held 1: Psi_dot_prev is held over the interval (the paper's 10 ms
+    stages); 0: the delayed rate in continuous time, Psi_dot_prev = Psi_dot(t - tau) ~ Psi_dot - tau Psi_ddot with
+    tau = REFERENCE_STAGE_S, so that K_d (Psi_dot_prev - Psi_dot) = -K_d tau Psi_ddot: on a stage many ticks long a
+    held rate would be that many ticks old (docs/mpc.md 2.9)."""
     euler = x[PSI]
     rotation = rotation_from_euler(euler)
     v_air_body = rotation.T @ x[V]
     force, _ = body_wrench(airframe, u[THRUST], x[CHI], ca.SX.zeros(4), v_air_body, ca.SX.zeros(3))
     v_dot = rotation @ force / airframe.mass + ca.vertcat(0, 0, airframe.gravity)
-    psi_ddot = attitude_law(euler, x[PSI_DOT], x[PSI_DOT_PREV], u[PSI_D], gains)
+    held = attitude_law(euler, x[PSI_DOT], x[PSI_DOT_PREV], u[PSI_D], gains)
+    k_d = ca.DM(gains.rate_d)
+    continuous = (held - k_d * (x[PSI_DOT_PREV] - x[PSI_DOT])) / (1 + k_d * REFERENCE_STAGE_S)
+    psi_ddot = rate_held * held + (1 - rate_held) * continuous
     return ca.vertcat(v_dot, u[CHI_DOT], x[PSI_DOT], psi_ddot)
 
 
-def discrete_dynamics(airframe: Airframe, gains: AttitudeGains, dt: float) -> ca.Function:
-    """F(x, u) -> x_next: one RK4 step of dt; Psi_dot_prev(k+1) = Psi_dot(k)."""
+def discrete_dynamics(airframe: Airframe, gains: AttitudeGains, substeps: int = 1) -> ca.Function:
+    """F(x, u, grid) -> x_next: `substeps` RK4 steps over the stage, grid = (dt, rate_held) (the stage parameters
+    P_GRID); Psi_dot_prev(k+1) = Psi_dot(k)."""
     x = ca.SX.sym("x", NX)
     u = ca.SX.sym("u", NU)
+    grid = ca.SX.sym("grid", 2)
+    rate_held = grid[1]
+    dt = grid[0] if substeps == 1 else grid[0] / substeps
 
     def f(z: ca.SX) -> ca.SX:
-        return continuous_dynamics(airframe, gains, ca.vertcat(z, x[PSI_DOT_PREV]), u)
+        return continuous_dynamics(airframe, gains, ca.vertcat(z, x[PSI_DOT_PREV]), u, rate_held)
 
     z = x[0:13]
-    k1 = f(z)
-    k2 = f(z + dt / 2 * k1)
-    k3 = f(z + dt / 2 * k2)
-    k4 = f(z + dt * k3)
-    z_next = z + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-    return ca.Function("mpc_step", [x, u], [ca.vertcat(z_next, x[PSI_DOT])], ["x", "u"], ["x_next"])
+    for _ in range(substeps):
+        k1 = f(z)
+        k2 = f(z + dt / 2 * k1)
+        k3 = f(z + dt / 2 * k2)
+        k4 = f(z + dt * k3)
+        z = z + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return ca.Function("mpc_step", [x, u, grid], [ca.vertcat(z, x[PSI_DOT])], ["x", "u", "grid"], ["x_next"])
 
 
 def attitude_bound_residual(weights: MpcWeights, limits: MpcLimits, x: ca.SX) -> ca.SX:
@@ -152,6 +181,23 @@ def attitude_bound_residual(weights: MpcWeights, limits: MpcLimits, x: ca.SX) ->
     return math.sqrt(weights.q_attitude_bound) * width * softplus
 
 
+def tilt_spread_residual(weights: MpcWeights, x: ca.SX, free_tilt: ca.SX) -> ca.SX:
+    """sqrt(q) (chi_i - mean chi) for each working servo: the model plans force alone, and a tilt split between the
+    left and right rotors is a yaw moment it does not see (on a long horizon its plans split them and spun the
+    aircraft up, docs/mpc.md 2.9). A stuck servo is not counted."""
+    if weights.q_tilt_spread <= 0:
+        return ca.SX.zeros(0)
+    mean = ca.dot(free_tilt, x[CHI]) / ca.fmax(ca.sum1(free_tilt), 1)
+    return math.sqrt(weights.q_tilt_spread) * free_tilt * (x[CHI] - mean)
+
+
+def attitude_sp_move_residual(weights: MpcWeights, u: ca.SX, p: ca.SX) -> ca.SX:
+    """sqrt(q) (roll and pitch set-point - the previous tick's), where the stage's P_MOVE is 1 (the first)."""
+    if weights.q_attitude_sp_move <= 0:
+        return ca.SX.zeros(0)
+    return p[P_MOVE] * math.sqrt(weights.q_attitude_sp_move) * (u[ROLL_PITCH_D] - p[P_ATTITUDE_SP_PREV])
+
+
 def stage_residual(
     airframe: Airframe,
     weights: MpcWeights,
@@ -161,7 +207,8 @@ def stage_residual(
     p: ca.SX,
     limits: MpcLimits | None = None,
 ) -> ca.SX:
-    """Residual r with |r|^2 = the stage cost (Gauss-Newton form)."""
+    """Residual r with |r|^2 = the stage cost (Gauss-Newton form), weighted by the stage's length over
+    REFERENCE_STAGE_S."""
     v_sp, psi_ref, free_tilt = p[P_V_SP], p[P_PSI_REF], p[P_FREE_TILT]
     phi_ref, psi_rate_ref, psi_d_ref = p[P_PHI_REF], p[P_PSI_RATE_REF], p[P_PSI_D_REF]
     euler = x[PSI]
@@ -174,7 +221,8 @@ def stage_residual(
     airspeed = ca.sqrt(ca.sumsqr(x[V]) + 1e-6)
     thrust_ref = airframe.mass * airframe.gravity / 4 * (1 - aero_effectiveness(airframe, airspeed))
     sq = ca.sqrt
-    return ca.vertcat(
+    scale = sq(p[P_DT] / REFERENCE_STAGE_S) if weights.weigh_by_length else 1
+    return scale * ca.vertcat(
         sq(ca.DM(weights.q_ref)) * (x[V] - v_sp),
         sq(ca.DM(weights.q_psi)) * ca.vertcat(euler[0] - phi_ref, euler[1], wrap_angle(euler[2] - psi_ref)),
         sq(ca.DM(weights.q_psi_dot)) * (x[PSI_DOT] - ca.vertcat(0, 0, psi_rate_ref)),
@@ -185,6 +233,8 @@ def stage_residual(
         * ca.vertcat(u[PSI_D][0] - phi_ref, u[PSI_D][1], wrap_angle(u[PSI_D][2] - psi_d_ref)),
         ca.exp(soft.exponent(forward_speed, mean_tilt_deg) / 2),
         attitude_bound_residual(weights, limits or MpcLimits(), x),
+        tilt_spread_residual(weights, x, free_tilt),
+        attitude_sp_move_residual(weights, u, p),
     )
 
 

@@ -19,6 +19,7 @@ from aircraft.airframe import Airframe
 from autopilot.attitude import DEFAULT_GAINS, AttitudeGains
 from autopilot.mpc_model import (
     NP,
+    P_GRID,
     NU,
     NX,
     PSI_D_INDEX,
@@ -34,8 +35,9 @@ from autopilot.mpc_model import (
 
 @dataclass(frozen=True)
 class StageFunctions:
-    """stage(x, u, x_next, p) -> (gap, A, B, H, g, cost); terminal(x, p) -> (H, g, cost); step(x, u) -> x_next.
-    H and g are in the stage's variables [x; u] (terminal: x); outputs keep their structural zeros."""
+    """stage(x, u, x_next, p) -> (gap, A, B, H, g, cost); terminal(x, p) -> (H, g, cost); step(x, u, grid) -> x_next
+    (grid: the stage parameters P_GRID, its length and rate_held). H and g are in the stage's variables [x; u]
+    (terminal: x); outputs keep their structural zeros."""
 
     stage: ca.Function
     terminal: ca.Function
@@ -44,15 +46,16 @@ class StageFunctions:
 
 def stage_functions(
     airframe: Airframe,
-    dt: float,
     gains: AttitudeGains = DEFAULT_GAINS,
     weights: MpcWeights = MpcWeights(),
     soft: SoftTiltCost = SoftTiltCost(),
     limits: MpcLimits = MpcLimits(),
+    substeps: int = 1,
 ) -> StageFunctions:
-    step = discrete_dynamics(airframe, gains, dt)
+    """substeps: RK4 steps per stage (StageGrid.substeps)."""
+    step = discrete_dynamics(airframe, gains, substeps)
     xs, us, xn, ps = ca.SX.sym("x", NX), ca.SX.sym("u", NU), ca.SX.sym("x_next", NX), ca.SX.sym("p", NP)
-    x_next = step(xs, us)
+    x_next = step(xs, us, ps[P_GRID])
     residual = stage_residual(airframe, weights, soft, xs, us, ps, limits)
     jac = ca.jacobian(residual, ca.vertcat(xs, us))
     outputs = [x_next - xn, ca.jacobian(x_next, xs), ca.jacobian(x_next, us), jac.T @ jac, jac.T @ residual,

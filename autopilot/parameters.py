@@ -53,6 +53,9 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
       "accepts them (outgoing messages are signed either way)", px4=False),
     P("VT_CTRL", INT32, 1, 0, 1, "", "velocity controller: 0 PID baseline, 1 unified MPC (at the next start or "
       "takeoff from the ground; --controller overrides at start)", px4=False),
+    P("VT_MPC_HRZN", INT32, 0, 0, 1, "", "the MPC's horizon: 0 the paper's 25 stages of 10 ms, 1 the long one "
+      "(2.05 s, docs/mpc.md 2.9) (at the next start or takeoff from the ground; --mpc-horizon overrides at start)",
+      px4=False),
     P("VT_MPC_OVERLAP", INT32, 0, 0, 1, "", "MPC solve: 0 synchronous (the paper's), 1 one control tick ahead on a "
       "second core, from the predicted state (at the next start or takeoff from the ground)", px4=False),
     P("SYS_FAILURE_EN", INT32, 0, 0, 1, "", "1 enables MAV_CMD_INJECT_FAILURE"),

@@ -219,6 +219,7 @@ class AutopilotCommand:
     links: LinkPorts | None = None  # the ground-station links (default: the instance's)
     spawn_alt: float = 0.0  # m; above 0: starts hovering there, armed (as the plant is spawned)
     controller: Controller | None = None  # default: the VT_CTRL parameter
+    mpc_horizon: str | None = None  # the MPC's horizon, "paper" or "long" (default: the VT_MPC_HRZN parameter)
     params: Path | None = None  # the parameter file (default: the user's state folder)
     airframe: Path | None = None  # airframe TOML for the controllers' model
     profile: str | None = None  # an internal set-point profile (scenarios/profiles.py), flown from the start
@@ -238,7 +239,8 @@ class AutopilotCommand:
             *_option("--instance", self.instance), *_option("--sim-port", self.sim_port),
             *_option("--sim-bind-port", self.sim_bind_port),
             *(self.links.argv() if self.links is not None else []), *_option("--spawn-alt", self.spawn_alt or None),
-            *_option("--controller", self.controller), *_option("--params", self.params),
+            *_option("--controller", self.controller), *_option("--mpc-horizon", self.mpc_horizon),
+            *_option("--params", self.params),
             *_option("--airframe", self.airframe), *_option("--profile", self.profile),
             *_flag("--offboard-lockstep", self.offboard_lockstep), *_option("--duration", self.duration_s),
             *_option("--log", self.log), *_flag("--summary", self.summary), *_flag("--quiet", self.quiet),

@@ -1,4 +1,5 @@
-"""`vtol scenario NAME|all [--controller mpc|pid|both] [--out DIR] [--instance I] [--no-record]`.
+"""`vtol scenario NAME|all [--controller mpc|pid|both] [--mpc-horizon paper|long]
+[--out DIR] [--instance I] [--no-record]`.
 
 Flies each (scenario, controller) run with a progress bar, writes the run folders and the figures with the
 controllers overlaid, prints the metrics, and for `all` writes `<out>/report.md`.
@@ -15,6 +16,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from autopilot.mpc_horizon import HORIZONS
 from ground_tools.lockstep_client import START_MS, ScenarioError
 from ground_tools.lockstep_flight import FlightFailed
 from ground_tools.processes import Controller
@@ -34,6 +36,9 @@ def add_scenario_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("name", choices=[*SCENARIOS, "all"], help="a paper experiment, or all five")
     parser.add_argument("--controller", choices=("mpc", "pid", "both"), default="both",
                         help="velocity controller(s) to fly (default both, overlaid in the figures)")
+    parser.add_argument("--mpc-horizon", choices=sorted(HORIZONS),
+                        help="the MPC's horizon: paper (25 x 10 ms) or long (docs/mpc.md 2.9); default: the "
+                             "autopilot's VT_MPC_HRZN")  # fmt: skip
     parser.add_argument("--out", default="runs", metavar="DIR", help="output folder (default ./runs)")
     parser.add_argument("--instance", type=bounded_int(0, 999), metavar="I",
                         help="use instance I's ports (docs/plant-link.md), e.g. for `vtol watch --instance I`; default: free ports")
@@ -68,6 +73,7 @@ def _fly(scenario: Scenario, controller: Controller, out: Path, args: argparse.N
                bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]")
     try:
         return run_scenario(scenario, controller, out, instance=args.instance, record=not args.no_record,
+                            mpc_horizon=args.mpc_horizon,
                             on_progress=lambda sim_s: bar.update(round(min(sim_s, total) - bar.n, 2)))
     finally:
         bar.close()

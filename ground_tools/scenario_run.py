@@ -74,10 +74,12 @@ def run_scenario(
     plant_airframe: Path | None = None,
     record: bool = True,
     on_progress: Callable[[float], None] = lambda sim_s: None,
+    mpc_horizon: str | None = None,
 ) -> RunResult:
     """Fly `scenario` with `controller` ("mpc" | "pid"); raises FlightFailed (or ScenarioError). The processes use
     `block`'s ports (it is closed when the run ends), else instance `instance`'s, else free ones. `wind_ned` and
-    `plant_airframe` (model mismatch: the autopilot keeps the paper's airframe) go to the plant."""
+    `plant_airframe` (model mismatch: the autopilot keeps the paper's airframe) go to the plant; `mpc_horizon`
+    ("paper" | "long", default the autopilot's VT_MPC_HRZN) to the autopilot."""
     run_dir = out / scenario.name / controller
     run_dir.mkdir(parents=True, exist_ok=True)
     for old in ("params.json", "telemetry.jsonl.gz", "metrics.json", "run.json", "timeseries.csv", "autopilot_log.csv"):
@@ -107,6 +109,7 @@ def run_scenario(
         processes.append(plant)
         autopilot_command = AutopilotCommand(
             sim_port=ports.plant, links=ports.links, spawn_alt=SPAWN_ALT_M, controller=controller,
+            mpc_horizon=mpc_horizon,
             offboard_lockstep=True, duration_s=duration_s, log=run_dir / "autopilot_log.csv",
             params=run_dir / "params.json", summary=True, quiet=True,
             zenoh=Zenoh.listening(ports.zenoh_autopilot) if record else Zenoh.off(),

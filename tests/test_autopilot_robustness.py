@@ -153,6 +153,7 @@ def test_garbage_from_the_plant_is_dropped_and_said(autopilot_with_fake_plant):
     "args, expected",
     [
         (["--controller", "lqr"], "--controller"),
+        (["--mpc-horizon", "forever"], "--mpc-horizon"),
         (["--failure", "1,999,1,1"], "--failure"),
         (["--sim-port", "0"], "--sim-port"),
         (["--duration", "-1"], "--duration"),

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from autopilot.mpc import RtiSolver, solve_reference_nlp
+from autopilot.mpc_horizon import LONG
 from autopilot.mpc_model import CHI, NP, NX, P_FREE_TILT, P_PSI_D_REF, P_PSI_REF, SoftTiltCost
 
 # Paper Table 3, (mean tilt deg, forward speed m/s) -> J_soft. Two cells disagree with every constant set,
@@ -39,6 +40,11 @@ def solver(airframe) -> RtiSolver:
     return RtiSolver(airframe, qp_tolerance=1e-8)  # tight, to compare with a converged NLP
 
 
+@pytest.fixture(scope="module")
+def long_solver(airframe) -> RtiSolver:
+    return RtiSolver(airframe, LONG.grid, qp_tolerance=1e-8, weights=LONG.weights)
+
+
 def converge(solver: RtiSolver, x0: np.ndarray, params: np.ndarray, iterations: int = 60) -> None:
     solver.initialise(x0, solver.airframe.hover_thrust_per_rotor)
     solver.levenberg = 0.5
@@ -46,7 +52,11 @@ def converge(solver: RtiSolver, x0: np.ndarray, params: np.ndarray, iterations: 
         assert solver.solve(x0, params).ok
 
 
-def test_iterated_rti_reaches_the_optimum_of_the_same_nlp_solved_by_ipopt(solver):
+# Measured: 1.3e-5 on the paper's grid; 1.75e-4 on the long one, a fixed point reached by 30 iterations, at the
+# tilt rates of the third stage (rad/s). IPOPT relaxes its bounds by ~1e-8 relative.
+@pytest.mark.parametrize("horizon, tolerance", [("paper", 1e-4), ("long", 3e-4)])
+def test_iterated_rti_reaches_the_optimum_of_the_same_nlp_solved_by_ipopt(horizon, tolerance, request):
+    solver = request.getfixturevalue("solver" if horizon == "paper" else "long_solver")
     x0 = np.zeros(NX)
     x0[0] = 8.0
     x0[CHI] = math.radians(10)
@@ -56,7 +66,7 @@ def test_iterated_rti_reaches_the_optimum_of_the_same_nlp_solved_by_ipopt(solver
     solver.set_actuator_limits(np.full(4, 23.0), np.full(4, np.nan))
     converge(solver, x0, params)
     reference = solve_reference_nlp(solver, x0, params)
-    assert np.abs(solver.w - reference).max() < 1e-4  # measured 1.3e-5: IPOPT relaxes its bounds by ~1e-8 relative
+    assert np.abs(solver.w - reference).max() < tolerance
 
 
 def test_failures_enter_the_plan_as_bounds(solver):

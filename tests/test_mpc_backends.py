@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from autopilot.mpc import QpBackend, RtiSolver
+from autopilot.mpc_horizon import StageGrid
 from autopilot.mpc_model import CHI, NP, NX, P_FREE_TILT
 
 
@@ -52,7 +53,7 @@ def test_the_c_back_end_is_deterministic(airframe):
 def test_without_a_compiler_the_mpc_says_so_and_solves_through_casadi(airframe, tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("TILTROTOR_SITL_CACHE", str(tmp_path))  # nothing cached: it must compile
     monkeypatch.setenv("CC", str(tmp_path / "no-such-compiler"))
-    solver = RtiSolver(airframe, horizon=5)
+    solver = RtiSolver(airframe, StageGrid.uniform(5))
     assert solver.backend is QpBackend.CASADI_CONIC
     assert "conic interface" in capsys.readouterr().err
     assert all(solution.ok for solution in iterate(solver, 2))

@@ -1,0 +1,109 @@
+"""The MPC's horizon grids on the braking of accel-decel, in one process (plant physics + flight controller).
+
+    python benchmarks/bench_horizon.py [--grids paper,long] [--profile accel-decel] [--seconds 32]
+
+A screening tool for the grids of docs/mpc.md 2.9 (the decision itself rests on `vtol scenario` through MAVLink).
+Per grid: the largest velocity error while braking (15-28 s of accel-decel), max |v_z|, max |pitch|, the largest
+tick-to-tick step of the pitch set-point, failed solves, whether the PID took over, and the solve times.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import numpy as np
+
+from aircraft.airframe import load_airframe
+from autopilot.controllers import MPC, build_flight_controller
+from autopilot.mpc_horizon import HORIZONS, LONG, MpcHorizon, StageGrid
+from autopilot.vehicle_state import VehicleState
+from bench_mpc import spread, vehicle_state
+from scenarios.profiles import PROFILES
+from sim_bridge.plant import Plant, Spawn
+
+BRAKING_S = (15.0, 28.0)
+
+
+def fly(horizon: MpcHorizon, profile_name: str, seconds: float) -> dict:
+    airframe = load_airframe()
+    profile = PROFILES[profile_name][0]
+    plant = Plant(airframe, Spawn(altitude=100.0))
+    controller = build_flight_controller(airframe, MPC, mpc_horizon=horizon)
+    state = VehicleState()
+    rows = []
+    for _ in range(int(seconds * 400)):
+        vehicle_state(plant, state)
+        if controller.velocity_due(state.time_usec):
+            v_sp = profile(state.time_s)
+            controller.set_velocity_setpoint(v_sp)
+            rows.append((state.time_s, *state.velocity_ned, *v_sp, *np.degrees(state.euler[:2]),
+                         np.degrees(controller.velocity_command.euler_sp[1])))  # fmt: skip
+        controller.step(state)
+        plant.set_command(controller.command)
+        plant.step()
+    t, vx, vy, vz, sx, sy, sz, roll, pitch, pitch_sp = np.array(rows).T
+    braking = (t >= BRAKING_S[0]) & (t <= BRAKING_S[1])
+    error = np.hypot(vx - sx, vz - sz)
+    mpc = controller.mpc
+    return {
+        "braking_error_max": float(error[braking].max()) if braking.any() else float("nan"),
+        "vx_rmse": float(np.sqrt(np.mean((vx - sx) ** 2))),
+        "vz_max": float(np.abs(vz).max()),
+        "pitch_max": float(np.abs(pitch).max()),
+        "pitch_sp_step_max": float(np.abs(np.diff(pitch_sp)).max()),
+        "braking_pitch_sp_step_max": float(np.abs(np.diff(pitch_sp))[braking[1:]].max()) if braking.any() else 0.0,
+        "failed": mpc.solves_failed if mpc else -1,
+        "fell_back": controller.fell_back_to_pid,
+        "ms": [s * 1e3 for s in mpc.solve_times_s] if mpc else [],
+        "rows": np.array(rows),
+    }
+
+
+def parse_horizon(text: str) -> MpcHorizon:
+    """A horizon by name (paper, long) or a grid as COUNTxTICKS+..., e.g. 10x1+15x13 (10 one-tick stages, 15 of 13
+    ticks), with the long horizon's weights and one Gauss-Newton step per tick; options after it: /sM (M RK4 steps
+    per stage), /qQ (q_tilt_spread), /mQ (q_attitude_sp_move), /u (stages weighed alike), /iK (K Gauss-Newton
+    steps per tick)."""
+    text, *options = text.split("/")
+    if text in HORIZONS:
+        horizon = HORIZONS[text]
+    else:
+        ticks: list[int] = []
+        for part in text.split("+"):
+            count, length = part.split("x")
+            ticks += [int(length)] * int(count)
+        horizon = MpcHorizon(text, StageGrid(tuple(ticks)), LONG.weights)
+    grid, weights, steps = horizon.grid, horizon.weights, horizon.gauss_newton_steps
+    for option in options:
+        if option.startswith("s"):
+            grid = grid.but(substeps=int(option[1:]))
+        elif option.startswith("q"):
+            weights = dataclasses.replace(weights, q_tilt_spread=float(option[1:]))
+        elif option.startswith("i"):
+            steps = int(option[1:])
+        elif option == "u":
+            weights = dataclasses.replace(weights, weigh_by_length=False)
+        elif option.startswith("m"):
+            weights = dataclasses.replace(weights, q_attitude_sp_move=float(option[1:]))
+    return MpcHorizon(horizon.name, grid, weights, steps)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--grids", default="paper,long")
+    parser.add_argument("--profile", default="accel-decel", choices=sorted(PROFILES))
+    parser.add_argument("--seconds", type=float, default=32.0)
+    args = parser.parse_args()
+    for name in args.grids.split(","):
+        horizon = parse_horizon(name)
+        grid = horizon.grid
+        r = fly(horizon, args.profile, args.seconds)
+        print(f"{name:12s} span {grid.span_s:5.2f} s  braking |v err| max {r['braking_error_max']:5.2f} m/s  "
+              f"vx RMS {r['vx_rmse']:5.2f}  |vz| max {r['vz_max']:5.2f}  |pitch| max {r['pitch_max']:5.1f} deg  "
+              f"pitch sp step max {r['pitch_sp_step_max']:5.1f} (braking {r['braking_pitch_sp_step_max']:5.1f}) deg  "
+              f"failed {r['failed']}  PID {r['fell_back']}  "
+              f"{spread(r['ms']) if r['ms'] else ''}", flush=True)  # fmt: skip
+
+
+if __name__ == "__main__":
+    main()

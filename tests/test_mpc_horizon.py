@@ -1,0 +1,108 @@
+"""The MPC's horizon: the stage grid, the warm start moved one tick along it, the set-point laid along it, and the
+choice of horizon (docs/mpc.md 2.9)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from autopilot.controllers import mpc_horizon
+from autopilot.mpc import RtiSolver
+from autopilot.mpc_horizon import LONG, PAPER, StageGrid, extrapolate_setpoint
+from autopilot.mpc_model import CHI, NU, NX
+
+
+def test_the_long_grid_sees_two_seconds_with_the_papers_number_of_stages():
+    assert PAPER.grid.stages == LONG.grid.stages == 25
+    assert PAPER.grid.span_s == pytest.approx(0.25)
+    assert LONG.grid.span_s >= 2.0
+    assert LONG.grid.node_at(0.03) == 3  # the servo lead falls on a node of the fine part
+
+
+def test_one_tick_later_is_one_stage_on_the_papers_grid():
+    interval, fraction = PAPER.grid.shift_sources()
+    assert list(interval) == [*range(1, 26), 25]
+    assert list(fraction) == [0.0] * 25 + [1.0]  # the last node: one tick past the plan's end
+
+
+def test_one_tick_later_falls_inside_the_long_stages():
+    interval, fraction = StageGrid((1, 1, 4, 4)).shift_sources()
+    assert list(interval) == [1, 2, 2, 3, 4]
+    assert list(fraction) == [0.0, 0.0, 0.25, 0.25, 1.0]
+
+
+@pytest.mark.parametrize("ticks", [(), (1, 0), (2, -1)])
+def test_a_grid_without_stages_of_at_least_one_tick_is_refused(ticks):
+    with pytest.raises(ValueError):
+        StageGrid(ticks)
+
+
+def test_the_shift_on_the_papers_grid_moves_the_plan_by_one_stage(airframe):
+    solver = RtiSolver(airframe, StageGrid.uniform(5))
+    solver.w[:] = np.arange(solver.n_w, dtype=float) / solver.n_w
+    old_states, old_inputs = solver.states(), solver.inputs()
+    solver.shift()
+    assert np.array_equal(solver.states()[:5], old_states[1:])
+    assert np.array_equal(solver.inputs()[:4], old_inputs[1:])
+    assert np.array_equal(solver.inputs()[4], old_inputs[4])  # the last input repeated
+
+
+def test_the_shift_on_a_long_stage_interpolates_the_states(airframe):
+    solver = RtiSolver(airframe, StageGrid((1, 4)))
+    stride = NX + NU
+    solver.w[:] = 0.0
+    solver.w[0:NX] = 1.0  # node 0 (t = 0)
+    solver.w[stride : stride + NX] = 2.0  # node 1 (t = 1 tick)
+    solver.w[2 * stride :] = 6.0  # node 2 (t = 5 ticks)
+    solver.w[stride + NX : 2 * stride] = 0.5  # the input of the long stage
+    solver.shift()
+    states = solver.states()
+    assert np.allclose(states[0], 2.0)  # t = 1 tick: node 1
+    assert np.allclose(states[1], 3.0)  # t = 2 ticks: a quarter into the long stage
+    assert np.allclose(solver.inputs()[1], 0.5)  # the input in force there
+
+
+def test_a_straight_extrapolation_is_the_papers_line():
+    times = LONG.grid.times_s
+    v_sp, rate = np.array([20.0, 0.0, 0.0]), np.array([-2.0, 0.0, 0.0])
+    velocities, rates = extrapolate_setpoint(v_sp, rate, times, turning=True)
+    assert np.allclose(velocities[0], 20.0 - 2.0 * times)
+    assert np.allclose(rates[0], -2.0) and np.allclose(velocities[1:], 0.0)
+
+
+def test_a_turning_set_point_stays_on_its_circle():
+    speed, radius = 26.0, 250.0
+    v_sp = np.array([speed, 0.0, 0.0])
+    rate = np.array([0.0, speed**2 / radius, 0.0])  # turning right (east) at the circle's rate
+    times = LONG.grid.times_s
+    velocities, rates = extrapolate_setpoint(v_sp, rate, times, turning=True)
+    assert np.allclose(np.hypot(velocities[0], velocities[1]), speed)
+    assert np.allclose(np.arctan2(velocities[1], velocities[0]), speed / radius * times)
+    assert np.allclose(np.hypot(rates[0], rates[1]), speed**2 / radius)
+    straight, _ = extrapolate_setpoint(v_sp, rate, times, turning=False)
+    assert np.hypot(straight[0, -1], straight[1, -1]) > speed + 0.5  # the line leaves the circle
+
+
+def test_the_horizon_comes_from_the_option_else_the_parameter():
+    assert mpc_horizon(None, 0) is PAPER and mpc_horizon(None, 1) is LONG
+    assert mpc_horizon("paper", 1) is PAPER and mpc_horizon("long", 0) is LONG
+    with pytest.raises(ValueError, match="horizon"):
+        mpc_horizon("forever", 0)
+    with pytest.raises(ValueError, match="VT_MPC_HRZN"):
+        mpc_horizon(None, 2)
+
+
+def test_long_stages_hold_the_delayed_rate_in_continuous_form(airframe):
+    """On a stage many ticks long the previous stage's rate is not held (it would be that many ticks old): the
+    step does not depend on Psi_dot_prev there, and does on a one-tick stage."""
+    step = RtiSolver(airframe, LONG.grid).step_function
+    x, u = np.zeros(NX), np.zeros(NU)
+    x[CHI] = math.radians(10)
+    u[4:8] = airframe.hover_thrust_per_rotor
+    moved = x.copy()
+    moved[13:16] = 0.5  # Psi_dot_prev
+    long_stage, tick = np.array([0.13, 0.0]), np.array([0.01, 1.0])
+    assert np.array_equal(np.asarray(step(x, u, long_stage)), np.asarray(step(moved, u, long_stage)))
+    assert not np.array_equal(np.asarray(step(x, u, tick)), np.asarray(step(moved, u, tick)))
