@@ -323,11 +323,6 @@ class Commander:
             self.say(mavlink.MAV_SEVERITY_INFO, f"Takeoff to {altitude_above_home:.1f} m")
         return ACCEPTED, None
 
-    def offboard_setpoint(self, velocity_ned: np.ndarray, stamp_ms: int | None = None) -> None:
-        """A (finite, clamped) velocity set-point from a client, received now. With stamped set-points
-        (--offboard-lockstep) it takes effect when the simulation reaches `stamp_ms` (its time_boot_ms)."""
-        self.offboard.receive(velocity_ned, stamp_ms, self.now_usec)
-
     def setpoints_cover(self, time_usec: int) -> bool:
         """--offboard-lockstep: the client's set-points reach this simulation time (True without the option)."""
         return self.offboard.covers(time_usec)

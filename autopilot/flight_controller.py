@@ -178,7 +178,7 @@ class FlightController:
     def apply_failure(self, failure: Failure) -> None:
         """Tell the allocator and the servo estimate about a failure the plant accepted."""
         self.health.apply(failure)
-        if isinstance(self.mpc, OverlappedMpc):  # its solving process keeps its own copy of the MPC's bounds
+        if self.mpc is not None:
             self.mpc.health_changed(self.allocator, self.servos)
 
     def pop_events(self) -> list[str]:

@@ -99,6 +99,10 @@ class MpcVelocityController:
         # The servos lag by their time constant (30 ms): command the plan's tilt that far (3 stages) ahead.
         self.tilt_lead_stages = grid.node_at(airframe.servo_tau)
 
+    def health_changed(self, allocator: ControlAllocator, servos: ServoEstimate) -> None:
+        """A failure became known. Nothing to copy: this controller shares the allocator and the servo estimate and
+        reads its bounds from them at every tick (OverlappedMpc, whose solver runs in another process, copies)."""
+
     def _bounds_from_health(self) -> None:
         """What the allocator and the servo estimate know of failures, as the MPC's bounds (docs/mpc.md 3.5)."""
         a, allocator = self.airframe, self.allocator

@@ -108,7 +108,7 @@ def test_offboard_loss_takes_com_obl_rc_act(action, mode, sticks):
     """Position and Altitude need MANUAL_CONTROL (heard within COM_RC_LOSS_T): without it, Hold, as PX4 falls back."""
     commander, said = flying_commander(COM_OBL_RC_ACT=action)
     centred = (lambda t: commander.manual_control(ManualControlInput())) if sticks else None
-    commander.offboard_setpoint(np.array([1.0, 0.0, 0.0]))
+    commander.offboard.receive(np.array([1.0, 0.0, 0.0]), None, commander.now_usec)
     assert commander.set_mode(OFFBOARD, state_at(0.0))[0] == M.MAV_RESULT_ACCEPTED
     fly(commander, 0.0, 1.1, every=centred)
     assert commander.mode == mode and f"Failsafe activated: {mode}" in said

@@ -70,7 +70,7 @@ def test_offboard_needs_a_fresh_set_point_and_fails_safe_to_hold_after_com_of_lo
     state = state_at(1.0, -50.0)
     commander.tick(state, state.time_usec, HOVER)
     assert commander.set_mode(OFFBOARD, state)[0] == TEMPORARILY_REJECTED
-    commander.offboard_setpoint(np.array([3.0, 0.0, 0.0]))
+    commander.offboard.receive(np.array([3.0, 0.0, 0.0]), None, commander.now_usec)
     assert commander.set_mode(OFFBOARD, state)[0] == ACCEPTED and commander.mode == OFFBOARD
     t = 1.0
     while commander.mode == OFFBOARD:
@@ -136,6 +136,6 @@ def test_the_transition_command_in_hold_circles_and_comes_back_to_a_hover():
     assert guided.transition(M.MAV_VTOL_STATE_MC, state)[0] == ACCEPTED
     moving = state_at(0.02, -50.0, velocity=(20.0, 0.0, 0.0))
     assert list(commander.tick(moving, 20_000, HOVER)[0:2]) == [0.0, 0.0]  # brake first
-    commander.offboard_setpoint(np.zeros(3))
+    commander.offboard.receive(np.zeros(3), None, commander.now_usec)
     commander.set_mode(OFFBOARD, state)
     assert guided.transition(M.MAV_VTOL_STATE_FW, state)[0] == TEMPORARILY_REJECTED
