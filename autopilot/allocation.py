@@ -26,7 +26,9 @@ paragraph only says that a QP distributes the wrench W^B over all actuators at o
 
 u = u_trim + du is clipped to [lb, ub] (the solver meets the box only to its tolerance) and the achieved wrench
 W(u) is evaluated with the same model function. The QP is solved by proxsuite's dense solver with native box
-constraints, kept alive between calls and warm started from its previous result (docs/performance.md).
+constraints, kept alive between calls and warm started from its previous result (docs/performance.md), its
+preconditioner updated at every call; each answer's optimality gap is checked, and a wrong one solved again by a
+fresh solver (docs/autopilot.md 3.3).
 
 Failures (docs/autopilot.md 3.6; sim_bridge/failures.py is the plant's side):
 
@@ -67,6 +69,10 @@ DEFAULT_LEAST_EFFORT = 1e-6  # eps relative to the largest diagonal entry of A^T
 STATUS_SOLVED = "solved"
 STATUS_INVALID_INPUT = "invalid_input"  # non-finite set-point, tilts, airspeed or rates
 STATUS_INVALID_MODEL = "invalid_model"  # non-finite A, W or solution although the inputs were finite (a bug)
+STATUS_NOT_OPTIMAL = "not_optimal"  # the solver said solved, the optimality conditions say otherwise (twice)
+# Largest optimality gap (actuator units, see build_allocation_functions) accepted: correct answers stay below
+# 1e-6; the wrong "solved" answers of proxsuite#477 were 0.1 to 0.6. The PWM on the wire resolves 1e-3.
+OPTIMALITY_TOL = 1e-4
 
 # proxsuite's result depends in its last bits on where its buffers happen to lie in memory (up to ~2e-11 here), so
 # the same flight flown twice could differ, and a long flight amplifies that. A step rounded to 1e-9 (the PWM on
@@ -106,7 +112,11 @@ def build_allocation_functions(airframe: Airframe) -> tuple[ca.Function, ca.Func
 
     allocation_qp(u_trim, effectiveness, tilts, v_air_body, rates_body, wrench_sp, wrench_weights, least_effort,
                   lower, upper) -> (H (8x8), g, l_box, u_box, A (6x8), W(u_trim)), all dense;
-    allocation_wrench(u, effectiveness, tilts, v_air_body, rates_body) -> W(u).
+    allocation_wrench(u, effectiveness, tilts, v_air_body, rates_body, wrench_sp, wrench_weights, least_effort,
+                      lower, upper) -> (W(u), optimality gap at u).
+    The optimality gap is the projected gradient step |u - clip(u - g(u) / h, lower, upper)|_inf of the QP's
+    objective at u, with h the largest diagonal entry of H: 0 at the optimum, else roughly how far (in actuator
+    units) the stiffest actuator is from where the objective wants it.
     `effectiveness` scales each actuator inside the model, W(effectiveness * u), so A's column j is scaled by it.
     """
     u = ca.SX.sym("u", N_ACTUATORS)
@@ -139,13 +149,16 @@ def build_allocation_functions(airframe: Airframe) -> tuple[ca.Function, ca.Func
          "least_effort", "lower", "upper"],
         ["H", "g", "l_box", "u_box", "A", "W"],
     )  # fmt: skip
+    stiffest = ca.mmax(ca.diag(hessian))
+    gap = ca.mmax(ca.fabs(u - ca.fmin(ca.fmax(u - gradient / stiffest, lower), upper)))
     wrench_function = ca.Function(
         "allocation_wrench",
-        [u, effectiveness, tilts, v_air, rates],
-        [ca.densify(wrench)],
-        ["u", "effectiveness", "tilts", "v_air_body", "rates_body"],
-        ["W"],
-    )
+        [u, effectiveness, tilts, v_air, rates, wrench_sp, weights, least_effort, lower, upper],
+        [ca.densify(wrench), gap],
+        ["u", "effectiveness", "tilts", "v_air_body", "rates_body", "wrench_sp", "wrench_weights", "least_effort",
+         "lower", "upper"],
+        ["W", "optimality_gap"],
+    )  # fmt: skip
     return qp_function, wrench_function
 
 
@@ -208,12 +221,16 @@ class ControlAllocator:
                       self._wrench_trim)  # fmt: skip
         for i, array in enumerate(qp_results):
             self._qp_buffer.set_res(i, memoryview(array))
+        self._optimality_gap = np.zeros(1)
+        self._u_trim = np.zeros(N_ACTUATORS)  # u_trim kept while u is the candidate solution
         self._wrench_buffer, self._evaluate_wrench = wrench_function.buffer()
-        for i, array in enumerate((self._u, self._effectiveness, self._tilts, self._v_air, self._rates)):
+        for i, array in enumerate(qp_args):
             self._wrench_buffer.set_arg(i, memoryview(array))
         self._wrench_buffer.set_res(0, memoryview(self._achieved))
+        self._wrench_buffer.set_res(1, memoryview(self._optimality_gap))
 
         self._qp: proxsuite.proxqp.dense.QP
+        self.restarts = 0  # solver objects replaced because one answered "solved" with a wrong answer
         self.reset(u_initial)  # sets u_trim and creates the solver
 
     # ------------------------------------------------------------------ allocation
@@ -237,28 +254,49 @@ class ControlAllocator:
         self._evaluate_qp()  # H, g, box, A, W(u_trim) in one call (generated C)
         if not math.isfinite(self._gradient @ self._gradient):
             return self._fallback(STATUS_INVALID_MODEL, 0)
+        self._u_trim[:] = self._u
+        status, iterations = self._solve()
+        if status == STATUS_NOT_OPTIMAL:
+            # proxsuite said "solved" and the optimality conditions say otherwise: a warm-started solver that
+            # answered wrongly once may go on doing so, so a fresh one solves the same problem cold.
+            self.restarts += 1
+            self._u[:] = self._u_trim
+            self._qp = self._new_solver()
+            status, iterations = self._solve()
+        if status != STATUS_SOLVED:
+            self._u[:] = self._u_trim
+            self._qp = self._new_solver()  # do not warm start from a failed run
+            return self._fallback(status, iterations)
+        np.subtract(self._wrench_sp, self._achieved, out=self._residual)
+        return AllocationResult(
+            self._u.copy(), self._achieved.copy(), self._residual.copy(), STATUS_SOLVED, iterations, False
+        )
+
+    def _solve(self) -> tuple[str, int]:
+        """Solve the QP the buffers hold and, when solved, move u to the solution and evaluate W(u) and the
+        optimality gap there: ("solved", iterations), or (why not, iterations) with u to be restored."""
         qp = self._qp
-        qp.update(self._hessian, self._gradient, None, None, None, None, None, self._l_box, self._u_box)
+        # update_preconditioner=True: with the default False, proxsuite (0.8.0) rescales its box constraints'
+        # multipliers by a factor that compounds on every update (Simple-Robotics/proxsuite#477); after some
+        # thousand warm-started calls it answered "solved" with multipliers on bounds far from active, rotors
+        # 0.4 from the optimum and tens of newtons unmet (a PID flight fell from 20 m).
+        qp.update(self._hessian, self._gradient, None, None, None, None, None, self._l_box, self._u_box, True)
         qp.solve()
         results = qp.results
-        info = results.info
-        if info.status != _SOLVED:
-            iterations = int(info.iter)
-            self._qp = self._new_solver()  # do not warm start from a failed run
-            return self._fallback(_STATUS_NAMES.get(info.status, str(info.status)), iterations)
+        iterations = int(results.info.iter)
+        if results.info.status != _SOLVED:
+            return _STATUS_NAMES.get(results.info.status, str(results.info.status)), iterations
         du = results.x
         if not math.isfinite(du @ du):  # defensive: proxsuite said solved but gave NaN
-            self._qp = self._new_solver()
-            return self._fallback(STATUS_INVALID_MODEL, int(info.iter))
+            return STATUS_INVALID_MODEL, iterations
         u = self._u
         u += np.round(du, DU_DECIMALS)  # u = u_trim + du: the paper's incremental form
         np.maximum(u, self._lower, out=u)
         np.minimum(u, self._upper, out=u)
-        self._evaluate_wrench()  # achieved = W(u), same model
-        np.subtract(self._wrench_sp, self._achieved, out=self._residual)
-        return AllocationResult(
-            self._u.copy(), self._achieved.copy(), self._residual.copy(), STATUS_SOLVED, int(info.iter), False
-        )
+        self._evaluate_wrench()  # achieved = W(u), same model, and the optimality gap at u
+        if not self._optimality_gap[0] <= OPTIMALITY_TOL:
+            return STATUS_NOT_OPTIMAL, iterations
+        return STATUS_SOLVED, iterations
 
     def _fallback(self, status: str, iterations: int) -> AllocationResult:
         """Previous u, clipped to the current bounds; achieved and residual where they are defined."""

@@ -287,6 +287,7 @@ class PlantLoop:
             "failures_acknowledged": self.injection.counters.acknowledged,
             "failures_refused": self.injection.counters.refused,
             "allocation_fallbacks": self.controller.allocation_fallbacks,
+            "allocation_restarts": self.controller.allocator.restarts,
             "mode_switches": self.controller.mode_switches,
             "mode": self.controller.mode,
             "flight_mode": self.commander.mode,

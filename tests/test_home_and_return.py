@@ -136,7 +136,8 @@ def test_return_altitude_descend_altitude_and_land_delay(tmp_path):
         # the 60 deg cone's height there, 25 / tan 60 = 14.4 m.
         lat, lon = latlon_e7(25.0, 0.0)
         assert command_int(gs, M.MAV_CMD_DO_REPOSITION, REL, lat, lon, 8.0, -1, 1).result == M.MAV_RESULT_ACCEPTED
-        gs.wait(lambda: math.hypot(here(gs)[0] - 25.0, here(gs)[1]) < 1.0, "the go-to", 60)
+        gs.wait(lambda: math.hypot(here(gs)[0] - 25.0, here(gs)[1]) < 0.3 and math.hypot(*gs.velocity) < 0.3,
+                "the go-to, settled", 60)  # fmt: skip
         texts = len(gs.statustexts)
         assert gs.command(M.MAV_CMD_NAV_RETURN_TO_LAUNCH).result == M.MAV_RESULT_ACCEPTED
         assert said(gs, "RTL: start return", texts) == f"RTL: start return at {math.ceil(ORIGIN.alt + 20)} m (20 m " \
@@ -144,8 +145,10 @@ def test_return_altitude_descend_altitude_and_land_delay(tmp_path):
         assert gs.set_mode(HOLD).result == M.MAV_RESULT_ACCEPTED
         set_param(gs, "RTL_MIN_DIST", 50.0)
         texts = len(gs.statustexts)
+        distance = math.hypot(*here(gs)[0:2])  # Return climbed before it turned home: still about 25 m out
         assert gs.command(M.MAV_CMD_NAV_RETURN_TO_LAUNCH).result == M.MAV_RESULT_ACCEPTED
-        assert said(gs, "RTL: start return", texts).endswith("(15 m above destination)")
+        height = int(said(gs, "RTL: start return", texts).split("(")[1].split(" m above")[0])
+        assert height == math.ceil(distance / math.tan(math.radians(60))) == 15
         # RTL_LAND_DELAY -1: over home it descends to RTL_DESCEND_ALT and stays there, in Return, not landing.
         highest = [0.0]
         gs.wait(lambda: highest.__setitem__(0, max(highest[0], gs.altitude)) or any(
