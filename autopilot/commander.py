@@ -7,9 +7,8 @@ the mode, the mode gives the velocity set-point for the flight controller, and i
 yaw reference the controllers follow while the set-point is a multicopter's (autopilot/yaw_setpoint.py).
 
 On the ground the flight controller does not run: disarmed, the rotors are off; armed, they idle until a
-takeoff (Takeoff mode, or an Offboard set-point that climbs). A takeoff starts a fresh flight controller, so
-nothing integrated on the ground carries into the flight. A detected landing stops the controller again and
-disarms after COM_DISARM_LAND.
+takeoff (Takeoff mode, or an Offboard set-point that climbs), which starts a fresh flight controller
+(ground_state.py: lift-offs, touchdowns, the automatic disarms).
 
 Every request answers (MAV_RESULT, reason); a reason goes to the ground station as STATUSTEXT. What the
 commander says (`say`) goes to the ground stations as STATUSTEXT too. Arming, modes and takeoff are judged here;
@@ -29,6 +28,7 @@ from autopilot.failsafe import Decision, Failsafe, FailsafeInputs
 from autopilot.failsafe_reaction import reaction
 from autopilot.flight_modes import (HOLD, LAND, MISSION, OFFBOARD, ORBIT, RETURN, TAKEOFF, FlightMode, HoldMode,
                                     LandMode, MissionMode, OffboardMode, OrbitMode, ReturnMode, TakeoffMode)  # fmt: skip
+from autopilot.ground_state import GroundState
 from autopilot.home_position import HomeKeeper
 from autopilot.manual_modes import ALTITUDE, POSITION, ManualControl, StickMode
 from autopilot.mission_feasibility import MissionFeasibility
@@ -105,29 +105,29 @@ class Commander:
         self.say = say
         self.profile = profile
         self.armed = armed
-        self.on_ground = not in_air
+        self.ground = GroundState(in_air)
         self.mode = OFFBOARD if profile is not None else HOLD
         self.started = False
-        self.flight_number = 0  # lift-offs so far: each starts a fresh flight controller
-        self._controller_flight = 0  # the flight the running flight controller was started for
         self.state_version = 1  # counts arming, mode and ground-state changes (each sends a HEARTBEAT)
         self._reported_version = 0
         self.now_usec = 0
         self.state = VehicleState()  # the current step's estimate (observe())
         self._start_usec = 0
-        self._armed_on_ground_usec: int | None = None
-        self._landed_usec: int | None = None
         self.failsafes = 0
 
     # ---- state ---------------------------------------------------------------------------------------------
     @property
+    def on_ground(self) -> bool:
+        return self.ground.on_ground
+
+    @property
     def controller_reset(self) -> bool:
         """A takeoff began that no fresh flight controller has been started for yet."""
-        return self.flight_number != self._controller_flight
+        return self.ground.controller_reset
 
     def controller_started(self) -> None:
         """The flight stack started a fresh flight controller for the current flight."""
-        self._controller_flight = self.flight_number
+        self.ground.controller_started()
 
     @property
     def state_changed(self) -> bool:
@@ -190,10 +190,9 @@ class Commander:
         self.armed = armed
         self.state_version += 1
         if armed:
-            self._armed_on_ground_usec = self.now_usec
+            self.ground.armed(self.now_usec)
         else:
-            self.on_ground = True  # unpowered, the vehicle ends on the ground
-            self._landed_usec = None
+            self.ground.disarmed()
         self.say(mavlink.MAV_SEVERITY_INFO, text)
 
     def start(self, state: VehicleState) -> None:
@@ -205,7 +204,7 @@ class Commander:
         if self.flying and self.profile is None:
             self.hold.activate(state)
         if self.armed:
-            self._armed_on_ground_usec = state.time_usec
+            self.ground.armed(state.time_usec)
 
     def restart(self, state: VehicleState) -> None:
         """The plant's clock went back (a new plant run): time-stamped things start afresh."""
@@ -213,9 +212,7 @@ class Commander:
         self.offboard.restart()
         self.manual.restart()
         self.failsafe.restart()
-        self._landed_usec = None
-        if self.armed:
-            self._armed_on_ground_usec = state.time_usec
+        self.ground.restarted(state.time_usec, self.armed)
         if self.profile is None and self.flying:
             self.hold.activate(state)
 
@@ -329,10 +326,7 @@ class Commander:
 
     # ---- 100 Hz -------------------------------------------------------------------------------------------------
     def _lift_off(self) -> None:
-        self.on_ground = False
-        self.flight_number += 1
-        self._armed_on_ground_usec = None
-        self._landed_usec = None
+        self.ground.lift_off()
         self.state_version += 1
 
     def tick(self, state: VehicleState, time_usec: int, mean_thrust_fraction: float) -> np.ndarray | None:
@@ -372,8 +366,7 @@ class Commander:
         setpoint = mode.setpoint(state)
         if mode.detects_landing and self.land_detector.update(state, mean_thrust_fraction, time_usec,
                                                               float(setpoint[2])):  # fmt: skip
-            self.on_ground = True
-            self._landed_usec = time_usec
+            self.ground.touch_down(time_usec)
             self.state_version += 1
             self.say(mavlink.MAV_SEVERITY_INFO, "Landing detected")
             mode.touched_down(state)
@@ -398,13 +391,8 @@ class Commander:
             self.say(severity, text)
 
     def _on_ground(self, state: VehicleState, time_usec: int) -> np.ndarray | None:
-        p = self.params
-        if self._landed_usec is not None and time_usec - self._landed_usec >= p["COM_DISARM_LAND"] * 1e6:
-            self._set_armed(False, "Disarmed after landing")
-            return None
-        if self._landed_usec is None and self._armed_on_ground_usec is not None and p["COM_DISARM_PRFLT"] >= 0 \
-                and time_usec - self._armed_on_ground_usec >= p["COM_DISARM_PRFLT"] * 1e6:  # fmt: skip
-            self._set_armed(False, f"Disarmed: no takeoff within {p['COM_DISARM_PRFLT']:g} s")
+        if (why := self.ground.disarm_due(self.params, time_usec)) is not None:
+            self._set_armed(False, why)
             return None
         if self.active.lifts_off(state):
             self._lift_off()
