@@ -279,7 +279,7 @@ class ControlAllocator:
         # update_preconditioner=True: with the default False, proxsuite (0.8.0) rescales its box constraints'
         # multipliers by a factor that compounds on every update (Simple-Robotics/proxsuite#477); after some
         # thousand warm-started calls it answered "solved" with multipliers on bounds far from active, rotors
-        # 0.4 from the optimum and tens of newtons unmet (a PID flight fell from 20 m).
+        # 0.37 from the optimum and tens of newtons unmet (a PID flight fell from 20 m).
         qp.update(self._hessian, self._gradient, None, None, None, None, None, self._l_box, self._u_box, True)
         qp.solve()
         results = qp.results
