@@ -1,5 +1,4 @@
-"""Arming, flight modes and their transitions, as PX4's commander does them, in simulation time
-(docs/mavlink.md).
+"""Arming, flight modes and their transitions, as PX4's commander does them, in simulation time (docs/mavlink.md).
 
 Modes (PX4 custom modes): Hold (AUTO.LOITER), Takeoff (AUTO.TAKEOFF), Land (AUTO.LAND), Offboard, Mission
 (AUTO.MISSION), Return (AUTO.RTL), Orbit (POSCTL.ORBIT), one class each in flight_modes.py: the commander chooses
@@ -34,7 +33,7 @@ from autopilot.manual_modes import ALTITUDE, POSITION, ManualControl, StickMode
 from autopilot.mission_feasibility import MissionFeasibility
 from autopilot.mission_flight import MissionFlight
 from autopilot.mission_store import MissionStore
-from autopilot.navigator import LandDetector, Navigator
+from autopilot.navigator import TICK_S, LandDetector, Navigator
 from autopilot.offboard_setpoint import AttitudeTarget, OffboardSetpoint
 from autopilot.parameters import ParameterStore
 from autopilot.requests import ManualControlInput, Reply
@@ -57,7 +56,6 @@ TAKING_OFF = mavlink.MAV_LANDED_STATE_TAKEOFF
 LANDING = mavlink.MAV_LANDED_STATE_LANDING
 
 MAX_LEVEL_TILT = math.radians(30.0)  # arming on the ground: roll and pitch within this
-TICK_S = 0.01  # the commander's tick (the velocity controller's 100 Hz)
 
 
 @dataclass(frozen=True)
@@ -101,7 +99,6 @@ class Commander:
             StickMode(ALTITUDE, params, self.manual))}  # fmt: skip
         self.land_detector = LandDetector(hover_fraction)
         self.yaw_shaper = YawShaper()
-        self.yaw_reference: YawReference | None = None  # the tick's, for the flight controller (None: its own rule)
         self.say = say
         self.profile = profile
         self.armed = armed
@@ -116,6 +113,10 @@ class Commander:
         self.failsafes = 0
 
     # ---- state ---------------------------------------------------------------------------------------------
+    @property
+    def yaw_reference(self) -> YawReference | None:  # the tick's, for the flight controller (None: its own rule)
+        return self.yaw_shaper.reference
+
     @property
     def on_ground(self) -> bool:
         return self.ground.on_ground
@@ -335,8 +336,7 @@ class Commander:
         yaw = None if setpoint is None or self.profile is not None else self.active.yaw(state)
         if yaw is not None and not multicopter_speed(setpoint, self.params["MPC_XY_VEL_MAX"]):
             yaw = None  # forward flight: the nose follows the course
-        self.yaw_reference = self.yaw_shaper.update(yaw, float(state.euler[2]),
-                                                    math.radians(self.params["MPC_YAWRAUTO_MAX"]), TICK_S)  # fmt: skip
+        self.yaw_shaper.update(yaw, float(state.euler[2]), math.radians(self.params["MPC_YAWRAUTO_MAX"]), TICK_S)
         return setpoint
 
     def _mode_tick(self, state: VehicleState, time_usec: int, mean_thrust_fraction: float) -> np.ndarray | None:

@@ -190,7 +190,7 @@ class OffboardMode(FlightMode):
         return self.navigator.track(state, self.offboard.position, self.offboard.velocity)
 
     def yaw(self, state: VehicleState) -> YawSetpoint | None:
-        return None if self.offboard.attitude is not None else self.offboard.yaw
+        return self.offboard.yaw  # None while an attitude set-point flies (OffboardSetpoint clears it)
 
     def lifts_off(self, state: VehicleState) -> bool:
         return bool(self.setpoint(state)[2] < -OFFBOARD_TAKEOFF_CLIMB)

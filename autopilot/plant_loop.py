@@ -95,7 +95,6 @@ class PlantLoop:
         self.params = params
         self.injection = injection
         self.events = events
-        self.home = home
         self.geodetic = LocalGeodetic(home)
         self.outputs = outputs
         self.duration_usec = None if duration_s is None else int(round(duration_s * 1e6))

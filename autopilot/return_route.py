@@ -54,7 +54,6 @@ def return_height(height: float, distance: float, return_alt: float, cone_deg: i
 
 @dataclass(frozen=True)
 class ReturnPlan:
-    destination: np.ndarray  # (north, east) from the local origin
     height: float  # m above home: the return altitude
     route: list[Target]
 
@@ -76,4 +75,4 @@ def plan_return(params: ParameterStore, state: VehicleState, rally_points: list[
         route += [FlyTo(loiter, LANDING_APPROACH_RADIUS), HoldAt(loiter, None if delay < 0 else delay)]
     if delay >= 0:
         route.append(LandAt(destination.copy()))
-    return ReturnPlan(destination, height, route)
+    return ReturnPlan(height, route)

@@ -52,9 +52,6 @@ class YawShaper:
     def __init__(self) -> None:
         self.reference: YawReference | None = None
 
-    def reset(self) -> None:
-        self.reference = None
-
     def update(self, setpoint: YawSetpoint | None, yaw_now: float, max_rate: float, dt: float) -> YawReference | None:
         """One tick of `dt` seconds; None when there is no set-point (the controllers' own rule flies the nose)."""
         if setpoint is None or (setpoint.heading is None and setpoint.rate is None):

@@ -10,7 +10,6 @@ import math
 from typing import Any
 
 import numpy as np
-import pymap3d
 
 from autopilot.mavlink.commands import for_us
 from autopilot.mavlink.global_frames import GLOBAL_FRAMES, altitude_amsl
@@ -19,7 +18,7 @@ from autopilot.mavlink.statustext import Announcer
 from autopilot.mavlink.view import StatusView
 from autopilot.requests import OffboardPosition, OffboardVelocity, RequestHandler
 from autopilot.yaw_setpoint import YawSetpoint
-from transport.geodesy import Home
+from transport.geodesy import Home, ned_from_geodetic
 from transport.mavlink import mavlink as M
 
 # frame -> (position relative to the vehicle, yaw-rotated (body) frame)
@@ -83,8 +82,7 @@ class OffboardService:
             if not (np.isfinite(alt) and -90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
                 self._drop("position not a place on Earth")
                 return
-            o = self.origin
-            position = np.array(pymap3d.geodetic2ned(lat, lon, alt, o.lat, o.lon, o.alt))
+            position = np.array(ned_from_geodetic(self.origin, lat, lon, alt))
         self._setpoint(message, position, relative=False, body=False)
 
     def _setpoint(self, message: Any, position: np.ndarray | None, relative: bool, body: bool) -> None:
