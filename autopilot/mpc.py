@@ -134,7 +134,6 @@ class RtiSolver:
         self.grid = grid
         self.gauss_newton_steps = gauss_newton_steps
         self.horizon = n = grid.stages
-        self.dt = grid.tick_s
         self.limits = limits
         functions = stage_functions(airframe, gains, weights, soft, limits, grid.substeps)
         self.step_function = functions.step
@@ -150,6 +149,9 @@ class RtiSolver:
         )
         self.solver_rows[rows(P_MOVE), 0] = 1.0
         self._shift_interval, self._shift_fraction = grid.shift_sources()
+        # The interval's far node, and the input in force at each new stage's start (the last repeated).
+        self._shift_next = np.minimum(self._shift_interval + 1, self.horizon)
+        self._shift_input = np.minimum(self._shift_interval[: self.horizon], self.horizon - 1)
         self._one_tick = np.array((grid.tick_s, 1.0))
         self.n_w = NX * (n + 1) + NU * n
         self.lbw, self.ubw = self._nominal_bounds()
@@ -282,13 +284,13 @@ class RtiSolver:
         stride, n = NX + NU, self.horizon
         self._remember_flown_attitude_sp()
         states = self.states()
-        inputs = self.w[: n * stride].reshape(n, stride)[:, NX:].copy()
+        inputs = self.inputs()
         j, f = self._shift_interval, self._shift_fraction
-        moved = states[j] + f[:, None] * (states[np.minimum(j + 1, n)] - states[j])
+        moved = states[j] + f[:, None] * (states[self._shift_next] - states[j])
         moved[n] = np.asarray(self.step_function(states[n], inputs[n - 1], self._one_tick)).ravel()
         stages = self.w[: n * stride].reshape(n, stride)
         stages[:, :NX] = moved[:n]
-        stages[:, NX:] = inputs[np.minimum(j[:n], n - 1)]
+        stages[:, NX:] = inputs[self._shift_input]
         self.w[n * stride :] = moved[n]
 
     def shift_yaw(self, delta: float) -> None:

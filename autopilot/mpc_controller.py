@@ -119,9 +119,11 @@ class MpcVelocityController:
         rate = self.trajectory.update(time_usec, v_sp)
         v_sp = self.trajectory.now(time_usec)
         turning = self.horizon.turning_setpoint
-        params[P_V_SP, :], rates = extrapolate_setpoint(v_sp, rate, solver.grid.times_s, turning)
+        times_s = solver.grid.times_s
+        params[P_V_SP, :], rates = extrapolate_setpoint(v_sp, rate, times_s, turning)
         params[P_FREE_TILT, :] = np.isnan(self.servos.stuck)[:, None]
         yaw_gain = solver.gains.attitude[2]
+        bank_limit = self.limits.attitude[0]
         psi_ref = yaw
         for k in range(solver.horizon + 1):
             v_sp_k = params[P_V_SP, k]
@@ -130,10 +132,9 @@ class MpcVelocityController:
                 # The set-point's course rate, while it has a course (the yaw reference follows it).
                 turn_rate = course_rate(v_sp_k, rates[:, k])
             else:  # each stage within pi of the one before, stage 0 of the (continuous) yaw
-                psi_ref = psi_ref + wrap(reference.at(solver.grid.times_s[k]) - psi_ref)
+                psi_ref = psi_ref + wrap(reference.at(times_s[k]) - psi_ref)
                 turn_rate = reference.rate
             params[P_PSI_REF, k] = psi_ref
-            bank_limit = self.limits.attitude[0]
             params[P_PHI_REF, k] = coordinated_roll(rates[:, k], psi_ref, self.airframe.gravity, bank_limit)
             params[P_PSI_RATE_REF, k] = turn_rate
             # The yaw set-point that holds the attitude loop on a yaw turning at turn_rate: it leads by rate / K_att.

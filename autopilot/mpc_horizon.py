@@ -107,7 +107,7 @@ def extrapolate_setpoint(
     speeds = speed + rate_along * times_s
     heading = np.outer(along, np.cos(angle)) + np.outer(across, np.sin(angle))
     normal = np.outer(across, np.cos(angle)) - np.outer(along, np.sin(angle))
-    velocities, rates = straight.copy(), rates.copy()
+    velocities = straight  # both built above for this call: filled in place
     velocities[0:2] = heading * speeds
     rates[0:2] = heading * rate_along + normal * speeds * turn_rate
     return velocities, rates
