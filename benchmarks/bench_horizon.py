@@ -55,7 +55,6 @@ def fly(horizon: MpcHorizon, profile_name: str, seconds: float) -> dict:
         "failed": mpc.solves_failed if mpc else -1,
         "fell_back": controller.fell_back_to_pid,
         "ms": [s * 1e3 for s in mpc.solve_times_s] if mpc else [],
-        "rows": np.array(rows),
     }
 
 

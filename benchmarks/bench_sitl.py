@@ -10,12 +10,11 @@ step (the rest of the wall time is the two processes waiting for each other's da
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
 import tempfile
 from pathlib import Path
 
-from autopilot.parameters import FILE_FORMAT, FILE_VERSION
+from autopilot.parameters import ParameterStore
 from ground_tools.lockstep_flight import fly_lockstep
 from scenarios.profiles import PROFILES
 
@@ -41,6 +40,15 @@ def variants(controller: str) -> list[tuple[str, str, int]]:
     return {"both": pid + mpc, "mpc": mpc, "pid": pid}[controller]
 
 
+def overlap_params(path: Path, overlap: int) -> Path:
+    """A parameter file for the autopilot with VT_MPC_OVERLAP = `overlap` (absent: all defaults, as 0 is)."""
+    store = ParameterStore(path)
+    store.set("VT_MPC_OVERLAP", overlap)
+    if (error := store.flush()) is not None:
+        raise SystemExit(f"cannot write {path}: {error}")
+    return path
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--profile", choices=sorted(PROFILES), default="accel")
@@ -52,9 +60,7 @@ def main() -> None:
     print(f"profile {args.profile}, {duration:g} s simulated, lockstep, {args.repeats} runs each")
     with tempfile.TemporaryDirectory() as scratch:
         for label, controller, overlap in variants(args.controller):
-            params = Path(scratch) / f"params-{overlap}.json"
-            params.write_text(json.dumps({"format": FILE_FORMAT, "version": FILE_VERSION,
-                                          "parameters": {"VT_MPC_OVERLAP": overlap}}))  # fmt: skip
+            params = overlap_params(Path(scratch) / f"params-{overlap}.json", overlap)
             runs = [run_once(args.profile, duration, controller, params) for _ in range(args.repeats)]
             report(label, GOALS[controller], runs)
 

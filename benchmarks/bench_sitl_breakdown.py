@@ -12,13 +12,12 @@ gives each piece's profiled time per simulated second and the same scaled to the
 from __future__ import annotations
 
 import argparse
-import json
 import pstats
 import sys
 import tempfile
 from pathlib import Path
 
-from autopilot.parameters import FILE_FORMAT, FILE_VERSION
+from bench_sitl import overlap_params
 from ground_tools.lockstep_flight import LockstepFlight, fly_lockstep
 from scenarios.profiles import PROFILES
 
@@ -75,9 +74,7 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=10.0, help="simulated seconds")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as scratch:
-        params = Path(scratch) / "params.json"
-        params.write_text(json.dumps({"format": FILE_FORMAT, "version": FILE_VERSION,
-                                      "parameters": {"VT_MPC_OVERLAP": args.overlap}}))  # fmt: skip
+        params = overlap_params(Path(scratch) / "params.json", args.overlap)
         plain = fly(args.profile, args.duration, args.controller, params, None)
         profile_path = Path(scratch) / "autopilot.prof"
         fly(args.profile, args.duration, args.controller, params, profile_path)

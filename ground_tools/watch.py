@@ -5,13 +5,12 @@ commands, the MPC's predicted velocity over its horizon, MPC solve times). Witho
 status line per wall second. `--snapshot FILE.png` draws the figure (Agg, no display needed) when it stops.
 
 The data (ground_tools/telemetry_view.py) and the figure (ground_tools/watch_figure.py) are zenoh-free; zenoh's
-threads only queue (key, bytes) here, and the main loop feeds the view.
+subscriber keeps the samples in a FIFO channel, and the main loop feeds the view from it.
 """
 
 from __future__ import annotations
 
 import os
-import queue
 import sys
 import time
 from collections.abc import Mapping
@@ -19,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from ground_tools.telemetry_record import (
+    CHANNEL_CAPACITY,
     add_source_arguments,
     endpoints_from_args,
     key_expression,
@@ -60,31 +60,22 @@ def gui_pyplot() -> Any | None:
 
 
 class Subscription:
-    """A zenoh session subscribed to `vtol/<sysid>/**`; samples wait in `queue` as (key, bytes)."""
+    """A zenoh session subscribed to `vtol/<sysid>/**`; zenoh keeps the samples in a FIFO channel (as the recorder's,
+    so a 400 Hz stream costs no Python call per sample) until the main loop drains them into the view."""
 
     def __init__(self, endpoints: list[str], sysid: int) -> None:
         import zenoh
 
         from transport.zenoh_bus import session_config
 
-        self.queue: queue.SimpleQueue = queue.SimpleQueue()
         self.session = zenoh.open(session_config(listen=[], connect=endpoints))
-        self.subscriber = self.session.declare_subscriber(key_expression(sysid), self._on_sample)
-
-    def _on_sample(self, sample: Any) -> None:
-        try:
-            self.queue.put((str(sample.key_expr), sample.payload.to_bytes()))
-        except Exception:
-            pass  # a sample zenoh could not hand over; the view counts what it gets
+        channel = zenoh.handlers.FifoChannel(CHANNEL_CAPACITY)
+        self.subscriber = self.session.declare_subscriber(key_expression(sysid), channel)
 
     def drain(self, view: TelemetryView, limit: int = 100_000) -> int:
         n = 0
-        while n < limit:
-            try:
-                key, payload = self.queue.get_nowait()
-            except queue.Empty:
-                break
-            view.add(key, payload)
+        while n < limit and (sample := self.subscriber.try_recv()) is not None:
+            view.add(str(sample.key_expr), sample.payload.to_bytes())
             n += 1
         return n
 
@@ -92,8 +83,8 @@ class Subscription:
         try:
             self.subscriber.undeclare()
             self.session.close()
-        except Exception:
-            pass
+        except Exception as exc:  # the session is going away in any case
+            print(f"vtol: warning: closing the watch's zenoh session: {short_error(exc)}", file=sys.stderr)
 
 
 def watch(args: Any) -> int:

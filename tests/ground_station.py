@@ -183,5 +183,11 @@ class GroundStation:
         return found[0]
 
 
+def said(gs: GroundStation, text: str, since: int = 0, timeout_s: float = 30.0) -> str:
+    """The first STATUSTEXT containing `text` from index `since` on, waited for."""
+    gs.wait(lambda: any(text in t for t in gs.statustexts[since:]), f"the STATUSTEXT {text!r}", timeout_s)
+    return next(t for t in gs.statustexts[since:] if text in t)
+
+
 def distance(a: tuple[float, float], b: tuple[float, float]) -> float:
     return math.hypot(a[0] - b[0], a[1] - b[1])

@@ -13,16 +13,14 @@ import pymap3d
 import pytest
 
 from autopilot.parameters import BY_NAME, encode_value
-from tests.ground_station import HOLD, OFFBOARD
+from tests.ground_station import HOLD, OFFBOARD, said
 from tests.test_mavlink_failsafes import hovering, set_param
-from tests.test_mavlink_navigation import RETURN_MODE, latlon_e7
-from transport.geodesy import Home
+from tests.test_mavlink_navigation import HOME as ORIGIN  # PX4 SITL's default: every vehicle's local origin here
+from tests.test_mavlink_navigation import REL, RETURN_MODE, latlon_e7
+from tests.test_mavlink_offboard_position import POSITION_MASK, here
 from transport.mavlink import mavlink as M
 
-ORIGIN = Home()  # PX4 SITL's default: the local frame's origin of every vehicle here
-REL = M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
 TERRAIN = M.MAV_FRAME_GLOBAL_TERRAIN_ALT_INT
-POSITION_MASK = 0b110111111000  # MAVSDK's position set-point: x, y, z used
 
 
 def command_int(gs, command: int, frame: int, x: int, y: int, z: float, *params: float):
@@ -39,16 +37,6 @@ def home_after(gs, time_ms: int):
     gs.wait(lambda: "HOME_POSITION" in gs.latest and gs.latest["HOME_POSITION"].time_usec > time_ms * 1000,
             "a HOME_POSITION")  # fmt: skip
     return gs.latest["HOME_POSITION"]
-
-
-def said(gs, text: str, since: int = 0, timeout_s: float = 30.0) -> str:
-    gs.wait(lambda: any(text in t for t in gs.statustexts[since:]), f"the STATUSTEXT {text!r}", timeout_s)
-    return next(t for t in gs.statustexts[since:] if text in t)
-
-
-def here(gs) -> tuple[float, float, float]:
-    p = gs.latest["LOCAL_POSITION_NED"]
-    return p.x, p.y, p.z
 
 
 def test_home_follows_the_vehicle_on_the_ground_and_arming_but_not_over_a_set_home(tmp_path):

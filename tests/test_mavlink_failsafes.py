@@ -13,6 +13,7 @@ from tests.ground_station import HOLD, LAND, OFFBOARD
 from tests.mavlink_sitl import start_sitl
 from tests.test_mavlink_missions import Client
 from tests.test_mavlink_navigation import RETURN_MODE, latlon_e7
+from tiltrotor_sitl import Controller
 from transport.geodesy import Home
 from transport.mavlink import mavlink as M
 
@@ -27,9 +28,9 @@ def set_param(gs, name: str, value: float) -> None:
 
 
 @contextmanager
-def hovering(tmp_path, altitude: float = 20.0) -> Iterator:
-    """A vehicle spawned hovering over home, in lockstep with the MPC; its connected ground station."""
-    sitl = start_sitl(tmp_path / "params.json", spawn_alt=altitude, speed=None)
+def hovering(tmp_path, altitude: float = 20.0, controller: Controller = "mpc") -> Iterator:
+    """A vehicle spawned hovering over home, in lockstep (with the MPC by default); its connected ground station."""
+    sitl = start_sitl(tmp_path / "params.json", spawn_alt=altitude, speed=None, controller=controller)
     try:
         sitl.gs.connect()
         yield sitl.gs

@@ -7,7 +7,7 @@ import signal
 import time
 
 from transport.link_signing import timestamp_at
-from tests.ground_station import GroundStation
+from tests.ground_station import GroundStation, said
 from tests.mavlink_sitl import start_sitl
 from transport.mavlink import MAV_RESULT_ACCEPTED, MAV_RESULT_DENIED, mavlink
 
@@ -16,10 +16,6 @@ KEY = bytes(range(1, 33))
 
 def setup_signing(gs: GroundStation, key: bytes, timestamp: int) -> None:
     gs.conn.mav.setup_signing_send(1, 1, list(key), timestamp)
-
-
-def said(gs: GroundStation, text: str) -> None:
-    gs.wait(lambda: any(text in t for t in gs.statustexts), repr(text))
 
 
 def test_a_keyed_client_flies_an_unkeyed_one_is_refused_and_the_key_survives_a_restart(tmp_path):

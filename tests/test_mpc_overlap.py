@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 
 from aircraft.actuators import ALLOCATED_ROTORS
-from aircraft.airframe import load_airframe
 from aircraft.failures import FailureType, FailureUnit, parse_failure
 from autopilot.actuator_health import ActuatorHealth, ServoEstimate
 from autopilot.allocation import ControlAllocator
@@ -24,11 +23,6 @@ from autopilot.mpc_overlap import HealthSnapshot, OverlappedMpc, body_rates
 from autopilot.vehicle_state import VehicleState
 from tiltrotor_sitl import Vehicle
 from transport.flight_log import VN, VN_SP, read_flight_log
-
-
-@pytest.fixture(scope="module")
-def airframe():
-    return load_airframe()
 
 
 @pytest.mark.parametrize("euler", [(0.0, 0.0, 0.0), (0.3, -0.4, 2.5), (-1.0, 1.2, -3.0)])

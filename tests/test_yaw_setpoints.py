@@ -14,8 +14,8 @@ from autopilot.attitude import wrap
 from autopilot.auto_flight import ORBIT_FRONT_TO_CENTER, ORBIT_INITIAL_HEADING, ORBIT_TANGENT, Circle, orbit_yaw
 from autopilot.yaw_setpoint import YawSetpoint, YawShaper, multicopter_speed
 from tests.ground_station import OFFBOARD
-from tests.test_mavlink_manual_control import POSCTL, set_param
-from tests.mavlink_sitl import start_sitl
+from tests.test_mavlink_failsafes import hovering, set_param
+from tests.test_mavlink_manual_control import POSCTL
 from tests.test_mavlink_missions import Client
 from tests.test_mavlink_navigation import MISSION_MODE, ORBIT_MODE, latlon_e7
 from transport.mavlink import mavlink as M
@@ -23,7 +23,6 @@ from transport.mavlink import mavlink as M
 ALTITUDE = 20.0
 VELOCITY_YAW = 0b100111000111  # velocity and yaw used (MAVSDK's VelocityNedYaw), yaw rate ignored
 VELOCITY_YAW_RATE = 0b010111000111  # velocity and yaw rate used (MAVSDK's VelocityBodyYawspeed), yaw ignored
-VELOCITY_ONLY = 0b110111000111
 
 
 # ---- the maths ----------------------------------------------------------------------------------------------------
@@ -63,18 +62,11 @@ def yaw_deg(gs) -> float:
     return math.degrees(gs.latest["ATTITUDE"].yaw)
 
 
-def hover(tmp_path, controller: str = "mpc"):
-    sitl = start_sitl(tmp_path / "params.json", spawn_alt=ALTITUDE, speed=None, controller=controller)
-    sitl.gs.connect()
-    return sitl
-
-
 @pytest.fixture
 def mpc_gs(tmp_path):
     """A ground station on a vehicle hovering at 20 m in Hold, flown by the MPC, in lockstep."""
-    sitl = hover(tmp_path)
-    yield sitl.gs
-    sitl.kill()
+    with hovering(tmp_path, ALTITUDE) as gs:
+        yield gs
 
 
 def offboard(gs, send) -> None:
@@ -100,9 +92,7 @@ def measured_rate(gs, send, seconds: float) -> float:
 
 @pytest.mark.parametrize("controller", ["mpc", "pid"])
 def test_offboard_yaw_turns_the_hover_to_it_and_a_yaw_rate_turns_at_that_rate(tmp_path, controller):
-    sitl = hover(tmp_path, controller)
-    try:
-        gs = sitl.gs
+    with hovering(tmp_path, ALTITUDE, controller) as gs:
         mav = gs.conn.mav
 
         def heading(yaw: float):
@@ -127,8 +117,6 @@ def test_offboard_yaw_turns_the_hover_to_it_and_a_yaw_rate_turns_at_that_rate(tm
         assert abs(east - 90.0) < 3.0 and abs(wrap(math.radians(south_west + 135.0))) < math.radians(3.0)
         assert abs(rate - 0.5) < 0.05
         assert abs(-position.z - ALTITUDE) < 1.0
-    finally:
-        sitl.kill()
 
 
 def test_a_yaw_in_forward_flight_is_not_honoured_and_bad_yaws_are_refused(mpc_gs):
