@@ -1,16 +1,21 @@
 """`vtol scenario NAME|all [--controller mpc|pid|both] [--mpc-horizon paper|long]
-[--out DIR] [--instance I] [--no-record]`.
+[--out DIR] [--instance I] [--jobs J] [--no-record]`.
 
-Flies each (scenario, controller) run with a progress bar, writes the run folders and the figures with the
-controllers overlaid, prints the metrics, and for `all` writes `<out>/report.md`.
+Flies each (scenario, controller) run with a progress bar, J at a time in worker processes (each run is its own
+lockstep plant and autopilot, so the runs do not depend on each other or on J), writes the run folders and the
+figures with the controllers overlaid, prints the metrics, and for `all` writes `<out>/report.md`.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import multiprocessing
+import os
 import sys
 import time
+from collections.abc import Iterator
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import replace
 from pathlib import Path
 
@@ -22,7 +27,7 @@ from ground_tools.lockstep_flight import FlightFailed
 from ground_tools.processes import Controller
 from ground_tools.scenario_figures import plot_scenario
 from ground_tools.scenario_report import acceptance, write_report
-from ground_tools.scenario_run import run_scenario
+from ground_tools.scenario_run import RunResult, run_scenario
 from scenarios.experiments import SCENARIOS, Scenario
 from transport.cli import bounded_int, positive_float, writable_folder
 from transport.flight_log import FlightLog, read_flight_log
@@ -42,6 +47,9 @@ def add_scenario_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", default="runs", metavar="DIR", help="output folder (default ./runs)")
     parser.add_argument("--instance", type=bounded_int(0, 999), metavar="I",
                         help="use instance I's ports (docs/plant-link.md), e.g. for `vtol watch --instance I`; default: free ports")
+    parser.add_argument("--jobs", type=bounded_int(1, 64), metavar="J",
+                        help="runs flown at a time, each in a worker process (default: 2 on a machine with 2 or more "
+                             "cores, else 1; 1 with --instance)")  # fmt: skip
     parser.add_argument("--duration", type=positive_float, metavar="S",
                         help="fly only the first S seconds of each profile (quick looks, tests; no acceptance checks)")
     parser.add_argument("--no-record", action="store_true", help="no zenoh telemetry and no recording of it")
@@ -66,10 +74,10 @@ def refresh_figures(scenario: Scenario, out: Path) -> list[Path]:
     return written
 
 
-def _fly(scenario: Scenario, controller: Controller, out: Path, args: argparse.Namespace):
+def _fly(scenario: Scenario, controller: Controller, out: Path, args: argparse.Namespace, bar_position: int = 0):
     total = START_MS / 1000.0 + scenario.duration_s
     bar = tqdm(total=round(total, 2), desc=f"{scenario.name} ({controller})", unit="sim s", leave=True,
-               disable=True if args.no_progress else None, file=sys.stderr,
+               disable=True if args.no_progress else None, file=sys.stderr, position=bar_position,
                bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]")
     try:
         return run_scenario(scenario, controller, out, instance=args.instance, record=not args.no_record,
@@ -79,26 +87,75 @@ def _fly(scenario: Scenario, controller: Controller, out: Path, args: argparse.N
         bar.close()
 
 
+_worker_bar_position = 0  # a worker process's progress-bar line, set once per worker
+
+
+def _start_worker(lock, next_position) -> None:  # type: ignore[no-untyped-def]  # multiprocessing's proxies
+    global _worker_bar_position
+    tqdm.set_lock(lock)
+    with next_position.get_lock():
+        _worker_bar_position = next_position.value
+        next_position.value += 1
+
+
+def _fly_in_worker(scenario: Scenario, controller: Controller, out: Path, args: argparse.Namespace) -> RunResult:
+    return _fly(scenario, controller, out, args, _worker_bar_position)
+
+
+Flight = tuple[Scenario, Controller]
+
+
+def _flown(
+    flights: list[Flight], out: Path, args: argparse.Namespace, jobs: int
+) -> Iterator[tuple[Flight, RunResult | Exception]]:
+    """Each flight with its result, or the FlightFailed/ScenarioError it ended with, as they finish."""
+    if jobs == 1:
+        for flight in flights:
+            try:
+                yield flight, _fly(*flight, out, args)
+            except (FlightFailed, ScenarioError) as exc:
+                yield flight, exc
+        return
+    context = multiprocessing.get_context("spawn")  # a clean interpreter: no threads or sockets inherited
+    with ProcessPoolExecutor(jobs, mp_context=context, initializer=_start_worker,
+                             initargs=(context.RLock(), context.Value("i", 0))) as pool:  # fmt: skip
+        futures = {pool.submit(_fly_in_worker, *flight, out, args): flight for flight in flights}
+        for future in as_completed(futures):
+            try:
+                yield futures[future], future.result()
+            except (FlightFailed, ScenarioError) as exc:
+                yield futures[future], exc
+
+
+def default_jobs(instance: int | None) -> int:
+    """Two runs at a time where there are two cores: a lockstep pair mostly alternates, so one run leaves a core
+    partly idle (docs/performance.md); one with --instance, whose ports only one run can use."""
+    return 1 if instance is not None else min(2, len(os.sched_getaffinity(0)))
+
+
 def scenario(args: argparse.Namespace) -> int:
+    if args.jobs is not None and args.jobs > 1 and args.instance is not None:
+        print(f"{PROG} scenario: error: --instance gives one vehicle's ports; it cannot go with --jobs {args.jobs}",
+              file=sys.stderr)  # fmt: skip
+        return 2
     out = writable_folder(PROG, Path(args.out))
     names = list(SCENARIOS) if args.name == "all" else [args.name]
     controllers: list[Controller] = ["mpc", "pid"] if args.controller == "both" else [args.controller]
+    flights = [(SCENARIOS[name] if args.duration is None
+                else replace(SCENARIOS[name], duration_s=min(args.duration, SCENARIOS[name].duration_s)), controller)
+               for name in names for controller in controllers]  # fmt: skip
+    jobs = min(len(flights), args.jobs or default_jobs(args.instance))
     started = time.perf_counter()
     failed = []
+    for (flown, controller), result in _flown(flights, out, args, jobs):
+        if isinstance(result, Exception):
+            print(f"{PROG}: {flown.name} with the {controller} failed: {result}", file=sys.stderr)
+            failed.append(f"{flown.name}/{controller}")
+            continue
+        shown = {key: result.metrics.get(key) for key in SHOWN if result.metrics.get(key) is not None}
+        print(f"{PROG}: {flown.name} ({controller}): {result.sim_s:g} s flown in {result.wall_s:.1f} s; "
+              + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}" for k, v in shown.items()))
     for name in names:
-        for controller in controllers:
-            flown = SCENARIOS[name]
-            if args.duration is not None:
-                flown = replace(flown, duration_s=min(args.duration, flown.duration_s))
-            try:
-                result = _fly(flown, controller, out, args)
-            except (FlightFailed, ScenarioError) as exc:
-                print(f"{PROG}: {name} with the {controller} failed: {exc}", file=sys.stderr)
-                failed.append(f"{name}/{controller}")
-                continue
-            shown = {key: result.metrics.get(key) for key in SHOWN if result.metrics.get(key) is not None}
-            print(f"{PROG}: {name} ({controller}): {result.sim_s:g} s flown in {result.wall_s:.1f} s; "
-                  + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}" for k, v in shown.items()))
         figures = refresh_figures(SCENARIOS[name], out)
         if figures:
             print(f"{PROG}: {name}: figures in {figures[0].parent.parent}/*/")

@@ -2,9 +2,9 @@
 
 One JSON object per line, in arrival order (gzip-compressed when the file name ends in .gz):
 
-    {"key": "vtol/1/plant/state", "payload": {"t": 0.0025, "north": 0.0, ...}}    plant state, decoded
+    {"key": "vtol/1/plant/state", "payload": {"t": 0.0025, "north": 0.0, ...}}    plant state, decoded (a line a step)
     {"key": "vtol/1/autopilot/control", "payload": {"t": 0.01, "mode": "MC", ...}} JSON payloads, parsed
-    {"key": "vtol/1/plant/state", "error": "plant state payload has 24 bytes, expected 344", "bytes": 24}
+    {"key": "vtol/1/plant/state", "error": "plant state payload has 24 bytes, expected a multiple of 344", "bytes": 24}
 
 A sample that cannot be decoded is written as an error record (never dropped, never fatal) and counted in
 `errors`. zenoh queues the samples in a FIFO channel on its own threads; one writer thread drains it every
@@ -27,7 +27,7 @@ from typing import Any
 
 from transport.cli import bounded_int, fail, positive_float, stop_on_signals
 from transport.ports import Ports
-from transport.telemetry import decode_plant_state
+from transport.telemetry import decode_plant_states
 from transport.zenoh_bus import session_config
 
 FLUSH_S = 0.5  # the file is flushed at least this often (wall s), so a killed recorder loses little
@@ -40,25 +40,25 @@ def key_expression(sysid: int | None) -> str:
     return "vtol/**" if sysid is None else f"vtol/{sysid}/**"
 
 
-def decode_payload(key: str, payload: bytes) -> Any:
-    """A sample's payload as JSON-able data: plant/state -> dict of PLANT_STATE_FIELDS, others parsed as JSON.
-    Raises ValueError (with the reason) if the payload cannot be decoded."""
+def decode_samples(key: str, payload: bytes) -> list[Any]:
+    """A payload's samples as JSON-able data: plant/state -> a dict of PLANT_STATE_FIELDS per physics step, any
+    other key -> one sample parsed as JSON. Raises ValueError (with the reason) if the payload cannot be decoded."""
     if key.endswith("/plant/state"):
-        return decode_plant_state(payload)
+        return decode_plant_states(payload)
     try:
-        return json.loads(payload.decode("utf-8"))
+        return [json.loads(payload.decode("utf-8"))]
     except UnicodeDecodeError as exc:
         raise ValueError(f"not UTF-8: {exc.reason} at byte {exc.start}") from None
     except json.JSONDecodeError as exc:
         raise ValueError(f"not JSON: {exc.msg} at character {exc.pos}") from None
 
 
-def encode_record(key: str, payload: bytes) -> tuple[str, bool]:
-    """One recording line (without the newline) and whether the payload decoded."""
+def encode_records(key: str, payload: bytes) -> tuple[list[str], bool]:
+    """A payload's recording lines (one per sample, without the newline) and whether it decoded."""
     try:
-        return json.dumps({"key": key, "payload": decode_payload(key, payload)}), True
+        return [json.dumps({"key": key, "payload": value}) for value in decode_samples(key, payload)], True
     except (ValueError, RecursionError) as exc:
-        return json.dumps({"key": key, "error": str(exc), "bytes": len(payload)}), False
+        return [json.dumps({"key": key, "error": str(exc), "bytes": len(payload)})], False
 
 
 def _open_text(path: Path, mode: str) -> Any:
@@ -144,13 +144,13 @@ class TelemetryRecorder:
         """Write every sample waiting in the channel."""
         while (sample := self._subscriber.try_recv()) is not None:
             key = str(sample.key_expr)
-            line, ok = encode_record(key, sample.payload.to_bytes())
-            self.counts[key] += 1
+            lines, ok = encode_records(key, sample.payload.to_bytes())
+            self.counts[key] += len(lines)
             if not ok:
                 self.errors[key] += 1
             if self._write_error is None:
                 try:
-                    self._file.write(line + "\n")
+                    self._file.write("".join(line + "\n" for line in lines))
                 except OSError as exc:  # disk full: keep counting, report at stop()
                     self._write_error = exc
 

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from ground_tools.telemetry_record import decode_payload
+from ground_tools.telemetry_record import decode_samples
 
 WINDOW_S = 30.0  # simulation seconds kept in the ring buffers
 PLANT_MIN_DT_S = 0.02  # plant rows kept at most every 20 ms of simulation time (the plant publishes at 400 Hz)
@@ -102,10 +102,12 @@ class TelemetryView:
         self.last_error: str = ""
 
     def add(self, key: str, payload: bytes) -> None:
-        """Decode one sample and file it; a sample that does not decode is counted in `errors`, never raised."""
-        self.samples[key] += 1
+        """Decode a payload and file its samples; one that does not decode is counted in `errors`, never raised."""
         try:
-            self.add_decoded(key, decode_payload(key, payload))
+            values = decode_samples(key, payload)
+            self.samples[key] += len(values)
+            for value in values:
+                self.add_decoded(key, value)
         except (ValueError, KeyError, IndexError, TypeError) as exc:
             self.errors[key] += 1
             self.last_error = f"{key}: {exc!r}"

@@ -38,7 +38,7 @@ from transport.mavlink import (
     mavlink,
 )
 from transport.udp import SPIN_WINDOW_S, receive
-from transport.telemetry import encode_event, encode_plant_state, plant_events_key, plant_state_key
+from transport.telemetry import PlantStateBatch, encode_event, plant_events_key, plant_state_key
 
 USEC_WRAP = 1 << 32
 LAG_LIMIT_S = 0.05  # paced: this far behind the wall clock, the schedule moves (the simulation slows down)
@@ -109,6 +109,7 @@ class PlantServer:
         self.component_id = link.mav.srcComponent
         self._state_publisher = None
         self._event_publisher = None
+        self._states = PlantStateBatch()
         if zenoh_session is not None:
             self._state_publisher = zenoh_session.declare_publisher(plant_state_key(self.system_id))
             self._event_publisher = zenoh_session.declare_publisher(plant_events_key(self.system_id))
@@ -192,6 +193,7 @@ class PlantServer:
         status = self.link.mav.statustext_encode(severity, text.encode()[:50])
         self._send(self.link.pack(status), sender)
         if self._event_publisher is not None:
+            self._publish_states()  # the states before the event go out first
             self._event_publisher.put(encode_event(self.plant.time_usec / 1e6, event, text))
 
     def _send(self, data: bytes, address: tuple[str, int]) -> None:
@@ -208,7 +210,12 @@ class PlantServer:
                 return
             # Spin only in lockstep, where the answer comes within ~100 us; in real time the next event is a
             # wall-clock deadline milliseconds away, and spinning would burn a core for nothing.
-            received = receive(self.sock, deadline, spin_s=SPIN_WINDOW_S if self.lockstep else 0.0)
+            received = None
+            if self.lockstep:
+                received = receive(self.sock, min(deadline, waiting_since + SPIN_WINDOW_S), spin_s=SPIN_WINDOW_S)
+            if received is None:
+                self._publish_states()  # about to block: no sample waits on zenoh while the plant is idle
+                received = receive(self.sock, deadline, spin_s=0.0)
             self.wait_time_s += time.monotonic() - waiting_since
             if received is not None:
                 self._handle_datagram(*received)
@@ -232,12 +239,15 @@ class PlantServer:
         if self.peer is not None:
             self._send(self.sensors.datagram(), self.peer)
         if self._state_publisher is not None:
-            self._state_publisher.put(
-                encode_plant_state(
-                    plant.time_usec / 1e6, plant.state, plant.specific_force, float(plant.airspeed[0]),
-                    float(plant.on_ground[0]), plant.command,
-                )
-            )  # fmt: skip
+            self._states.add(plant.time_usec / 1e6, plant.state, plant.specific_force, float(plant.airspeed[0]),
+                             float(plant.on_ground[0]), plant.command)  # fmt: skip
+            if self._states.full:
+                self._publish_states()
+
+    def _publish_states(self) -> None:
+        """Put the plant states gathered since the last put (one payload, docs/telemetry.md)."""
+        if self._state_publisher is not None and len(self._states):
+            self._state_publisher.put(self._states.take())
 
     def run(self) -> PlantCounters:
         """Run until the duration is reached or a stop is requested."""
@@ -289,6 +299,7 @@ class PlantServer:
                 self._receive_until(deadline, stop_on_command=False)
             plant.step()
             self.counters.steps += 1
+        self._publish_states()
         self.wall_time_s = time.monotonic() - start
         return self.counters
 

@@ -183,7 +183,7 @@ def test_failure_injection_over_the_link(start_plant, airframe):
 def test_stuck_servo_over_the_link_seen_in_zenoh_truth(start_plant, airframe):
     import zenoh
 
-    from transport.telemetry import decode_plant_state, plant_state_key
+    from transport.telemetry import decode_plant_states, plant_state_key
     from transport.zenoh_bus import session_config
 
     plant = start_plant("--spawn-alt", "100", zenoh=True)
@@ -203,7 +203,7 @@ def test_stuck_servo_over_the_link_seen_in_zenoh_truth(start_plant, airframe):
         subscriber.undeclare()
     finally:
         session.close()
-    last = decode_plant_state(received[-1])
+    last = decode_plant_states(received[-1])[-1]
     assert math.degrees(last["tilt1"]) == pytest.approx(30.0, abs=1e-6)
     assert math.degrees(last["tilt2"]) == pytest.approx(80.0, abs=0.1)
     assert last["cmd_tilt1"] == pytest.approx(math.radians(80), abs=0.002)

@@ -21,6 +21,7 @@ from ground_tools.lockstep_client import PERIOD_MS, START_MS, grid_stamp, setpoi
 from ground_tools.processes import AutopilotCommand
 from ground_tools.scenario_report import acceptance, velocity_rmse, write_report
 from ground_tools.scenario_run import WALL_CLOCK_KEYS
+from transport.telemetry import PLANT_STATE_BYTES
 from scenarios.experiments import BANK_THEORY_DEG, SCENARIOS, Telemetry, servo_reaches, yaw_reaches
 from tiltrotor_sitl import Vehicle
 from transport.flight_log import ALLOCATED, T, read_flight_log
@@ -166,6 +167,21 @@ def test_servo_failure_scenario_twice_gives_identical_runs(tmp_path, controller:
     assert _flight_metrics(runs[0])["vx_rmse_after_failure"] is not None
 
 
+def test_runs_flown_two_at_a_time_equal_the_runs_flown_one_after_the_other(tmp_path) -> None:
+    """--jobs 2 flies both controllers at once in worker processes: each run is its own lockstep pair, so the time
+    series and metrics are those of the runs flown one by one."""
+    for jobs in ("1", "2"):
+        result = vtol("scenario", "accel", "--controller", "both", "--duration", "3", "--jobs", jobs, "--no-record",
+                      "--no-progress", "--out", str(tmp_path / jobs))  # fmt: skip
+        assert result.returncode == 0, result.stderr
+        assert result.stdout.count("s flown in") == 2 and "figures in" in result.stdout
+    for controller in ("mpc", "pid"):
+        one, two = (tmp_path / jobs / "accel" / controller for jobs in ("1", "2"))
+        assert (one / "timeseries.csv").read_bytes() == (two / "timeseries.csv").read_bytes()
+        assert _flight_metrics(one) == _flight_metrics(two)
+        assert (two / "velocity.png").stat().st_size > 10_000
+
+
 def test_mpc_scenario_run_folder_tlog_recording_and_report(tmp_path) -> None:
     out = tmp_path / "runs"
     result = vtol("scenario", "accel", "--controller", "mpc", "--duration", "4", "--no-progress", "--out", str(out))
@@ -229,7 +245,8 @@ def test_a_zenoh_subscriber_on_loopback_sees_plant_truth_and_mpc_solutions_durin
     def on_sample(sample) -> None:
         with lock:
             key = str(sample.key_expr)
-            received[key] = received.get(key, 0) + 1
+            samples = len(sample.payload.to_bytes()) // PLANT_STATE_BYTES if key.endswith("/plant/state") else 1
+            received[key] = received.get(key, 0) + samples
 
     session = zenoh.open(session_config([], [ports.zenoh_plant, ports.zenoh_autopilot]))
     try:
@@ -251,7 +268,8 @@ def test_bad_scenario_arguments_get_one_line_and_exit_2(tmp_path) -> None:
     a_file.write_text("")
     for args in (("scenario", "loop-the-loop"), ("scenario", "accel", "--controller", "lqr"),
                  ("scenario", "accel", "--duration", "-1"), ("scenario", "accel", "--instance", "x"),
-                 ("scenario", "accel", "--out", str(a_file))):  # fmt: skip
+                 ("scenario", "accel", "--out", str(a_file)), ("scenario", "accel", "--jobs", "0"),
+                 ("scenario", "all", "--instance", "7", "--jobs", "2")):  # fmt: skip
         result = vtol(*args, timeout=60)
         assert result.returncode == 2, args
         assert result.stderr.count("\n") == 1, result.stderr

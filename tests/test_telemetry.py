@@ -8,7 +8,7 @@ import time
 import zenoh
 
 from tiltrotor_sitl import Controller, Vehicle
-from transport.telemetry import control_key, decode_plant_state, mpc_key, plant_state_key
+from transport.telemetry import control_key, decode_plant_states, mpc_key, plant_state_key
 from transport.zenoh_bus import session_config
 
 
@@ -22,8 +22,8 @@ def fly_with_subscriber(controller: Controller, duration: str, *keys: str) -> di
         session = zenoh.open(session_config(listen=[], connect=endpoints))
         try:
             for key in keys:
-                decode = decode_plant_state if key == plant_state_key(1) else json.loads
-                session.declare_subscriber(key, lambda s, k=key, d=decode: received[k].append(d(bytes(s.payload))))
+                decode = decode_plant_states if key == plant_state_key(1) else lambda payload: [json.loads(payload)]
+                session.declare_subscriber(key, lambda s, k=key, d=decode: received[k].extend(d(bytes(s.payload))))
             vehicle.wait_finished(timeout_s=300)  # (an autopilot that exits with an error fails the test here)
             time.sleep(0.5)
         finally:

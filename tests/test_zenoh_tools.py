@@ -20,8 +20,8 @@ from ground_tools import cli
 from ground_tools.processes import free_zenoh_endpoint
 from ground_tools.telemetry_record import (
     TelemetryRecorder,
-    decode_payload,
-    encode_record,
+    decode_samples,
+    encode_records,
     endpoints_from_args,
     key_expression,
     read_recording,
@@ -31,7 +31,9 @@ from ground_tools.telemetry_view import TelemetryView, euler_deg, push, status_l
 from ground_tools.watch import has_display, new_events, run_window
 from ground_tools.watch_figure import build_figure, draw, save_snapshot
 from tiltrotor_sitl import Vehicle
-from transport.telemetry import PLANT_STATE_FIELDS, control_key, encode_control, mpc_key, plant_state_key
+from transport.telemetry import (PLANT_STATE_BYTES, PLANT_STATE_FIELDS, PlantStateBatch, control_key,
+                                 decode_plant_states, encode_control, encode_plant_state, mpc_key,
+                                 plant_state_key)  # fmt: skip
 
 VTOL = [sys.executable, "-m", "ground_tools"]
 STATUS = re.compile(r"t=\s*([-\d.]+) s\s+alt=\s*([-\d.]+) m")
@@ -56,18 +58,40 @@ def mpc_payload(t: float = 1.0, n: int = 26) -> bytes:
 
 
 # ---- pure functions ------------------------------------------------------------------------------------------------
-def test_decode_payload_and_records():
-    state = decode_payload(plant_state_key(1), plant_payload(down=-100.0))
+def test_decode_samples_and_records():
+    [state] = decode_samples(plant_state_key(1), plant_payload(down=-100.0))
     assert state["down"] == -100.0 and len(state) == 43
-    assert decode_payload(control_key(1), control_payload())["mode"] == "MC"
-    line, ok = encode_record(plant_state_key(3), b"\x00" * 24)
-    assert not ok and json.loads(line) == {"key": "vtol/3/plant/state", "bytes": 24,
-                                           "error": "plant state payload has 24 bytes, expected 344"}  # fmt: skip
+    assert decode_samples(control_key(1), control_payload())[0]["mode"] == "MC"
+    lines, ok = encode_records(plant_state_key(3), b"\x00" * 24)
+    assert not ok and [json.loads(line) for line in lines] == [
+        {"key": "vtol/3/plant/state", "bytes": 24,
+         "error": "plant state payload has 24 bytes, expected a multiple of 344"}]  # fmt: skip
     for junk, reason in ((b"\xff\xfe", "not UTF-8"), (b"{nope", "not JSON")):
-        line, ok = encode_record("vtol/1/autopilot/events", junk)
-        assert not ok and json.loads(line)["error"].startswith(reason)
-    line, ok = encode_record(plant_state_key(1), plant_payload())
-    assert ok and json.loads(line)["payload"]["tilt1"] == pytest.approx(math.radians(30))
+        lines, ok = encode_records("vtol/1/autopilot/events", junk)
+        assert not ok and json.loads(lines[0])["error"].startswith(reason)
+    lines, ok = encode_records(plant_state_key(1), plant_payload())
+    assert ok and json.loads(lines[0])["payload"]["tilt1"] == pytest.approx(math.radians(30))
+
+
+def test_a_batched_plant_payload_is_a_record_a_step():
+    batch = PlantStateBatch(3)
+    state, command = np.arange(25.0), np.arange(12.0) + 100
+    for k in range(3):
+        batch.add(k * 0.0025, state + k, np.array([0.0, 0.0, -9.81]), 20.0 + k, 0.0, command)
+    assert batch.full
+    payload = batch.take()
+    assert len(batch) == 0 and len(payload) == 3 * PLANT_STATE_BYTES
+    lines, ok = encode_records(plant_state_key(1), payload)
+    records = [json.loads(line)["payload"] for line in lines]
+    assert ok and [r["t"] for r in records] == [0.0, 0.0025, 0.005]
+    assert [r["north"] for r in records] == [0.0, 1.0, 2.0]
+    assert records[2]["rudder"] == 26.0 and records[2]["on_ground"] == 0.0
+    assert [r["airspeed"] for r in records] == [20.0, 21.0, 22.0] and records[1]["accel_z"] == -9.81
+    assert records[0]["cmd_thrust1"] == 100.0 and records[0]["cmd_rudder"] == 111.0
+    assert decode_plant_states(encode_plant_state(0.5, state, np.zeros(3), 1.0, 1.0, command))[0]["on_ground"] == 1.0
+    view = TelemetryView(window_s=10.0)
+    view.add(plant_state_key(1), payload)
+    assert view.samples[plant_state_key(1)] == 3 and view.last_plant["t"] == 0.005
 
 
 def test_read_recording_skips_a_cut_last_line(tmp_path):
@@ -249,7 +273,8 @@ def test_recorder_writes_every_sample_received_before_stop(tmp_path):
     states = [r["payload"] for r in records if r["key"] == plant_state_key(1) and "payload" in r]
     assert [s["t"] for s in states] == [k / 400 for k in range(500)]  # in order, none lost
     errors = [r for r in records if "error" in r]
-    assert errors == [{"key": plant_state_key(1), "bytes": 5, "error": "plant state payload has 5 bytes, expected 344"}]
+    assert errors == [{"key": plant_state_key(1), "bytes": 5,
+                       "error": "plant state payload has 5 bytes, expected a multiple of 344"}]  # fmt: skip
 
 
 # ---- against a real plant and autopilot ----------------------------------------------------------------------------

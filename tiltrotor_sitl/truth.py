@@ -1,6 +1,7 @@
 """The plant's truth, read from the zenoh bus: what the vehicle really does, whatever its autopilot believes.
 
-The plant publishes `vtol/<sysid>/plant/state` every physics step (docs/telemetry.md) and failure events on
+The plant publishes `vtol/<sysid>/plant/state` every physics step (one or more steps a payload, docs/telemetry.md)
+and failure events on
 `vtol/<sysid>/plant/events`. A `TruthFeed` is a zenoh peer session (multicast scouting off, connecting only to the
 plant's loopback endpoint) that keeps the latest sample and the failures announced, and waits for conditions in
 simulation time.
@@ -16,7 +17,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from transport.telemetry import decode_plant_state, plant_events_key, plant_state_key
+from transport.telemetry import decode_plant_states, plant_events_key, plant_state_key
 from transport.zenoh_bus import session_config
 
 Vec3 = tuple[float, float, float]
@@ -53,8 +54,13 @@ class PlantTruth:
         return roll, pitch, yaw
 
     @classmethod
-    def from_payload(cls, payload: bytes) -> PlantTruth:
-        f = decode_plant_state(payload)
+    def all_from_payload(cls, payload: bytes) -> list[PlantTruth]:
+        """The samples of one payload, oldest first."""
+        return [cls.from_fields(fields) for fields in decode_plant_states(payload)]
+
+    @classmethod
+    def from_fields(cls, f: dict[str, float]) -> PlantTruth:
+        """One sample from its PLANT_STATE_FIELDS."""
 
         def many(*names: str) -> tuple[float, ...]:
             return tuple(f[name] for name in names)
@@ -133,10 +139,10 @@ class TruthFeed:
             while True:
                 if self._payload is not None and self._payload is not seen:
                     seen = self._payload
-                    truth = PlantTruth.from_payload(seen)
-                    start_t = truth.t if start_t is None else start_t
-                    if condition(truth):
-                        return truth
+                    for truth in PlantTruth.all_from_payload(seen):
+                        start_t = truth.t if start_t is None else start_t
+                        if condition(truth):
+                            return truth
                     if truth.t - start_t > timeout_sim_s:
                         raise TruthTimeout(f"{what} did not hold within {timeout_sim_s:g} simulated seconds "
                                            f"(vehicle {self.system_id}, t = {truth.t:.2f} s)")  # fmt: skip

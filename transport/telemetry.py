@@ -1,6 +1,7 @@
 """zenoh key expressions and payload layouts (documented in docs/telemetry.md).
 
-`vtol/<sysid>/plant/state`: every physics step, little-endian float64 values in PLANT_STATE_FIELDS order.
+`vtol/<sysid>/plant/state`: every physics step, little-endian float64 values in PLANT_STATE_FIELDS order; a payload
+holds one or more consecutive steps (up to PLANT_STATE_BATCH_STEPS, see `PlantStateBatch`).
 `vtol/<sysid>/plant/events`: JSON objects, e.g. {"t": 12.5, "event": "failure", "text": "rotor 1: OFF"}.
 `vtol/<sysid>/autopilot/control`: at the velocity controller's 100 Hz, a JSON object with the time, the
 controller's mode, the velocity set-point, the attitude set-point, the tilt commands, the allocated actuators
@@ -41,19 +42,65 @@ def autopilot_events_key(system_id: int) -> str:
     return f"vtol/{system_id}/autopilot/events"
 
 
+PLANT_STATE_BYTES = 8 * len(PLANT_STATE_FIELDS)
+# One put per physics step woke zenoh's threads 400 times a simulated second, a quarter of a recorded lockstep
+# flight's wall time on 2 cores (docs/performance.md); 10 steps is 25 ms of simulated time.
+PLANT_STATE_BATCH_STEPS = 10
+
+
 def encode_plant_state(
     t: float, state: np.ndarray, specific_force: np.ndarray, airspeed: float, on_ground: float, command: np.ndarray
 ) -> bytes:
-    values = np.concatenate(((t,), state, specific_force, (airspeed, on_ground), command))
-    return values.astype("<f8").tobytes()
+    """One sample's payload."""
+    batch = PlantStateBatch(1)
+    batch.add(t, state, specific_force, airspeed, on_ground, command)
+    return batch.take()
 
 
-def decode_plant_state(payload: bytes) -> dict[str, float]:
-    """Field name -> value of one plant state sample."""
-    if len(payload) != 8 * len(PLANT_STATE_FIELDS):
-        raise ValueError(f"plant state payload has {len(payload)} bytes, expected {8 * len(PLANT_STATE_FIELDS)}")
-    values = np.frombuffer(payload, dtype="<f8")
-    return dict(zip(PLANT_STATE_FIELDS, values.tolist()))
+class PlantStateBatch:
+    """Consecutive plant state samples gathered for one payload (at most `capacity`)."""
+
+    def __init__(self, capacity: int = PLANT_STATE_BATCH_STEPS) -> None:
+        self._rows = np.empty((capacity, len(PLANT_STATE_FIELDS)), dtype="<f8")
+        self._count = 0
+        n_state = len(PLANT_STATE_FIELDS) - 1 - 3 - 2 - 12  # t, specific force, airspeed and on-ground, command
+        self._columns = np.cumsum([1, n_state, 3, 1, 1])  # where state, specific force, ... end
+
+    def __len__(self) -> int:
+        return self._count
+
+    @property
+    def full(self) -> bool:
+        return self._count == len(self._rows)
+
+    def add(
+        self, t: float, state: np.ndarray, specific_force: np.ndarray, airspeed: float, on_ground: float,
+        command: np.ndarray,
+    ) -> None:  # fmt: skip
+        """Append one sample; the batch must not be full."""
+        row = self._rows[self._count]
+        a, b, c, d, e = self._columns
+        row[0] = t
+        row[a:b] = state
+        row[b:c] = specific_force
+        row[c] = airspeed
+        row[d] = on_ground
+        row[e:] = command
+        self._count += 1
+
+    def take(self) -> bytes:
+        """The samples gathered so far as one payload; the batch is empty afterwards."""
+        payload = self._rows[: self._count].tobytes()
+        self._count = 0
+        return payload
+
+
+def decode_plant_states(payload: bytes) -> list[dict[str, float]]:
+    """Field name -> value of each plant state sample in a payload, oldest first."""
+    if not payload or len(payload) % PLANT_STATE_BYTES:
+        raise ValueError(f"plant state payload has {len(payload)} bytes, expected a multiple of {PLANT_STATE_BYTES}")
+    rows = np.frombuffer(payload, dtype="<f8").reshape(-1, len(PLANT_STATE_FIELDS))
+    return [dict(zip(PLANT_STATE_FIELDS, row)) for row in rows.tolist()]
 
 
 def encode_event(t: float, event: str, text: str) -> bytes:
