@@ -25,9 +25,11 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from transport.cli import bounded_int, fail, positive_float, stop_on_signals
 from transport.ports import Ports
-from transport.telemetry import decode_plant_states
+from transport.telemetry import PLANT_STATE_FIELDS, decode_plant_states, plant_state_rows
 from transport.zenoh_bus import session_config
 
 FLUSH_S = 0.5  # the file is flushed at least this often (wall s), so a killed recorder loses little
@@ -40,23 +42,44 @@ def key_expression(sysid: int | None) -> str:
     return "vtol/**" if sysid is None else f"vtol/{sysid}/**"
 
 
-def decode_samples(key: str, payload: bytes) -> list[Any]:
-    """A payload's samples as JSON-able data: plant/state -> a dict of PLANT_STATE_FIELDS per physics step, any
-    other key -> one sample parsed as JSON. Raises ValueError (with the reason) if the payload cannot be decoded."""
-    if key.endswith("/plant/state"):
-        return decode_plant_states(payload)
+def _json_text(payload: bytes) -> tuple[str, Any]:
+    """The payload as text and parsed; ValueError (with the reason) if it is not UTF-8 JSON."""
     try:
-        return [json.loads(payload.decode("utf-8"))]
+        text = payload.decode("utf-8")
+        return text, json.loads(text)
     except UnicodeDecodeError as exc:
         raise ValueError(f"not UTF-8: {exc.reason} at byte {exc.start}") from None
     except json.JSONDecodeError as exc:
         raise ValueError(f"not JSON: {exc.msg} at character {exc.pos}") from None
 
 
+def decode_samples(key: str, payload: bytes) -> list[Any]:
+    """A payload's samples as JSON-able data: plant/state -> a dict of PLANT_STATE_FIELDS per physics step, any
+    other key -> one sample parsed as JSON. Raises ValueError (with the reason) if the payload cannot be decoded."""
+    if key.endswith("/plant/state"):
+        return decode_plant_states(payload)
+    return [_json_text(payload)[1]]
+
+
+# '"t": {!r}, "north": {!r}, ...': a float's repr is what json.dumps writes for it when it is finite.
+_PLANT_VALUES = ", ".join(f'"{field}": {{!r}}' for field in PLANT_STATE_FIELDS)
+
+
 def encode_records(key: str, payload: bytes) -> tuple[list[str], bool]:
-    """A payload's recording lines (one per sample, without the newline) and whether it decoded."""
+    """A payload's recording lines (one per sample, without the newline) and whether it decoded. The lines are what
+    json.dumps({"key": key, "payload": sample}) gives, built without the Python objects where that is cheaper: a
+    recorded flight's samples are encoded while it flies, on the cores it flies on."""
     try:
-        return [json.dumps({"key": key, "payload": value}) for value in decode_samples(key, payload)], True
+        if key.endswith("/plant/state"):
+            rows = plant_state_rows(payload)
+            if np.isfinite(rows).all():
+                head = f'{{"key": {json.dumps(key)}, "payload": {{'
+                return [head + _PLANT_VALUES.format(*row) + "}}" for row in rows.tolist()], True
+            return [json.dumps({"key": key, "payload": value}) for value in decode_samples(key, payload)], True
+        text, value = _json_text(payload)
+        if "\n" in text or "\r" in text:  # one record a line
+            return [json.dumps({"key": key, "payload": value})], True
+        return [f'{{"key": {json.dumps(key)}, "payload": {text}}}'], True
     except (ValueError, RecursionError) as exc:
         return [json.dumps({"key": key, "error": str(exc), "bytes": len(payload)})], False
 

@@ -95,12 +95,16 @@ class PlantStateBatch:
         return payload
 
 
-def decode_plant_states(payload: bytes) -> list[dict[str, float]]:
-    """Field name -> value of each plant state sample in a payload, oldest first."""
+def plant_state_rows(payload: bytes) -> np.ndarray:
+    """The plant state samples of a payload, a row each (PLANT_STATE_FIELDS), oldest first."""
     if not payload or len(payload) % PLANT_STATE_BYTES:
         raise ValueError(f"plant state payload has {len(payload)} bytes, expected a multiple of {PLANT_STATE_BYTES}")
-    rows = np.frombuffer(payload, dtype="<f8").reshape(-1, len(PLANT_STATE_FIELDS))
-    return [dict(zip(PLANT_STATE_FIELDS, row)) for row in rows.tolist()]
+    return np.frombuffer(payload, dtype="<f8").reshape(-1, len(PLANT_STATE_FIELDS))
+
+
+def decode_plant_states(payload: bytes) -> list[dict[str, float]]:
+    """Field name -> value of each plant state sample in a payload, oldest first."""
+    return [dict(zip(PLANT_STATE_FIELDS, row)) for row in plant_state_rows(payload).tolist()]
 
 
 def encode_event(t: float, event: str, text: str) -> bytes:
