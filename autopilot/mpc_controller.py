@@ -37,10 +37,11 @@ from autopilot.mpc_model import (
     THRUST,
     MpcLimits,
     V,
-    yaw_reference,
+    angle_chain,
+    yaw_references,
 )
 from autopilot.vehicle_state import VehicleState
-from autopilot.velocity_command import SetpointTrajectory, VelocityCommand, course_rate
+from autopilot.velocity_command import SetpointTrajectory, VelocityCommand, course_rates
 from autopilot.yaw_setpoint import YawReference
 
 DEFAULT_HORIZON = PAPER  # the stages' lengths and the weights that go with them (docs/mpc.md 2.9)
@@ -49,12 +50,13 @@ LEVENBERG = 0.1  # Marquardt damping of each RTI step (mpc.py)
 WARM_UP_ITERATIONS = 10  # RTI iterations at the first state, so the first plan is converged
 
 
-def coordinated_roll(acceleration_ned: np.ndarray, heading: float, gravity: float, limit: float) -> float:
+def coordinated_roll(acceleration_ned: np.ndarray, heading: np.ndarray, gravity: float, limit: float) -> np.ndarray:
     """The bank (rad) of a coordinated turn making the set-point's horizontal acceleration across the heading:
-    atan(a_lateral / g). The rotors tilt only in the body x-z plane, so lateral force comes from banking (or from
-    sideslip, which a coordinated turn avoids)."""
-    lateral = -acceleration_ned[0] * math.sin(heading) + acceleration_ned[1] * math.cos(heading)
-    return min(max(math.atan2(lateral, gravity), -limit), limit)
+    atan(a_lateral / g), at each column of acceleration_ned (3, T) and heading (T,) (or one of each). The rotors
+    tilt only in the body x-z plane, so lateral force comes from banking (or from sideslip, which a coordinated
+    turn avoids)."""
+    lateral = -acceleration_ned[0] * np.sin(heading) + acceleration_ned[1] * np.cos(heading)
+    return np.clip(np.arctan2(lateral, gravity), -limit, limit)
 
 
 def euler_rates(euler: np.ndarray, body_rates: np.ndarray) -> np.ndarray:
@@ -122,23 +124,17 @@ class MpcVelocityController:
         times_s = solver.grid.times_s
         params[P_V_SP, :], rates = extrapolate_setpoint(v_sp, rate, times_s, turning)
         params[P_FREE_TILT, :] = np.isnan(self.servos.stuck)[:, None]
-        yaw_gain = solver.gains.attitude[2]
-        bank_limit = self.limits.attitude[0]
-        psi_ref = yaw
-        for k in range(solver.horizon + 1):
-            v_sp_k = params[P_V_SP, k]
-            if reference is None:
-                psi_ref = yaw_reference(v_sp_k[0], v_sp_k[1], psi_ref)
-                # The set-point's course rate, while it has a course (the yaw reference follows it).
-                turn_rate = course_rate(v_sp_k, rates[:, k])
-            else:  # each stage within pi of the one before, stage 0 of the (continuous) yaw
-                psi_ref = psi_ref + wrap(reference.at(times_s[k]) - psi_ref)
-                turn_rate = reference.rate
-            params[P_PSI_REF, k] = psi_ref
-            params[P_PHI_REF, k] = coordinated_roll(rates[:, k], psi_ref, self.airframe.gravity, bank_limit)
-            params[P_PSI_RATE_REF, k] = turn_rate
-            # The yaw set-point that holds the attitude loop on a yaw turning at turn_rate: it leads by rate / K_att.
-            params[P_PSI_D_REF, k] = psi_ref + turn_rate / yaw_gain
+        if reference is None:
+            psi_ref = yaw_references(params[P_V_SP, :], yaw)
+            turn_rate = course_rates(params[P_V_SP, :], rates)  # while it has a course (psi_ref follows it)
+        else:  # each stage within pi of the one before, stage 0 of the (continuous) yaw
+            psi_ref = angle_chain(yaw, reference.at(times_s), np.ones(times_s.size, dtype=bool))
+            turn_rate = np.full(times_s.size, reference.rate)
+        params[P_PSI_REF, :] = psi_ref
+        params[P_PHI_REF, :] = coordinated_roll(rates, psi_ref, self.airframe.gravity, self.limits.attitude[0])
+        params[P_PSI_RATE_REF, :] = turn_rate
+        # The yaw set-point that holds the attitude loop on a yaw turning at turn_rate: it leads by rate / K_att.
+        params[P_PSI_D_REF, :] = psi_ref + turn_rate / solver.gains.attitude[2]
 
     def update(self, state: VehicleState, v_sp: np.ndarray, tilts: np.ndarray,
                yaw_ref: YawReference | None = None) -> VelocityCommand:  # fmt: skip

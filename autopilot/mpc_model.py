@@ -37,13 +37,14 @@ import math
 from dataclasses import dataclass
 
 import casadi as ca
+import numpy as np
 
 from aircraft.aerodynamics import aero_effectiveness
 from aircraft.airframe import Airframe
 from aircraft.frames import rotation_from_euler
 from aircraft.wrench import body_wrench
-from autopilot.attitude import DEFAULT_GAINS, AttitudeGains, attitude_law, wrap, wrap_angle
-from autopilot.velocity_command import setpoint_course
+from autopilot.attitude import DEFAULT_GAINS, AttitudeGains, attitude_law, wrap_angle
+from autopilot.velocity_command import YAW_FROM_COURSE_SPEED
 
 NX, NU = 16, 11
 V, CHI, PSI, PSI_DOT, PSI_DOT_PREV = slice(0, 3), slice(3, 7), slice(7, 10), slice(10, 13), slice(13, 16)
@@ -244,13 +245,20 @@ def terminal_residual(weights: MpcWeights, x: ca.SX, p: ca.SX, limits: MpcLimits
     )
 
 
-def yaw_reference(v_sp_north: float, v_sp_east: float, yaw_now: float) -> float:
-    """psi_ref: the set-point's course (autopilot.velocity_command.setpoint_course), else the current yaw
-    (docs/mpc.md 1.7); unwrapped to within pi of the current yaw so that the plan never turns the long way round."""
-    course = setpoint_course(v_sp_north, v_sp_east)
-    if course is None:
-        return yaw_now
-    return yaw_now + wrap(course - yaw_now)
+def angle_chain(start: float, angles: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """psi_k = psi_{k-1} + wrap(angle_k - psi_{k-1}) where valid_k, else psi_{k-1}, from psi_{-1} = start: each
+    stage's angle unwrapped to within pi of the stage before, so that the plan never turns the long way round."""
+    steps = np.diff(np.concatenate(([start], angles[valid])))
+    chain = start + np.concatenate(([0.0], np.cumsum(np.arctan2(np.sin(steps), np.cos(steps)))))
+    return chain[np.cumsum(valid)]
+
+
+def yaw_references(v_sp: np.ndarray, yaw_now: float) -> np.ndarray:
+    """psi_ref at each stage of the set-point v_sp (3, T): its course where it has one
+    (autopilot.velocity_command.setpoint_course), else the stage before's, the current yaw before the first
+    (docs/mpc.md 1.7)."""
+    has_course = np.hypot(v_sp[0], v_sp[1]) > YAW_FROM_COURSE_SPEED
+    return angle_chain(yaw_now, np.arctan2(v_sp[1], v_sp[0]), has_course)
 
 
 DEFAULTS = (DEFAULT_GAINS, MpcWeights(), SoftTiltCost(), MpcLimits())

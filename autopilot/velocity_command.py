@@ -62,6 +62,13 @@ class SetpointTrajectory:
         return self.last + self.rate * ((time_usec - self.last_usec) / 1e6)
 
 
+def course_rates(v_sp: np.ndarray, rate: np.ndarray) -> np.ndarray:
+    """course_rate at each column of v_sp (3, T) and rate (3, T)."""
+    has_course = np.hypot(v_sp[0], v_sp[1]) > YAW_FROM_COURSE_SPEED
+    turning = v_sp[0] * rate[1] - v_sp[1] * rate[0]
+    return np.divide(turning, v_sp[0] ** 2 + v_sp[1] ** 2, out=np.zeros_like(turning), where=has_course)
+
+
 def course_rate(v_sp: np.ndarray, rate: np.ndarray) -> float:
     """How fast the set-point's course turns (rad/s) for a set-point v_sp changing at `rate` (m/s^2, NED):
     d/dt atan2(v_e, v_n); 0 while the set-point has no course (setpoint_course)."""

@@ -98,11 +98,17 @@ def _start_worker(lock, next_position) -> None:  # type: ignore[no-untyped-def] 
         next_position.value += 1
 
 
-def _fly_in_worker(scenario: Scenario, controller: Controller, out: Path, args: argparse.Namespace) -> RunResult:
-    return _fly(scenario, controller, out, args, _worker_bar_position)
+Flight = tuple[str, Controller]  # a scenario's name (its Scenario holds its trigger's function: not picklable)
 
 
-Flight = tuple[Scenario, Controller]
+def _scenario(name: str, args: argparse.Namespace) -> Scenario:
+    """The experiment as flown: cut to --duration when given."""
+    scenario = SCENARIOS[name]
+    return scenario if args.duration is None else replace(scenario, duration_s=min(args.duration, scenario.duration_s))
+
+
+def _fly_in_worker(name: str, controller: Controller, out: Path, args: argparse.Namespace) -> RunResult:
+    return _fly(_scenario(name, args), controller, out, args, _worker_bar_position)
 
 
 def _flown(
@@ -112,7 +118,7 @@ def _flown(
     if jobs == 1:
         for flight in flights:
             try:
-                yield flight, _fly(*flight, out, args)
+                yield flight, _fly(_scenario(flight[0], args), flight[1], out, args)
             except (FlightFailed, ScenarioError) as exc:
                 yield flight, exc
         return
@@ -141,19 +147,19 @@ def scenario(args: argparse.Namespace) -> int:
     out = writable_folder(PROG, Path(args.out))
     names = list(SCENARIOS) if args.name == "all" else [args.name]
     controllers: list[Controller] = ["mpc", "pid"] if args.controller == "both" else [args.controller]
-    flights = [(SCENARIOS[name] if args.duration is None
-                else replace(SCENARIOS[name], duration_s=min(args.duration, SCENARIOS[name].duration_s)), controller)
-               for name in names for controller in controllers]  # fmt: skip
+    flights = [(name, controller) for name in names for controller in controllers]
     jobs = min(len(flights), args.jobs or default_jobs(args.instance))
+    if jobs > 1:  # the longest first, so that the last to end are short ones (the MPC's runs take longer)
+        flights.sort(key=lambda flight: (-SCENARIOS[flight[0]].duration_s, flight[1] != "mpc"))
     started = time.perf_counter()
     failed = []
-    for (flown, controller), result in _flown(flights, out, args, jobs):
+    for (name, controller), result in _flown(flights, out, args, jobs):
         if isinstance(result, Exception):
-            print(f"{PROG}: {flown.name} with the {controller} failed: {result}", file=sys.stderr)
-            failed.append(f"{flown.name}/{controller}")
+            print(f"{PROG}: {name} with the {controller} failed: {result}", file=sys.stderr)
+            failed.append(f"{name}/{controller}")
             continue
         shown = {key: result.metrics.get(key) for key in SHOWN if result.metrics.get(key) is not None}
-        print(f"{PROG}: {flown.name} ({controller}): {result.sim_s:g} s flown in {result.wall_s:.1f} s; "
+        print(f"{PROG}: {name} ({controller}): {result.sim_s:g} s flown in {result.wall_s:.1f} s; "
               + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}" for k, v in shown.items()))
     for name in names:
         figures = refresh_figures(SCENARIOS[name], out)

@@ -169,14 +169,14 @@ def test_servo_failure_scenario_twice_gives_identical_runs(tmp_path, controller:
 
 def test_runs_flown_two_at_a_time_equal_the_runs_flown_one_after_the_other(tmp_path) -> None:
     """--jobs 2 flies both controllers at once in worker processes: each run is its own lockstep pair, so the time
-    series and metrics are those of the runs flown one by one."""
+    series and metrics are those of the runs flown one by one. (servo-failure: a scenario with a failure trigger.)"""
     for jobs in ("1", "2"):
-        result = vtol("scenario", "accel", "--controller", "both", "--duration", "3", "--jobs", jobs, "--no-record",
-                      "--no-progress", "--out", str(tmp_path / jobs))  # fmt: skip
+        result = vtol("scenario", "servo-failure", "--controller", "both", "--duration", "3", "--jobs", jobs,
+                      "--no-record", "--no-progress", "--out", str(tmp_path / jobs))  # fmt: skip
         assert result.returncode == 0, result.stderr
         assert result.stdout.count("s flown in") == 2 and "figures in" in result.stdout
     for controller in ("mpc", "pid"):
-        one, two = (tmp_path / jobs / "accel" / controller for jobs in ("1", "2"))
+        one, two = (tmp_path / jobs / "servo-failure" / controller for jobs in ("1", "2"))
         assert (one / "timeseries.csv").read_bytes() == (two / "timeseries.csv").read_bytes()
         assert _flight_metrics(one) == _flight_metrics(two)
         assert (two / "velocity.png").stat().st_size > 10_000
