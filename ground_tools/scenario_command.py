@@ -149,8 +149,8 @@ def scenario(args: argparse.Namespace) -> int:
     controllers: list[Controller] = ["mpc", "pid"] if args.controller == "both" else [args.controller]
     flights = [(name, controller) for name in names for controller in controllers]
     jobs = min(len(flights), args.jobs or default_jobs(args.instance))
-    if jobs > 1:  # the longest first, so that the last to end are short ones (the MPC's runs take longer)
-        flights.sort(key=lambda flight: (-SCENARIOS[flight[0]].duration_s, flight[1] != "mpc"))
+    if jobs > 1:  # the longest first, so that the last to end are short; each MPC run beside a PID run (stable sort)
+        flights.sort(key=lambda flight: -SCENARIOS[flight[0]].duration_s)
     started = time.perf_counter()
     failed = []
     for (name, controller), result in _flown(flights, out, args, jobs):
