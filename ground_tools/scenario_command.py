@@ -12,8 +12,10 @@ import argparse
 import json
 import multiprocessing
 import os
+import shutil
 import sys
 import time
+from collections import Counter
 from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import replace
@@ -68,10 +70,13 @@ def refresh_figures(scenario: Scenario, out: Path) -> list[Path]:
             failure = json.loads((folder / "run.json").read_text()).get("failure")
             failures[controller] = failure["t_s"] if failure else None
             folders.append(folder)
-    written = []
-    for folder in folders:
-        written += plot_scenario(scenario, runs, failures, folder)
-    return written
+    if not folders:
+        return []
+    drawn = plot_scenario(scenario, runs, failures, folders[0])
+    for folder in folders[1:]:  # the same figures: drawn once (a scenario's take 1-2 s), copied
+        for figure in drawn:
+            shutil.copyfile(figure, folder / figure.name)
+    return drawn + [folder / figure.name for folder in folders[1:] for figure in drawn]
 
 
 def _fly(scenario: Scenario, controller: Controller, out: Path, args: argparse.Namespace, bar_position: int = 0):
@@ -111,26 +116,50 @@ def _fly_in_worker(name: str, controller: Controller, out: Path, args: argparse.
     return _fly(_scenario(name, args), controller, out, args, _worker_bar_position)
 
 
-def _flown(
-    flights: list[Flight], out: Path, args: argparse.Namespace, jobs: int
-) -> Iterator[tuple[Flight, RunResult | Exception]]:
-    """Each flight with its result, or the FlightFailed/ScenarioError it ended with, as they finish."""
-    if jobs == 1:
-        for flight in flights:
-            try:
-                yield flight, _fly(_scenario(flight[0], args), flight[1], out, args)
-            except (FlightFailed, ScenarioError) as exc:
-                yield flight, exc
-        return
-    context = multiprocessing.get_context("spawn")  # a clean interpreter: no threads or sockets inherited
-    with ProcessPoolExecutor(jobs, mp_context=context, initializer=_start_worker,
-                             initargs=(context.RLock(), context.Value("i", 0))) as pool:  # fmt: skip
-        futures = {pool.submit(_fly_in_worker, *flight, out, args): flight for flight in flights}
-        for future in as_completed(futures):
-            try:
-                yield futures[future], future.result()
-            except (FlightFailed, ScenarioError) as exc:
-                yield futures[future], exc
+def _figures(name: str, out: Path) -> list[Path]:
+    return refresh_figures(SCENARIOS[name], out)
+
+
+class FlightQueue:
+    """Flies the runs `jobs` at a time and draws each scenario's figures once all of its runs have ended (in the
+    workers too, beside the runs still flying)."""
+
+    def __init__(self, out: Path, args: argparse.Namespace, jobs: int) -> None:
+        self.out = out
+        self.args = args
+        self.jobs = jobs
+        self.figures: dict[str, list[Path]] = {}  # by scenario, once `fly` is exhausted
+
+    def fly(self, flights: list[Flight]) -> Iterator[tuple[Flight, RunResult | Exception]]:
+        """Each flight with its result, or the FlightFailed/ScenarioError it ended with, as they finish."""
+        left = Counter(name for name, _ in flights)
+        if self.jobs == 1:
+            for name, controller in flights:
+                try:
+                    result: RunResult | Exception = _fly(_scenario(name, self.args), controller, self.out, self.args)
+                except (FlightFailed, ScenarioError) as exc:
+                    result = exc
+                yield (name, controller), result
+                left[name] -= 1
+                if not left[name]:
+                    self.figures[name] = _figures(name, self.out)
+            return
+        context = multiprocessing.get_context("spawn")  # a clean interpreter: no threads or sockets inherited
+        with ProcessPoolExecutor(self.jobs, mp_context=context, initializer=_start_worker,
+                                 initargs=(context.RLock(), context.Value("i", 0))) as pool:  # fmt: skip
+            futures = {pool.submit(_fly_in_worker, *flight, self.out, self.args): flight for flight in flights}
+            drawing = {}
+            for future in as_completed(futures):
+                name, controller = futures[future]
+                try:
+                    result = future.result()
+                except (FlightFailed, ScenarioError) as exc:
+                    result = exc
+                yield (name, controller), result
+                left[name] -= 1
+                if not left[name]:
+                    drawing[name] = pool.submit(_figures, name, self.out)
+            self.figures = {name: future.result() for name, future in drawing.items()}
 
 
 def default_jobs(instance: int | None) -> int:
@@ -153,7 +182,8 @@ def scenario(args: argparse.Namespace) -> int:
         flights.sort(key=lambda flight: -SCENARIOS[flight[0]].duration_s)
     started = time.perf_counter()
     failed = []
-    for (name, controller), result in _flown(flights, out, args, jobs):
+    queue = FlightQueue(out, args, jobs)
+    for (name, controller), result in queue.fly(flights):
         if isinstance(result, Exception):
             print(f"{PROG}: {name} with the {controller} failed: {result}", file=sys.stderr)
             failed.append(f"{name}/{controller}")
@@ -162,7 +192,7 @@ def scenario(args: argparse.Namespace) -> int:
         print(f"{PROG}: {name} ({controller}): {result.sim_s:g} s flown in {result.wall_s:.1f} s; "
               + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}" for k, v in shown.items()))
     for name in names:
-        figures = refresh_figures(SCENARIOS[name], out)
+        figures = queue.figures.get(name)
         if figures:
             print(f"{PROG}: {name}: figures in {figures[0].parent.parent}/*/")
         mpc_metrics = out / name / "mpc" / "metrics.json"
