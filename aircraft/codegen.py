@@ -19,6 +19,7 @@ import tempfile
 from pathlib import Path
 
 import casadi as ca
+import numpy as np
 
 COMPILE_FLAGS = ("-O2", "-ffp-contract=off", "-fPIC", "-shared")
 
@@ -86,3 +87,24 @@ def compiled(function: ca.Function, who: str = "tiltrotor-sitl") -> ca.Function:
         print(f"{who}: {function.name()} runs in CasADi's virtual machine", file=sys.stderr)
         return function
     return ca.external(function.name(), str(library))
+
+
+class BufferedFunction:
+    """A CasADi Function of dense vectors evaluated on numpy arrays bound once: a call with numpy arguments costs
+    ~30-100 us in conversions, this one copies its arguments into the bound inputs and costs a few (docs/performance.md,
+    "Calling CasADi from Python"). The outputs are the same arrays at every call: copy what you keep."""
+
+    def __init__(self, function: ca.Function) -> None:
+        self.inputs = [np.zeros(function.nnz_in(i)) for i in range(function.n_in())]
+        self.outputs = [np.zeros(function.nnz_out(i)) for i in range(function.n_out())]
+        self._buffer, self._evaluate = function.buffer()
+        for index, array in enumerate(self.inputs):
+            self._buffer.set_arg(index, memoryview(array))
+        for index, array in enumerate(self.outputs):
+            self._buffer.set_res(index, memoryview(array))
+
+    def __call__(self, *arguments: np.ndarray) -> list[np.ndarray]:
+        for bound, argument in zip(self.inputs, arguments, strict=True):
+            bound[:] = argument
+        self._evaluate()
+        return self.outputs

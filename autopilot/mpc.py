@@ -22,7 +22,7 @@ import casadi as ca
 import numpy as np
 
 from aircraft.airframe import Airframe
-from aircraft.codegen import compiled
+from aircraft.codegen import BufferedFunction, compiled
 from aircraft.frames import rotation_from_euler
 from aircraft.wrench import body_wrench
 from autopilot.attitude import DEFAULT_GAINS, AttitudeGains
@@ -137,6 +137,7 @@ class RtiSolver:
         self.limits = limits
         functions = stage_functions(airframe, gains, weights, soft, limits, grid.substeps)
         self.step_function = functions.step
+        self._step = BufferedFunction(compiled(functions.step, "vtol-autopilot") if compile_model else functions.step)
         self.model = StageModel(airframe, weights, soft, limits)
         self.weights = weights
         # The stage parameters P_SOLVER of every node (the terminal one's unused): each stage's length and whether it
@@ -287,7 +288,7 @@ class RtiSolver:
         inputs = self.inputs()
         j, f = self._shift_interval, self._shift_fraction
         moved = states[j] + f[:, None] * (states[self._shift_next] - states[j])
-        moved[n] = np.asarray(self.step_function(states[n], inputs[n - 1], self._one_tick)).ravel()
+        moved[n] = self._step(states[n], inputs[n - 1], self._one_tick)[0]
         stages = self.w[: n * stride].reshape(n, stride)
         stages[:, :NX] = moved[:n]
         stages[:, NX:] = inputs[self._shift_input]

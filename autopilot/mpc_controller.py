@@ -17,6 +17,7 @@ import numpy as np
 
 from aircraft.actuators import ALLOCATED_ROTORS
 from aircraft.airframe import Airframe
+from aircraft.codegen import BufferedFunction
 from autopilot.actuator_health import ServoEstimate
 from autopilot.allocation import ControlAllocator
 from autopilot.attitude import wrap
@@ -87,7 +88,7 @@ class MpcVelocityController:
         self.solver = RtiSolver(airframe, grid, limits, weights=horizon.weights,
                                 gauss_newton_steps=horizon.gauss_newton_steps)
         self.solver.levenberg = LEVENBERG
-        self.force_function = planned_force_function(airframe)
+        self.force_function = BufferedFunction(planned_force_function(airframe))
         self.params = np.zeros((NP, grid.stages + 1))
         self.previous_rates: np.ndarray | None = None
         self.mode_switches = 0  # the MPC has no modes (VelocityController's counter)
@@ -179,7 +180,7 @@ class MpcVelocityController:
         command.euler_sp[:] = u0[PSI_D]
         command.euler_sp[2] = wrap(u0[PSI_D][2])
         command.tilt_sp[:] = states[self.tilt_lead_stages][CHI]
-        command.force_sp_body[:] = np.asarray(self.force_function(states[0], u0)).ravel()
+        command.force_sp_body[:] = self.force_function(states[0], u0)[0]
         command.force_weights[:] = 1.0
         return command
 

@@ -29,6 +29,7 @@ from multiprocessing.process import BaseProcess
 
 import numpy as np
 
+from aircraft.codegen import BufferedFunction
 from aircraft.frames import quaternion_from_euler
 from autopilot.actuator_health import ServoEstimate
 from autopilot.allocation import ControlAllocator
@@ -170,7 +171,7 @@ class OverlappedMpc:
         self.airframe = mpc.airframe
         self.limits = mpc.limits  # what its plans keep to
         self.period_usec = period_usec
-        self._predict = discrete_dynamics(mpc.airframe, mpc.solver.gains)
+        self._predict = BufferedFunction(discrete_dynamics(mpc.airframe, mpc.solver.gains))
         self._tick_grid = np.array([period_usec / 1e6, 1.0])  # one control tick, the previous rate held over it
         context = multiprocessing.get_context("fork")
         self._connection, child_end = context.Pipe()
@@ -211,7 +212,7 @@ class OverlappedMpc:
         plan_yaw = float(solution.x[0][PSI_INDEX])  # the plan's yaw is unwrapped, the measurement is not
         euler = np.array([state.euler[0], state.euler[1], plan_yaw + wrap(float(state.euler[2]) - plan_yaw)])
         x_now = np.concatenate((state.velocity_ned, tilts, euler, rates, previous))
-        x_next = np.asarray(self._predict(x_now, solution.u[0], self._tick_grid)).ravel()
+        x_next = self._predict(x_now, solution.u[0], self._tick_grid)[0].copy()
         next_tilts = np.clip(x_next[CHI], self.airframe.tilt_min, self.airframe.tilt_max)
         next_state = predicted_state(state, x_next, self.period_usec)
         # At tick k+1 the previous tick's rates are the ones measured now; the yaw reference has turned on by a tick.

@@ -8,8 +8,9 @@ import math
 import numpy as np
 import pytest
 
+from aircraft.codegen import BufferedFunction
 from autopilot.controllers import mpc_horizon
-from autopilot.mpc import RtiSolver
+from autopilot.mpc import RtiSolver, planned_force_function
 from autopilot.mpc_horizon import LONG, PAPER, StageGrid, extrapolate_setpoint
 from autopilot.mpc_model import CHI, NU, NX
 
@@ -47,6 +48,20 @@ def test_the_shift_on_the_papers_grid_moves_the_plan_by_one_stage(airframe):
     assert np.array_equal(solver.states()[:5], old_states[1:])
     assert np.array_equal(solver.inputs()[:4], old_inputs[1:])
     assert np.array_equal(solver.inputs()[4], old_inputs[4])  # the last input repeated
+    # the new terminal state: the model's step over one tick from the old one, bit for bit as CasADi evaluates it
+    expected = np.asarray(solver.step_function(old_states[5], old_inputs[4], (0.01, 1.0))).ravel()
+    assert np.array_equal(solver.states()[5], expected)
+
+
+def test_a_buffered_function_gives_the_functions_values(airframe):
+    force = planned_force_function(airframe)
+    buffered = BufferedFunction(force)
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        x, u = rng.normal(size=NX), np.abs(rng.normal(size=NU))
+        assert np.array_equal(buffered(x, u)[0], np.asarray(force(x, u)).ravel())
+    with pytest.raises(ValueError):
+        buffered(np.zeros(NX))  # one argument short
 
 
 def test_the_shift_on_a_long_stage_interpolates_the_states(airframe):
