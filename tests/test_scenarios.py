@@ -169,7 +169,9 @@ def test_servo_failure_scenario_twice_gives_identical_runs(tmp_path, controller:
 
 def test_runs_flown_two_at_a_time_equal_the_runs_flown_one_after_the_other(tmp_path) -> None:
     """--jobs 2 flies both controllers at once in worker processes: each run is its own lockstep pair, so the time
-    series and metrics are those of the runs flown one by one. (servo-failure: a scenario with a failure trigger.)"""
+    series and metrics are those of the runs flown one by one. (servo-failure: a scenario with a failure trigger.)
+    Compared to 1e-9, not byte for byte: proxsuite's last bits follow the alignment of its buffers, which the
+    processes' environment can move (docs/performance.md, "The whole SITL"), and a worker's is not the command's."""
     for jobs in ("1", "2"):
         result = vtol("scenario", "servo-failure", "--controller", "both", "--duration", "3", "--jobs", jobs,
                       "--no-record", "--no-progress", "--out", str(tmp_path / jobs))  # fmt: skip
@@ -177,8 +179,15 @@ def test_runs_flown_two_at_a_time_equal_the_runs_flown_one_after_the_other(tmp_p
         assert result.stdout.count("s flown in") == 2 and "figures in" in result.stdout
     for controller in ("mpc", "pid"):
         one, two = (tmp_path / jobs / "servo-failure" / controller for jobs in ("1", "2"))
-        assert (one / "timeseries.csv").read_bytes() == (two / "timeseries.csv").read_bytes()
-        assert _flight_metrics(one) == _flight_metrics(two)
+        first, second = (read_flight_log(run / "timeseries.csv") for run in (one, two))
+        assert first.modes == second.modes and list(first) == list(second)
+        for column in first:
+            assert np.allclose(first[column], second[column], rtol=0.0, atol=1e-9, equal_nan=True), column
+        metrics_one, metrics_two = _flight_metrics(one), _flight_metrics(two)
+        assert metrics_one.keys() == metrics_two.keys()
+        for key, value in metrics_one.items():
+            other = metrics_two[key]
+            assert value == (pytest.approx(other, rel=1e-9, nan_ok=True) if isinstance(value, float) else other), key
         assert (two / "velocity.png").stat().st_size > 10_000
 
 
