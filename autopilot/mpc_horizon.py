@@ -10,11 +10,17 @@ Over seconds, a set-point that turns must be extrapolated as a turn, not as the 
 from __future__ import annotations
 
 import dataclasses
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 
 from autopilot.mpc_model import MpcWeights
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    array.flags.writeable = False
+    return array
 
 
 @dataclass(frozen=True)
@@ -42,15 +48,15 @@ class StageGrid:
     def stages(self) -> int:
         return len(self.ticks)
 
-    @property
+    @functools.cached_property
     def node_ticks(self) -> np.ndarray:
-        """Each node's time in ticks from the plan's start: 0, ..., the horizon (N+1 integers)."""
-        return np.concatenate(([0], np.cumsum(self.ticks)))
+        """Each node's time in ticks from the plan's start: 0, ..., the horizon (N+1 integers; read-only)."""
+        return _read_only(np.concatenate(([0], np.cumsum(self.ticks))))
 
-    @property
+    @functools.cached_property
     def times_s(self) -> np.ndarray:
-        """Each node's time (s) from the plan's start (N+1)."""
-        return self.node_ticks * self.tick_s
+        """Each node's time (s) from the plan's start (N+1; read-only). Read at every MPC tick: built once."""
+        return _read_only(self.node_ticks * self.tick_s)
 
     @property
     def lengths_s(self) -> np.ndarray:
