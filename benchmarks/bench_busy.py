@@ -27,8 +27,8 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=40.0, help="profile length in simulated seconds")
     parser.add_argument("--controller", choices=("mpc", "pid"), default="mpc")
     args = parser.parse_args()
-    beside = [sys.executable, "-m", "ground_tools", "scenario", "all", "--controller", "mpc", "--no-record",
-              "--no-progress"]  # fmt: skip
+    beside = [sys.executable, "-m", "ground_tools", "scenario", "all", "--controller", "mpc", "--jobs", "1",
+              "--no-record", "--no-progress"]  # fmt: skip
     with tempfile.TemporaryDirectory() as folder:
         root = Path(folder)
         quiet = fly_profile(root / "quiet", args.seconds, args.controller)

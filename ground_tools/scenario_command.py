@@ -9,10 +9,12 @@ figures with the controllers overlaid, prints the metrics, and for `all` writes 
 from __future__ import annotations
 
 import argparse
+import ctypes
 import json
 import multiprocessing
 import os
 import shutil
+import signal
 import sys
 import time
 from collections import Counter
@@ -95,8 +97,36 @@ def _fly(scenario: Scenario, controller: Controller, out: Path, args: argparse.N
 _worker_bar_position = 0  # a worker process's progress-bar line, set once per worker
 
 
+PR_SET_PDEATHSIG = 1  # Linux prctl(2)
+
+
+_worker_stopped = False  # a worker's: Ctrl-C, or the command's process has ended
+_worker_parent = 0  # a worker's: the command's process id
+
+
+def _stop_worker(signum: int, frame: object) -> None:
+    """The run in flight stops as on Ctrl-C (its plant and autopilot killed), and no further run starts: the pool's
+    worker loop catches the interrupt as a task's outcome and would otherwise take the next run queued."""
+    global _worker_stopped
+    _worker_stopped = True
+    raise KeyboardInterrupt
+
+
+def _interrupt_when_orphaned() -> None:
+    """SIGINT to this worker when the command's process ends, however it ends (SIGTERM, SIGKILL), rather than
+    flying on with no one to read the results."""
+    libc = ctypes.CDLL(None, use_errno=True)
+    if libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGINT), 0, 0, 0) != 0:
+        print(f"{PROG}: warning: a worker cannot follow its parent: {os.strerror(ctypes.get_errno())}",
+              file=sys.stderr)  # fmt: skip
+
+
 def _start_worker(lock, next_position) -> None:  # type: ignore[no-untyped-def]  # multiprocessing's proxies
-    global _worker_bar_position
+    global _worker_bar_position, _worker_parent
+    _worker_parent = os.getppid()
+    signal.signal(signal.SIGINT, _stop_worker)
+    if sys.platform == "linux":
+        _interrupt_when_orphaned()
     tqdm.set_lock(lock)
     with next_position.get_lock():
         _worker_bar_position = next_position.value
@@ -113,7 +143,13 @@ def _scenario(name: str, args: argparse.Namespace) -> Scenario:
 
 
 def _fly_in_worker(name: str, controller: Controller, out: Path, args: argparse.Namespace) -> RunResult:
-    return _fly(_scenario(name, args), controller, out, args, _worker_bar_position)
+    if _worker_stopped:
+        raise FlightFailed("not flown: the command was interrupted")
+    try:
+        return _fly(_scenario(name, args), controller, out, args, _worker_bar_position)
+    finally:
+        if _worker_stopped and os.getppid() != _worker_parent:
+            os._exit(1)  # orphaned: the run's processes are gone (its finally), and no one waits for a result
 
 
 def _figures(name: str, out: Path) -> list[Path]:
@@ -183,14 +219,18 @@ def scenario(args: argparse.Namespace) -> int:
     started = time.perf_counter()
     failed = []
     queue = FlightQueue(out, args, jobs)
-    for (name, controller), result in queue.fly(flights):
-        if isinstance(result, Exception):
-            print(f"{PROG}: {name} with the {controller} failed: {result}", file=sys.stderr)
-            failed.append(f"{name}/{controller}")
-            continue
-        shown = {key: result.metrics.get(key) for key in SHOWN if result.metrics.get(key) is not None}
-        print(f"{PROG}: {name} ({controller}): {result.sim_s:g} s flown in {result.wall_s:.1f} s; "
-              + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}" for k, v in shown.items()))
+    try:
+        for (name, controller), result in queue.fly(flights):
+            if isinstance(result, Exception):
+                print(f"{PROG}: {name} with the {controller} failed: {result}", file=sys.stderr)
+                failed.append(f"{name}/{controller}")
+                continue
+            shown = {key: result.metrics.get(key) for key in SHOWN if result.metrics.get(key) is not None}
+            print(f"{PROG}: {name} ({controller}): {result.sim_s:g} s flown in {result.wall_s:.1f} s; "
+                  + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}" for k, v in shown.items()))
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted: the runs in flight were stopped, their processes killed", file=sys.stderr)
+        return 130
     for name in names:
         figures = queue.figures.get(name)
         if figures:

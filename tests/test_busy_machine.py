@@ -13,8 +13,8 @@ VTOL = [sys.executable, "-m", "ground_tools"]
 
 
 def test_the_mpc_flies_an_offboard_profile_with_a_lockstep_scenario_beside_it(tmp_path: Path) -> None:
-    beside = [*VTOL, "scenario", "all", "--controller", "mpc", "--no-record", "--no-progress",  # killed at the end
-              "--out", str(tmp_path / "beside")]  # fmt: skip
+    beside = [*VTOL, "scenario", "all", "--controller", "mpc", "--jobs", "1", "--no-record",  # killed at the end
+              "--no-progress", "--out", str(tmp_path / "beside")]  # fmt: skip
     flight = fly_profile(tmp_path / "busy", duration_s=12.0, beside=beside)
     print(flight)
     assert flight.beside_ran_throughout, (tmp_path / "busy" / "beside.log").read_text()

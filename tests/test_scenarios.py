@@ -21,12 +21,12 @@ from ground_tools.lockstep_client import PERIOD_MS, START_MS, grid_stamp, setpoi
 from ground_tools.processes import AutopilotCommand
 from ground_tools.scenario_report import acceptance, velocity_rmse, write_report
 from ground_tools.scenario_run import WALL_CLOCK_KEYS
-from transport.telemetry import PLANT_STATE_BYTES
 from scenarios.experiments import BANK_THEORY_DEG, SCENARIOS, Telemetry, servo_reaches, yaw_reaches
 from tiltrotor_sitl import Vehicle
 from transport.flight_log import ALLOCATED, T, read_flight_log
 from transport.mavlink import Link, mavlink
 from transport.ports import Ports
+from transport.telemetry import PLANT_STATE_BYTES
 
 pytestmark = pytest.mark.timeout(600)
 
@@ -189,6 +189,48 @@ def test_runs_flown_two_at_a_time_equal_the_runs_flown_one_after_the_other(tmp_p
             other = metrics_two[key]
             assert value == (pytest.approx(other, rel=1e-9, nan_ok=True) if isinstance(value, float) else other), key
         assert (two / "velocity.png").stat().st_size > 10_000
+
+
+def _descendants(pid: int) -> set[int]:
+    """The processes under `pid` (children, theirs, ...), from ps."""
+    listing = subprocess.run(["ps", "-e", "-o", "pid=,ppid="], capture_output=True, text=True, check=True).stdout
+    children: dict[int, list[int]] = {}
+    for line in listing.splitlines():
+        child, parent = (int(field) for field in line.split())
+        children.setdefault(parent, []).append(child)
+    found, frontier = set(), [pid]
+    while frontier:
+        for child in children.get(frontier.pop(), []):
+            found.add(child)
+            frontier.append(child)
+    return found
+
+
+def test_a_terminated_scenario_command_leaves_no_worker_or_vehicle_running(tmp_path) -> None:
+    """SIGTERM to `vtol scenario` (two runs at a time) mid-flight: its workers stop their runs as on Ctrl-C, which
+    kills each run's plant and autopilot, and exit."""
+    arguments = ["scenario", "all", "--no-record", "--no-progress", "--jobs", "2", "--out", str(tmp_path)]
+    command = subprocess.Popen([sys.executable, "-m", "ground_tools", *arguments], stdout=subprocess.DEVNULL,
+                               stderr=subprocess.DEVNULL, start_new_session=True)  # fmt: skip
+    try:
+        deadline = time.monotonic() + 120
+        under = _descendants(command.pid)
+        while len(under) < 7 and time.monotonic() < deadline:  # two workers, two plants and autopilots (and a tracker)
+            time.sleep(0.5)
+            under = _descendants(command.pid)
+        assert len(under) >= 7, under
+        time.sleep(2.0)  # flying
+        command.terminate()
+        command.wait(timeout=30)
+        deadline = time.monotonic() + 30
+        while (alive := {pid for pid in under if Path(f"/proc/{pid}").exists()}) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert not alive, subprocess.run(["ps", "-o", "pid,args", "-p", ",".join(map(str, alive))],
+                                         capture_output=True, text=True).stdout  # fmt: skip
+    finally:
+        if command.poll() is None:
+            command.kill()
+        subprocess.run(["pkill", "-KILL", "-s", str(command.pid)], check=False)  # its session, should any be left
 
 
 def test_mpc_scenario_run_folder_tlog_recording_and_report(tmp_path) -> None:
