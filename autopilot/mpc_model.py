@@ -44,7 +44,7 @@ from aircraft.airframe import Airframe
 from aircraft.frames import rotation_from_euler
 from aircraft.wrench import body_wrench
 from autopilot.attitude import DEFAULT_GAINS, AttitudeGains, attitude_law, wrap_angle
-from autopilot.velocity_command import YAW_FROM_COURSE_SPEED
+from autopilot.velocity_command import has_course
 
 NX, NU = 16, 11
 V, CHI, PSI, PSI_DOT, PSI_DOT_PREV = slice(0, 3), slice(3, 7), slice(7, 10), slice(10, 13), slice(13, 16)
@@ -257,8 +257,7 @@ def yaw_references(v_sp: np.ndarray, yaw_now: float) -> np.ndarray:
     """psi_ref at each stage of the set-point v_sp (3, T): its course where it has one
     (autopilot.velocity_command.setpoint_course), else the stage before's, the current yaw before the first
     (docs/mpc.md 1.7)."""
-    has_course = np.hypot(v_sp[0], v_sp[1]) > YAW_FROM_COURSE_SPEED
-    return angle_chain(yaw_now, np.arctan2(v_sp[1], v_sp[0]), has_course)
+    return angle_chain(yaw_now, np.arctan2(v_sp[1], v_sp[0]), has_course(v_sp[0], v_sp[1]))
 
 
 DEFAULTS = (DEFAULT_GAINS, MpcWeights(), SoftTiltCost(), MpcLimits())

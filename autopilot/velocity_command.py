@@ -10,10 +10,15 @@ import numpy as np
 YAW_FROM_COURSE_SPEED = 3.0  # m/s: above this horizontal set-point speed the nose follows the set-point's course
 
 
+def has_course(v_sp_north: float | np.ndarray, v_sp_east: float | np.ndarray) -> bool | np.ndarray:
+    """The horizontal set-point is fast enough to have a course (each element's, for arrays)."""
+    return np.hypot(v_sp_north, v_sp_east) > YAW_FROM_COURSE_SPEED
+
+
 def setpoint_course(v_sp_north: float, v_sp_east: float) -> float | None:
     """The course (rad) both velocity controllers point the nose along (docs/mpc.md 1.7: psi_ref), or None when the
     horizontal set-point is too slow to have one (then the controller keeps its yaw)."""
-    if math.hypot(v_sp_north, v_sp_east) <= YAW_FROM_COURSE_SPEED:
+    if not has_course(v_sp_north, v_sp_east):
         return None
     return math.atan2(v_sp_east, v_sp_north)
 
@@ -64,17 +69,15 @@ class SetpointTrajectory:
 
 def course_rates(v_sp: np.ndarray, rate: np.ndarray) -> np.ndarray:
     """course_rate at each column of v_sp (3, T) and rate (3, T)."""
-    has_course = np.hypot(v_sp[0], v_sp[1]) > YAW_FROM_COURSE_SPEED
     turning = v_sp[0] * rate[1] - v_sp[1] * rate[0]
-    return np.divide(turning, v_sp[0] ** 2 + v_sp[1] ** 2, out=np.zeros_like(turning), where=has_course)
+    return np.divide(turning, v_sp[0] ** 2 + v_sp[1] ** 2, out=np.zeros_like(turning),
+                     where=has_course(v_sp[0], v_sp[1]))  # fmt: skip
 
 
 def course_rate(v_sp: np.ndarray, rate: np.ndarray) -> float:
     """How fast the set-point's course turns (rad/s) for a set-point v_sp changing at `rate` (m/s^2, NED):
     d/dt atan2(v_e, v_n); 0 while the set-point has no course (setpoint_course)."""
-    if setpoint_course(v_sp[0], v_sp[1]) is None:
-        return 0.0
-    return float((v_sp[0] * rate[1] - v_sp[1] * rate[0]) / (v_sp[0] ** 2 + v_sp[1] ** 2))
+    return float(course_rates(v_sp[:, None], rate[:, None])[0])
 
 
 @dataclass

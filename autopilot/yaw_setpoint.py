@@ -34,8 +34,8 @@ class YawReference:
     yaw: float
     rate: float
 
-    def at(self, seconds: float) -> float:
-        """The reference `seconds` ahead (the MPC's stages)."""
+    def at(self, seconds: float | np.ndarray) -> float | np.ndarray:
+        """The reference `seconds` ahead (the MPC's stages: an array of them)."""
         return self.yaw + self.rate * seconds
 
 

@@ -31,13 +31,13 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", help="keep the runs here (default: a temporary folder)")
     parser.add_argument("--no-record", action="store_true", help="pass --no-record (no zenoh recording)")
-    parser.add_argument("--jobs", help="pass --jobs J (default: the command's default)")
+    parser.add_argument("--jobs", type=int, help="pass --jobs J (default: the command's default)")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as scratch:
         out = Path(args.out) if args.out else Path(scratch)
         command = [sys.executable, "-m", "ground_tools", "scenario", "all", "--controller", "both", "--out", str(out),
                    "--no-progress", *(["--no-record"] if args.no_record else []),
-                   *(["--jobs", args.jobs] if args.jobs else [])]  # fmt: skip
+                   *(["--jobs", str(args.jobs)] if args.jobs else [])]  # fmt: skip
         started = time.perf_counter()
         result = subprocess.run(command, capture_output=True, text=True)
         wall = time.perf_counter() - started

@@ -1,7 +1,8 @@
 """`vtol`: ground tools (docs/architecture.md).
 
     vtol fly PROFILE [--controller pid|mpc] [--out DIR]
-    vtol scenario NAME|all [--controller mpc|pid|both] [--out DIR] [--instance I] [--no-record] [--no-progress]
+    vtol scenario NAME|all [--controller mpc|pid|both] [--out DIR] [--instance I] [--jobs J] [--no-record]
+                           [--no-progress]
     vtol mission FILE.plan|FILE.waypoints [--controller mpc|pid|both] [--out DIR]
     vtol campaign FILE [--out DIR] [--workers N | --address ADDR] [--report] [--no-progress]
     vtol up [--instance I] [--count N] [--controller mpc|pid] [--spawn-alt M] [--speed F] [--params FILE] [--no-zenoh]

@@ -1,40 +1,26 @@
 """`vtol scenario NAME|all [--controller mpc|pid|both] [--mpc-horizon paper|long]
 [--out DIR] [--instance I] [--jobs J] [--no-record]`.
 
-Flies each (scenario, controller) run with a progress bar, J at a time in worker processes (each run is its own
-lockstep plant and autopilot, so the runs do not depend on each other or on J), writes the run folders and the
+Flies each (scenario, controller) run with a progress bar, J at a time (ground_tools/scenario_flights.py; each run
+its own lockstep plant and autopilot, so what a run flies does not depend on J), writes the run folders and the
 figures with the controllers overlaid, prints the metrics, and for `all` writes `<out>/report.md`.
 """
 
 from __future__ import annotations
 
 import argparse
-import ctypes
 import json
-import multiprocessing
-import os
-import shutil
-import signal
 import sys
 import time
-from collections import Counter
-from collections.abc import Iterator
-from concurrent.futures import ProcessPoolExecutor, as_completed
-from dataclasses import replace
 from pathlib import Path
 
-from tqdm import tqdm
-
 from autopilot.mpc_horizon import HORIZONS
-from ground_tools.lockstep_client import START_MS, ScenarioError
-from ground_tools.lockstep_flight import FlightFailed
 from ground_tools.processes import Controller
-from ground_tools.scenario_figures import plot_scenario
-from ground_tools.scenario_report import acceptance, write_report
-from ground_tools.scenario_run import RunResult, run_scenario
-from scenarios.experiments import SCENARIOS, Scenario
+from ground_tools.scenario_flights import FlightQueue
+from ground_tools.scenario_run import RunResult
+from ground_tools.scenario_report import acceptance, usable_cpus, write_report
+from scenarios.experiments import SCENARIOS
 from transport.cli import bounded_int, positive_float, writable_folder
-from transport.flight_log import FlightLog, read_flight_log
 
 PROG = "vtol"
 SHOWN = ("survived", "vx_rmse", "vz_max_abs", "pitch_max_abs_deg", "alt_change_max_m", "t_reach_s", "radial_rmse_m",
@@ -60,148 +46,10 @@ def add_scenario_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
-def refresh_figures(scenario: Scenario, out: Path) -> list[Path]:
-    """The scenario's figures, every finished controller overlaid, written into each of its run folders."""
-    runs: dict[str, FlightLog] = {}
-    failures: dict[str, float | None] = {}
-    folders: list[Path] = []
-    for controller in ("mpc", "pid"):
-        folder = out / scenario.name / controller
-        if (folder / "timeseries.csv").is_file() and (folder / "run.json").is_file():
-            runs[controller] = read_flight_log(folder / "timeseries.csv")
-            failure = json.loads((folder / "run.json").read_text()).get("failure")
-            failures[controller] = failure["t_s"] if failure else None
-            folders.append(folder)
-    if not folders:
-        return []
-    drawn = plot_scenario(scenario, runs, failures, folders[0])
-    for folder in folders[1:]:  # the same figures: drawn once (a scenario's take 1-2 s), copied
-        for figure in drawn:
-            shutil.copyfile(figure, folder / figure.name)
-    return drawn + [folder / figure.name for folder in folders[1:] for figure in drawn]
-
-
-def _fly(scenario: Scenario, controller: Controller, out: Path, args: argparse.Namespace, bar_position: int = 0):
-    total = START_MS / 1000.0 + scenario.duration_s
-    bar = tqdm(total=round(total, 2), desc=f"{scenario.name} ({controller})", unit="sim s", leave=True,
-               disable=True if args.no_progress else None, file=sys.stderr, position=bar_position,
-               bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]")
-    try:
-        return run_scenario(scenario, controller, out, instance=args.instance, record=not args.no_record,
-                            mpc_horizon=args.mpc_horizon,
-                            on_progress=lambda sim_s: bar.update(round(min(sim_s, total) - bar.n, 2)))
-    finally:
-        bar.close()
-
-
-_worker_bar_position = 0  # a worker process's progress-bar line, set once per worker
-
-
-PR_SET_PDEATHSIG = 1  # Linux prctl(2)
-
-
-_worker_stopped = False  # a worker's: Ctrl-C, or the command's process has ended
-_worker_parent = 0  # a worker's: the command's process id
-
-
-def _stop_worker(signum: int, frame: object) -> None:
-    """The run in flight stops as on Ctrl-C (its plant and autopilot killed), and no further run starts: the pool's
-    worker loop catches the interrupt as a task's outcome and would otherwise take the next run queued."""
-    global _worker_stopped
-    _worker_stopped = True
-    raise KeyboardInterrupt
-
-
-def _interrupt_when_orphaned() -> None:
-    """SIGINT to this worker when the command's process ends, however it ends (SIGTERM, SIGKILL), rather than
-    flying on with no one to read the results."""
-    libc = ctypes.CDLL(None, use_errno=True)
-    if libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGINT), 0, 0, 0) != 0:
-        print(f"{PROG}: warning: a worker cannot follow its parent: {os.strerror(ctypes.get_errno())}",
-              file=sys.stderr)  # fmt: skip
-
-
-def _start_worker(lock, next_position) -> None:  # type: ignore[no-untyped-def]  # multiprocessing's proxies
-    global _worker_bar_position, _worker_parent
-    _worker_parent = os.getppid()
-    signal.signal(signal.SIGINT, _stop_worker)
-    if sys.platform == "linux":
-        _interrupt_when_orphaned()
-    tqdm.set_lock(lock)
-    with next_position.get_lock():
-        _worker_bar_position = next_position.value
-        next_position.value += 1
-
-
-Flight = tuple[str, Controller]  # a scenario's name (its Scenario holds its trigger's function: not picklable)
-
-
-def _scenario(name: str, args: argparse.Namespace) -> Scenario:
-    """The experiment as flown: cut to --duration when given."""
-    scenario = SCENARIOS[name]
-    return scenario if args.duration is None else replace(scenario, duration_s=min(args.duration, scenario.duration_s))
-
-
-def _fly_in_worker(name: str, controller: Controller, out: Path, args: argparse.Namespace) -> RunResult:
-    if _worker_stopped:
-        raise FlightFailed("not flown: the command was interrupted")
-    try:
-        return _fly(_scenario(name, args), controller, out, args, _worker_bar_position)
-    finally:
-        if _worker_stopped and os.getppid() != _worker_parent:
-            os._exit(1)  # orphaned: the run's processes are gone (its finally), and no one waits for a result
-
-
-def _figures(name: str, out: Path) -> list[Path]:
-    return refresh_figures(SCENARIOS[name], out)
-
-
-class FlightQueue:
-    """Flies the runs `jobs` at a time and draws each scenario's figures once all of its runs have ended (in the
-    workers too, beside the runs still flying)."""
-
-    def __init__(self, out: Path, args: argparse.Namespace, jobs: int) -> None:
-        self.out = out
-        self.args = args
-        self.jobs = jobs
-        self.figures: dict[str, list[Path]] = {}  # by scenario, once `fly` is exhausted
-
-    def fly(self, flights: list[Flight]) -> Iterator[tuple[Flight, RunResult | Exception]]:
-        """Each flight with its result, or the FlightFailed/ScenarioError it ended with, as they finish."""
-        left = Counter(name for name, _ in flights)
-        if self.jobs == 1:
-            for name, controller in flights:
-                try:
-                    result: RunResult | Exception = _fly(_scenario(name, self.args), controller, self.out, self.args)
-                except (FlightFailed, ScenarioError) as exc:
-                    result = exc
-                yield (name, controller), result
-                left[name] -= 1
-                if not left[name]:
-                    self.figures[name] = _figures(name, self.out)
-            return
-        context = multiprocessing.get_context("spawn")  # a clean interpreter: no threads or sockets inherited
-        with ProcessPoolExecutor(self.jobs, mp_context=context, initializer=_start_worker,
-                                 initargs=(context.RLock(), context.Value("i", 0))) as pool:  # fmt: skip
-            futures = {pool.submit(_fly_in_worker, *flight, self.out, self.args): flight for flight in flights}
-            drawing = {}
-            for future in as_completed(futures):
-                name, controller = futures[future]
-                try:
-                    result = future.result()
-                except (FlightFailed, ScenarioError) as exc:
-                    result = exc
-                yield (name, controller), result
-                left[name] -= 1
-                if not left[name]:
-                    drawing[name] = pool.submit(_figures, name, self.out)
-            self.figures = {name: future.result() for name, future in drawing.items()}
-
-
 def default_jobs(instance: int | None) -> int:
     """Two runs at a time where there are two cores: a lockstep pair mostly alternates, so one run leaves a core
     partly idle (docs/performance.md); one with --instance, whose ports only one run can use."""
-    return 1 if instance is not None else min(2, len(os.sched_getaffinity(0)))
+    return 1 if instance is not None else min(2, usable_cpus())
 
 
 def scenario(args: argparse.Namespace) -> int:
@@ -221,7 +69,7 @@ def scenario(args: argparse.Namespace) -> int:
     queue = FlightQueue(out, args, jobs)
     try:
         for (name, controller), result in queue.fly(flights):
-            if isinstance(result, Exception):
+            if not isinstance(result, RunResult):
                 print(f"{PROG}: {name} with the {controller} failed: {result}", file=sys.stderr)
                 failed.append(f"{name}/{controller}")
                 continue

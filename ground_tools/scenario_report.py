@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import platform
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -110,7 +112,7 @@ def write_report(out: Path, wall_s: float | None = None) -> Path:
     runs = load_runs(out)
     lines = ["# Scenarios: the unified MPC against the PID baseline", ""]
     stamp = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    lines.append(f"Written by `vtol scenario` on {stamp}, {platform.machine()} with {_cpus()} CPU(s)"
+    lines.append(f"Written by `vtol scenario` on {stamp}, {platform.machine()} with {usable_cpus()} CPU(s)"
                  + (f", {wall_s:.0f} s of wall time in all." if wall_s is not None else "."))  # fmt: skip
     lines += ["Each run flies through MAVLink only (Offboard velocity set-points at 50 Hz, failures by "
               "MAV_CMD_INJECT_FAILURE on their telemetry trigger), in lockstep; t = 0 is the profile start. "
@@ -150,7 +152,6 @@ def write_report(out: Path, wall_s: float | None = None) -> Path:
     return path
 
 
-def _cpus() -> int:
-    import os
-
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+def usable_cpus() -> int:
+    """The CPUs this process may run on (its affinity where the system has one)."""
+    return len(os.sched_getaffinity(0)) if sys.platform == "linux" else os.cpu_count() or 1

@@ -109,6 +109,7 @@ class TelemetryView:
             for value in values:
                 self.add_decoded(key, value)
         except (ValueError, KeyError, IndexError, TypeError) as exc:
+            self.samples[key] += 1
             self.errors[key] += 1
             self.last_error = f"{key}: {exc!r}"
 

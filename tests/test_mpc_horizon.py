@@ -12,7 +12,7 @@ from aircraft.codegen import BufferedFunction
 from autopilot.controllers import mpc_horizon
 from autopilot.mpc import RtiSolver, planned_force_function
 from autopilot.mpc_horizon import LONG, PAPER, StageGrid, extrapolate_setpoint
-from autopilot.mpc_model import CHI, NU, NX
+from autopilot.mpc_model import CHI, NU, NX, angle_chain, yaw_references
 
 
 def test_the_long_grid_sees_two_seconds_with_the_papers_number_of_stages():
@@ -121,3 +121,30 @@ def test_long_stages_hold_the_delayed_rate_in_continuous_form(airframe):
     long_stage, tick = np.array([0.13, 0.0]), np.array([0.01, 1.0])
     assert np.array_equal(np.asarray(step(x, u, long_stage)), np.asarray(step(moved, u, long_stage)))
     assert not np.array_equal(np.asarray(step(x, u, tick)), np.asarray(step(moved, u, tick)))
+
+
+def _chained_one_by_one(start: float, angles: np.ndarray, valid: np.ndarray) -> list[float]:
+    psi, chain = start, []
+    for angle, ok in zip(angles, valid):
+        if ok:
+            psi = psi + math.atan2(math.sin(angle - psi), math.cos(angle - psi))
+        chain.append(psi)
+    return chain
+
+
+@pytest.mark.parametrize("valid", [[True] * 6, [False] * 6, [False, True, False, False, True, True],
+                                   [True, False, False, True, False, False]])  # fmt: skip
+def test_the_angle_chain_unwraps_each_stage_to_within_pi_of_the_one_before(valid):
+    angles = np.array([3.0, -3.0, 2.9, -2.0, 0.5, -3.1])  # courses across +-pi: the chain must not jump by 2 pi
+    start = 7.0  # the yaw now, two turns and a bit: the chain continues from it
+    chain = angle_chain(start, angles, np.array(valid))
+    assert chain == pytest.approx(_chained_one_by_one(start, angles, np.array(valid)), abs=1e-12)
+    assert np.all(np.abs(np.diff(np.concatenate(([start], chain)))) <= math.pi)
+
+
+def test_yaw_references_follow_the_course_above_three_metres_per_second():
+    v_sp = np.array([[-10.0, -10.0, 1.0, 2.0], [0.1, -0.1, 0.0, 2.0], [0.0, 0.0, 0.0, 0.0]])
+    psi = yaw_references(v_sp, 3.0)
+    assert psi[0] == pytest.approx(math.atan2(0.1, -10.0))  # within pi of the yaw now (3.0)
+    assert psi[1] == pytest.approx(psi[0] + math.atan2(-0.1, -10.0) - math.atan2(0.1, -10.0) + 2 * math.pi)
+    assert psi[2] == psi[1] and psi[3] == psi[1]  # 1 m/s and 2.8 m/s: no course, the stage before's kept

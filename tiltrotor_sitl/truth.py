@@ -123,8 +123,12 @@ class TruthFeed:
             return list(self._failures)
 
     def latest(self, timeout_s: float = 10.0) -> PlantTruth:
-        """The newest sample; waits up to `timeout_s` wall seconds for the first one."""
-        return self.wait_until(lambda _: True, timeout_sim_s=math.inf, timeout_wall_s=timeout_s)
+        """The newest sample (the last step of the newest payload); waits up to `timeout_s` wall seconds for the
+        first one."""
+        self.wait_until(lambda _: True, timeout_sim_s=math.inf, timeout_wall_s=timeout_s)
+        with self._changed:
+            assert self._payload is not None  # wait_until returned: a payload came
+            return PlantTruth.all_from_payload(self._payload)[-1]
 
     def wait_until(self, condition: Callable[[PlantTruth], bool], timeout_sim_s: float,
                    timeout_wall_s: float = 120.0, what: str = "the condition") -> PlantTruth:  # fmt: skip

@@ -63,8 +63,8 @@ class PlantStateBatch:
     def __init__(self, capacity: int = PLANT_STATE_BATCH_STEPS) -> None:
         self._rows = np.empty((capacity, len(PLANT_STATE_FIELDS)), dtype="<f8")
         self._count = 0
-        n_state = len(PLANT_STATE_FIELDS) - 1 - 3 - 2 - 12  # t, specific force, airspeed and on-ground, command
-        self._columns = np.cumsum([1, n_state, 3, 1, 1])  # where state, specific force, ... end
+        # where the specific force, the airspeed, on-ground and the command begin (the state: from column 1)
+        self._columns = [PLANT_STATE_FIELDS.index(f) for f in ("accel_x", "airspeed", "on_ground", "cmd_thrust1")]
 
     def __len__(self) -> int:
         return self._count
@@ -79,13 +79,13 @@ class PlantStateBatch:
     ) -> None:  # fmt: skip
         """Append one sample; the batch must not be full."""
         row = self._rows[self._count]
-        a, b, c, d, e = self._columns
+        force, air, ground, commands = self._columns
         row[0] = t
-        row[a:b] = state
-        row[b:c] = specific_force
-        row[c] = airspeed
-        row[d] = on_ground
-        row[e:] = command
+        row[1:force] = state
+        row[force:air] = specific_force
+        row[air] = airspeed
+        row[ground] = on_ground
+        row[commands:] = command
         self._count += 1
 
     def take(self) -> bytes:
