@@ -78,6 +78,7 @@ def vehicle_with_mission(tmp_path, rows: list[tuple]):
     return sitl
 
 
+@pytest.mark.timeout(600)  # about 130 s alone on 2 cores; a clean-clone CI run beside other flights took over 300 s
 def test_a_mission_with_forward_flight_legs_and_no_transition_item_lands_at_home(tmp_path):
     # Out in forward flight and back to land at home (800 m: two cruises, two brakings), low, so the climb and the
     # landing are short.
