@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 import pymap3d
+import pytest
 
 from autopilot.guidance import circle_velocity, leg_cruise_speed, leg_velocity
 from autopilot.mission_flight import takeoff_down
