@@ -76,8 +76,11 @@ def course_rates(v_sp: np.ndarray, rate: np.ndarray) -> np.ndarray:
 
 def course_rate(v_sp: np.ndarray, rate: np.ndarray) -> float:
     """How fast the set-point's course turns (rad/s) for a set-point v_sp changing at `rate` (m/s^2, NED):
-    d/dt atan2(v_e, v_n); 0 while the set-point has no course (setpoint_course)."""
-    return float(course_rates(v_sp[:, None], rate[:, None])[0])
+    d/dt atan2(v_e, v_n); 0 while the set-point has no course (setpoint_course). The PID's, at every tick: on
+    floats (course_rates through numpy costs 9 us a call here, this 1 us)."""
+    if not has_course(v_sp[0], v_sp[1]):
+        return 0.0
+    return float((v_sp[0] * rate[1] - v_sp[1] * rate[0]) / (v_sp[0] ** 2 + v_sp[1] ** 2))
 
 
 @dataclass

@@ -102,16 +102,17 @@ class TelemetryView:
         self.last_error: str = ""
 
     def add(self, key: str, payload: bytes) -> None:
-        """Decode a payload and file its samples; one that does not decode is counted in `errors`, never raised."""
+        """Decode a payload and file its samples; one that does not decode is counted in `errors` (and as one
+        sample), never raised."""
+        values: list[Any] = []
         try:
             values = decode_samples(key, payload)
-            self.samples[key] += len(values)
             for value in values:
                 self.add_decoded(key, value)
         except (ValueError, KeyError, IndexError, TypeError) as exc:
-            self.samples[key] += 1
             self.errors[key] += 1
             self.last_error = f"{key}: {exc!r}"
+        self.samples[key] += max(len(values), 1)
 
     def add_decoded(self, key: str, value: Any) -> None:
         if key.endswith("/plant/state"):
