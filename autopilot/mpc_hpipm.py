@@ -44,7 +44,11 @@ class HpipmSettings:
     ric_alg (0 classical Riccati, 1 square root), pred_corr (0/1), mu0: None keeps the mode's default.
     residual_exit: stop only when the residuals meet the tolerances too (speed_abs alone stops on the duality
     measure). A warm start from the previous QP's duals (2) stops early either way: iterated, it settles 1.5e-4
-    off the NLP's optimum (cold or primal: 8.6e-6)."""
+    off the NLP's optimum (cold or primal: 8.6e-6).
+    mu0_warm: the initial barrier parameter of a warm-started solve after one that took at most 2 iterations
+    (None: always the mode's mu0). From the previous plan the IPM then converges in one iteration instead of
+    two; after a harder solve (bounds becoming active) the mode's mu0 is kept, where a low start takes many
+    short steps."""
 
     mode: HpipmMode = HpipmMode.SPEED_ABS
     iter_max: int = 50
@@ -57,6 +61,7 @@ class HpipmSettings:
     pred_corr: int | None = None
     mu0: float | None = None
     residual_exit: bool = True
+    mu0_warm: float | None = 1e-3
 
     @staticmethod
     def for_tolerance(tolerance: float) -> HpipmSettings:
@@ -126,7 +131,7 @@ class HpipmRti:
         library.mpc_rti_create.argtypes = [
             ctypes.c_int, ctypes.c_int, _INTS, ctypes.c_int, _INTS, ctypes.c_double, ctypes.c_int, ctypes.c_int,
             ctypes.c_double, ctypes.c_double, ctypes.c_double, ctypes.c_double, ctypes.c_int, ctypes.c_int,
-            ctypes.c_int, ctypes.c_double, ctypes.c_int,
+            ctypes.c_int, ctypes.c_double, ctypes.c_int, ctypes.c_double,
         ]  # fmt: skip
         library.mpc_rti_solve.restype = ctypes.c_int
         library.mpc_rti_solve.argtypes = [ctypes.c_void_p] * 6 + [ctypes.c_double] + [ctypes.c_void_p] * 2
@@ -138,7 +143,7 @@ class HpipmRti:
             horizon, idxbx.size, idxbx.ctypes.data_as(_INTS), idxbu.size, idxbu.ctypes.data_as(_INTS), yaw_sp_offset,
             int(s.mode), s.iter_max, s.tol_stat, s.tol_eq, s.tol_ineq, s.tol_comp, s.warm_start,
             -1 if s.ric_alg is None else s.ric_alg, -1 if s.pred_corr is None else s.pred_corr, s.mu0 or -1.0,
-            int(s.residual_exit),
+            int(s.residual_exit), s.mu0_warm or -1.0,
         )  # fmt: skip
         if not handle:
             raise MemoryError("mpc_rti_create failed")

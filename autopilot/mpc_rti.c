@@ -26,6 +26,8 @@
 typedef struct {
     int horizon, nbx, nbu;
     int warm_start, cold_next; /* a failed solve's solution is no start for the next one */
+    int last_iterations;
+    double mu0, mu0_warm;
     int idxbx[NX], idxbu[NU];
     double yaw_offset;
     struct d_ocp_qp_dim dim;
@@ -53,11 +55,13 @@ void mpc_rti_free(mpc_rti *s) {
 
 /* mode: 0 speed_abs, 1 speed, 2 balance, 3 robust (enum hpipm_mode); ric_alg (0 classical Riccati, 1 square
  * root), pred_corr (0/1), mu0 (> 0) and residual_exit (0/1: stop on the residuals, not only on the duality
- * measure) override the mode's defaults when not negative. NULL if a size is out of
+ * measure) override the mode's defaults when not negative. mu0_warm (> 0): the initial barrier parameter of a
+ * warm-started solve that follows one of at most 2 iterations (docs/mpc.md 3.8). NULL if a size is out of
  * range or memory runs out. */
 mpc_rti *mpc_rti_create(int horizon, int nbx, const int *idxbx, int nbu, const int *idxbu, double yaw_offset,
                         int mode, int iter_max, double tol_stat, double tol_eq, double tol_ineq, double tol_comp,
-                        int warm_start, int ric_alg, int pred_corr, double mu0, int residual_exit) {
+                        int warm_start, int ric_alg, int pred_corr, double mu0, int residual_exit,
+                        double mu0_warm) {
     if (horizon < 1 || nbx < 0 || nbx > NX || nbu < 0 || nbu > NU) return NULL;
     casadi_int sz_arg, sz_res, sz_iw, sz_w, t_arg, t_res, t_iw, t_w;
     mpc_stage_work(&sz_arg, &sz_res, &sz_iw, &sz_w);
@@ -103,6 +107,8 @@ mpc_rti *mpc_rti_create(int horizon, int nbx, const int *idxbx, int nbu, const i
     if (ric_alg >= 0) d_ocp_qp_ipm_arg_set_ric_alg(&ric_alg, &s->arg);
     if (pred_corr >= 0) d_ocp_qp_ipm_arg_set_pred_corr(&pred_corr, &s->arg);
     if (mu0 > 0) d_ocp_qp_ipm_arg_set_mu0(&mu0, &s->arg);
+    s->mu0 = s->arg.mu0;
+    s->mu0_warm = mu0_warm;
     if (residual_exit >= 0) { /* in the absolute form, the dual of the equalities is needed for the residuals */
         d_ocp_qp_ipm_arg_set_comp_dual_sol_eq(&residual_exit, &s->arg);
         d_ocp_qp_ipm_arg_set_comp_res_exit(&residual_exit, &s->arg);
@@ -236,6 +242,10 @@ int mpc_rti_solve(mpc_rti *s, const double *w, const double *P, const double *x0
     const double built = now();
     int warm_start = s->cold_next ? 0 : s->warm_start;
     d_ocp_qp_ipm_arg_set_warm_start(&warm_start, &s->arg);
+    /* Started from the previous plan in a steady phase, the barrier starts low: one iteration instead of two.
+     * Where bounds come and go (the previous solve needed more), a low start takes many short steps. */
+    double mu0 = warm_start && s->mu0_warm > 0 && s->last_iterations <= 2 ? s->mu0_warm : s->mu0;
+    d_ocp_qp_ipm_arg_set_mu0(&mu0, &s->arg);
     d_ocp_qp_ipm_solve(&s->qp, &s->sol, &s->arg, &s->ws);
     info[6] = built - started;
     info[7] = now() - built;
@@ -248,6 +258,7 @@ int mpc_rti_solve(mpc_rti *s, const double *w, const double *P, const double *x0
     int finite = 1;
     for (int i = 0; i < n * NZ + NX; i++) finite &= isfinite(dw[i]) != 0;
     s->cold_next = status != 0 || !finite;
+    s->last_iterations = iterations;
     info[0] = total;
     info[1] = iterations;
     d_ocp_qp_ipm_get_max_res_stat(&s->ws, info + 2);

@@ -35,6 +35,9 @@ DEFAULT = HpipmSettings.for_tolerance(1e-5)
 LEVERS: list[tuple[str, dict]] = [
     ("CasADi conic + compiled QP data (before)", {"backend": QpBackend.CASADI_CONIC}),
     ("C driver, HPIPM speed_abs, warm primal (default)", {}),
+    ("  barrier from the mode's mu0 (10) every solve", {"hpipm": DEFAULT.but(mu0_warm=None)}),
+    ("  barrier from 1e-4 after an easy solve", {"hpipm": DEFAULT.but(mu0_warm=1e-4)}),
+    ("  barrier from 1e-3 every solve, cold ones too", {"hpipm": DEFAULT.but(mu0=1e-3, mu0_warm=None)}),
     ("  cold start", {"hpipm": DEFAULT.but(warm_start=0)}),
     ("  warm start, primal and dual", {"hpipm": DEFAULT.but(warm_start=2)}),
     ("  stopping on the duality measure only", {"hpipm": DEFAULT.but(residual_exit=False)}),
