@@ -26,7 +26,7 @@ import json
 import sys
 from pathlib import Path
 
-from ground_tools.campaign.command import add_campaign_arguments, campaign
+from ground_tools.campaign.arguments import add_campaign_arguments
 from ground_tools.figures import plot_flight
 from ground_tools.lockstep_flight import FlightFailed, fly_lockstep
 from ground_tools.mission_command import add_mission_arguments, mission
@@ -99,6 +99,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "mission":
         return mission(args)
     if args.command == "campaign":
+        # Dask, DuckDB and pandas take 1.2 s to import: only this command pays for them.
+        from ground_tools.campaign.command import campaign
+
         return campaign(args)
     if args.command == "record":
         return record(args)
