@@ -18,6 +18,13 @@ def setup_signing(gs: GroundStation, key: bytes, timestamp: int) -> None:
     gs.conn.mav.setup_signing_send(1, 1, list(key), timestamp)
 
 
+def saved_key(params_path) -> str | None:
+    """The signing key in the autopilot's parameter file (hex), None before the file is written."""
+    if not params_path.exists():
+        return None
+    return json.loads(params_path.read_text()).get("signing", {}).get("key")
+
+
 def test_a_keyed_client_flies_an_unkeyed_one_is_refused_and_the_key_survives_a_restart(tmp_path):
     params_path = tmp_path / "params.json"
     sitl = start_sitl(params_path, speed=4.0, controller="pid", autopilot_args=("--quiet",))
@@ -30,7 +37,8 @@ def test_a_keyed_client_flies_an_unkeyed_one_is_refused_and_the_key_survives_a_r
         setup_signing(keyed, KEY, timestamp_at(time.time()))  # no key yet: taken unsigned
         said(keyed, "signing: key set")
         keyed.conn.setup_signing(KEY, sign_outgoing=True)
-        assert json.loads(params_path.read_text())["signing"]["key"] == KEY.hex()
+        # The parameter file is written on the autopilot's writer thread, after the answer (autopilot/kept_file.py).
+        keyed.wait(lambda: saved_key(params_path) == KEY.hex(), "the key in the parameter file")
 
         unkeyed.connect()  # telemetry reaches unsigned clients
         assert keyed.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1).result == MAV_RESULT_ACCEPTED
