@@ -99,10 +99,14 @@ class _Worker:
 
 def _stop(signum: int, frame: object) -> None:
     """A run in flight stops as on Ctrl-C (its run's `finally` kills its plant and autopilot); no further run starts.
-    Between runs an orphaned worker just ends; one whose command lives on waits to be told to."""
+    A second signal while it stops changes nothing: raised inside that `finally`, it would leave the autopilot
+    running. Between runs an orphaned worker just ends; one whose command lives on waits to be told to."""
+    again = _Worker.stopped
     _Worker.stopped = True
     if _Worker.flying:
-        raise KeyboardInterrupt
+        if not again:
+            raise KeyboardInterrupt
+        return
     if os.getppid() != _Worker.parent:
         os._exit(1)
 

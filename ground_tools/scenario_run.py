@@ -161,9 +161,10 @@ def run_scenario(
         summaries = {name: json.loads(process.stdout.read().strip().splitlines()[-1])
                      for name, process in (("plant", plant), ("autopilot", autopilot))}  # fmt: skip
     finally:
-        for process in processes:
+        for process in processes:  # every one killed before waiting for any: an interruption leaves none running
             if process.poll() is None:
                 process.kill()
+        for process in processes:
             process.wait()
             if process.stdout:
                 process.stdout.close()

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import signal
 import socket
 import subprocess
 import sys
@@ -215,9 +217,11 @@ def _running(pid: int) -> bool:
         return False
 
 
-def test_a_terminated_scenario_command_leaves_no_worker_or_vehicle_running(tmp_path) -> None:
+@pytest.mark.parametrize("how", ["sigterm", "ctrl-c"])
+def test_a_terminated_scenario_command_leaves_no_worker_or_vehicle_running(tmp_path, how: str) -> None:
     """SIGTERM to `vtol scenario` (two runs at a time) mid-flight: its workers stop their runs as on Ctrl-C, which
-    kills each run's plant and autopilot, and exit."""
+    kills each run's plant and autopilot, and exit. Ctrl-C (SIGINT to the whole process group) reaches the workers
+    twice: directly, and again when the command ends (their parent-death signal) while they are still stopping."""
     arguments = ["scenario", "all", "--no-record", "--no-progress", "--jobs", "2", "--out", str(tmp_path)]
     command = subprocess.Popen([sys.executable, "-m", "ground_tools", *arguments], stdout=subprocess.DEVNULL,
                                stderr=subprocess.DEVNULL, start_new_session=True)  # fmt: skip
@@ -229,8 +233,12 @@ def test_a_terminated_scenario_command_leaves_no_worker_or_vehicle_running(tmp_p
             under = _descendants(command.pid)
         assert len(under) >= 7, under
         time.sleep(2.0)  # flying
-        command.terminate()
-        command.wait(timeout=30)
+        if how == "sigterm":
+            command.terminate()
+        else:
+            os.killpg(command.pid, signal.SIGINT)
+        returncode = command.wait(timeout=30)
+        assert returncode == (-signal.SIGTERM if how == "sigterm" else 130)
         deadline = time.monotonic() + 30
         while (alive := {pid for pid in under if _running(pid)}) and time.monotonic() < deadline:
             time.sleep(0.2)
