@@ -125,9 +125,10 @@ class TruthFeed:
     def latest(self, timeout_s: float = 10.0) -> PlantTruth:
         """The newest sample (the last step of the newest payload); waits up to `timeout_s` wall seconds for the
         first one."""
-        self.wait_until(lambda _: True, timeout_sim_s=math.inf, timeout_wall_s=timeout_s)
         with self._changed:
-            assert self._payload is not None  # wait_until returned: a payload came
+            if not self._changed.wait_for(lambda: self._payload is not None, timeout_s):
+                raise TruthTimeout(f"the condition did not hold within {timeout_s:g} wall seconds (vehicle "
+                                   f"{self.system_id}, no plant truth received from {self.endpoint})")  # fmt: skip
             return PlantTruth.all_from_payload(self._payload)[-1]
 
     def wait_until(self, condition: Callable[[PlantTruth], bool], timeout_sim_s: float,
