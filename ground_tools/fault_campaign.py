@@ -22,7 +22,7 @@ import numpy as np
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
 from ground_tools.fault_proxy import FaultProxy, Faults
-from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, free_link_ports, free_udp_port
+from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, die_with_parent, free_link_ports, free_udp_port
 from transport.flight_log import DOWN, PITCH, ROLL, VN, VN_SP, read_flight_log
 from transport.mavlink import Link
 from transport.mavlink import mavlink as M
@@ -182,8 +182,10 @@ def fly_plant_link(folder: Path, name: str, faults: Faults | None, *, duration_s
     autopilot = AutopilotCommand(sim_port=proxy.port if proxy is not None else port, links=free_link_ports(),
                                  spawn_alt=spawn_alt, profile=profile, duration_s=duration_s, controller=controller,
                                  zenoh=Zenoh.off(), quiet=True, log=log, params=folder / f"{name}.params.json")
-    plant = subprocess.Popen(sim.argv(), stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
-    pilot = subprocess.Popen(autopilot.argv(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    plant = subprocess.Popen(sim.argv(), stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+                             preexec_fn=die_with_parent())
+    pilot = subprocess.Popen(autopilot.argv(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                             preexec_fn=die_with_parent())
     try:
         out, _ = plant.communicate(timeout=600)
         try:  # the plant stops after its last state; if the proxy lost that one, the autopilot waits for more
@@ -223,10 +225,11 @@ def junk_while_hovering(folder: Path, per_port: int, *, seed: int = 7, spawn_alt
     autopilot = AutopilotCommand(sim_port=port, links=links, spawn_alt=spawn_alt, controller="pid", zenoh=Zenoh.off(),
                                  log=log, params=params, summary=True)  # fmt: skip
     errors = folder / "junk.autopilot.stderr"
-    plant = subprocess.Popen(sim.argv(), stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    plant = subprocess.Popen(sim.argv(), stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+                             preexec_fn=die_with_parent())
     with open(errors, "w") as err:
         pilot = subprocess.Popen(autopilot.argv(), stdout=subprocess.PIPE, stderr=err, text=True,
-                                 env={**os.environ, "PYTHONUNBUFFERED": "1"})  # fmt: skip
+                                 env={**os.environ, "PYTHONUNBUFFERED": "1"}, preexec_fn=die_with_parent())  # fmt: skip
     try:
         deadline = time.monotonic() + 120
         while not (log.exists() and log.stat().st_size > 2000):  # the autopilot has the plant and flies

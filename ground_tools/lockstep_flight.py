@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ground_tools.processes import (AutopilotCommand, Controller, SimCommand, Zenoh, deterministic_argv,
-                                    deterministic_environment, free_link_ports, free_udp_port)  # fmt: skip
+                                    deterministic_environment, die_with_parent, free_link_ports, free_udp_port)  # fmt: skip
 
 
 class FlightFailed(RuntimeError):
@@ -45,6 +45,7 @@ def fly_lockstep(
         deterministic_argv(SimCommand(port=port, spawn_alt=spawn_alt, zenoh=Zenoh.off(), duration_s=duration_s,
                                       summary=True).argv()),
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=deterministic_environment(),
+        preexec_fn=die_with_parent(),
     )  # fmt: skip
     autopilot_command = AutopilotCommand(
         sim_port=port, links=free_link_ports(), spawn_alt=spawn_alt, profile=profile, duration_s=duration_s,
@@ -55,7 +56,7 @@ def fly_lockstep(
         argv = [argv[0], "-m", "cProfile", "-o", str(autopilot_profile), *argv[1:]]
     try:
         autopilot = subprocess.run(deterministic_argv(argv), capture_output=True, text=True, timeout=timeout_s,
-                                   env=deterministic_environment())  # fmt: skip
+                                   env=deterministic_environment(), preexec_fn=die_with_parent())  # fmt: skip
         plant_out, plant_err = plant.communicate(timeout=120)
     finally:
         if plant.poll() is None:

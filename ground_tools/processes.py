@@ -8,7 +8,9 @@ A description's defaults are the program's own: a field left alone adds nothing 
 
 from __future__ import annotations
 
+import ctypes
 import os
+import signal
 import subprocess
 import shutil
 import platform
@@ -16,6 +18,7 @@ import functools
 
 import socket
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -67,6 +70,38 @@ def _free_port(kind: socket.SocketKind) -> int:
     with socket.socket(socket.AF_INET, kind) as s:
         s.bind((LOOPBACK, 0))
         return s.getsockname()[1]
+
+
+PR_SET_PDEATHSIG = 1  # Linux prctl(2)
+
+
+@functools.cache
+def _prctl() -> Callable[..., int]:
+    return ctypes.CDLL(None, use_errno=True).prctl
+
+
+def follow_parent(parent_pid: int, signum: int) -> bool:
+    """Ask the kernel to send this process `signum` when its parent ends, however it ends, SIGKILL included (Linux
+    PR_SET_PDEATHSIG; it goes when the parent's starting thread ends, so start children from a thread that waits for
+    them). Exits at once if the parent `parent_pid` has already ended. False where the request is refused or the
+    system has no such request."""
+    refused = not sys.platform.startswith("linux") or _prctl()(PR_SET_PDEATHSIG, int(signum), 0, 0, 0) != 0
+    if os.getppid() != parent_pid:
+        os._exit(1)
+    return not refused
+
+
+def die_with_parent(signum: int = signal.SIGTERM) -> Callable[[], None]:
+    """A `preexec_fn` for subprocess.Popen: the child gets `signum` when this process ends (`follow_parent`), so a
+    `vtol` command killed by SIGKILL leaves no plant or autopilot flying on. SIGTERM lets them stop as on a request."""
+    parent = os.getpid()
+    if sys.platform.startswith("linux"):
+        _prctl()  # resolved here: between fork and exec the child only calls it
+
+    def preexec() -> None:
+        follow_parent(parent, signum)
+
+    return preexec
 
 
 def deterministic_environment() -> dict[str, str]:

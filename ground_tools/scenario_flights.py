@@ -6,7 +6,6 @@ however it ends (Linux: prctl PR_SET_PDEATHSIG), so no run flies on with no one 
 from __future__ import annotations
 
 import argparse
-import ctypes
 import json
 import multiprocessing
 import os
@@ -26,14 +25,13 @@ from tqdm import tqdm
 
 from ground_tools.lockstep_client import START_MS, ScenarioError
 from ground_tools.lockstep_flight import FlightFailed
-from ground_tools.processes import Controller
+from ground_tools.processes import Controller, follow_parent
 from ground_tools.scenario_figures import plot_scenario
 from ground_tools.scenario_run import RunResult, run_scenario
 from scenarios.experiments import SCENARIOS, Scenario
 from transport.flight_log import FlightLog, read_flight_log
 
 PROG = "vtol"
-PR_SET_PDEATHSIG = 1  # Linux prctl(2)
 
 Flight = tuple[str, Controller]  # a scenario's name (its Scenario holds its trigger's function: not picklable)
 Outcome = RunResult | FlightFailed | ScenarioError
@@ -111,23 +109,14 @@ def _stop(signum: int, frame: object) -> None:
         os._exit(1)
 
 
-def _follow_parent(parent: int) -> None:
-    """SIGINT to this worker when the command's process ends, however it ends (SIGTERM, SIGKILL)."""
-    libc = ctypes.CDLL(None, use_errno=True)
-    if libc.prctl(PR_SET_PDEATHSIG, int(signal.SIGINT), 0, 0, 0) != 0:
-        print(f"{PROG}: warning: a worker cannot follow its parent: {os.strerror(ctypes.get_errno())}",
-              file=sys.stderr)  # fmt: skip
-    if os.getppid() != parent:  # the parent ended before the request took effect
-        os._exit(1)
-
-
 def _start_worker(parent: int, lock: Any, next_position: Synchronized) -> None:
     """The pool's initializer. `lock`: tqdm's (a multiprocessing RLock), so that the workers' bars do not interleave."""
     _Worker.parent = parent
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, _stop)
-    if sys.platform == "linux":
-        _follow_parent(parent)
+    # SIGINT to this worker when the command's process ends, however it ends (SIGTERM, SIGKILL).
+    if sys.platform == "linux" and not follow_parent(parent, signal.SIGINT):
+        print(f"{PROG}: warning: a worker cannot follow its parent (prctl PR_SET_PDEATHSIG refused)", file=sys.stderr)
     tqdm.set_lock(lock)
     with next_position.get_lock():
         _Worker.bar_position = next_position.value

@@ -30,7 +30,7 @@ from ground_tools.lockstep_flight import FlightFailed
 from ground_tools.port_blocks import PortBlock
 from ground_tools.metrics import flight_metrics
 from ground_tools.processes import (AutopilotCommand, Controller, SimCommand, VehiclePorts, Zenoh, deterministic_argv,
-                                    deterministic_environment)  # fmt: skip
+                                    deterministic_environment, die_with_parent)  # fmt: skip
 from scenarios.experiments import Scenario
 from transport.flight_log import read_flight_log, write_flight_log
 from transport.ports import LOOPBACK
@@ -105,7 +105,7 @@ def run_scenario(
             wind_ned=None if wind_ned == (0.0, 0.0, 0.0) else wind_ned, airframe=plant_airframe,
         )  # fmt: skip
         plant = subprocess.Popen(deterministic_argv(plant_command.argv()), stdout=subprocess.PIPE, stderr=plant_err, text=True,
-                                 env=deterministic_environment())  # fmt: skip
+                                 env=deterministic_environment(), preexec_fn=die_with_parent())  # fmt: skip
         processes.append(plant)
         autopilot_command = AutopilotCommand(
             sim_port=ports.plant, links=ports.links, spawn_alt=SPAWN_ALT_M, controller=controller,
@@ -115,7 +115,7 @@ def run_scenario(
             zenoh=Zenoh.listening(ports.zenoh_autopilot) if record else Zenoh.off(),
         )  # fmt: skip
         autopilot = subprocess.Popen(deterministic_argv(autopilot_command.argv()), stdout=subprocess.PIPE, stderr=autopilot_err, text=True,
-                                     env=deterministic_environment())  # fmt: skip
+                                     env=deterministic_environment(), preexec_fn=die_with_parent())  # fmt: skip
         processes.append(autopilot)
 
         def start_recording() -> None:

@@ -7,7 +7,8 @@ FLEET_SPACING_M apart in a row to the east (each one's home; ground_tools/proces
 Both processes print to this terminal. Ctrl-C (SIGINT to the terminal's process group) or SIGTERM to `vtol` stops
 both: the signal is passed on to each, each stops at its next turn, and `vtol up` waits for them (killing a
 process that has not stopped after STOP_TIMEOUT_S). If either process ends by itself (a port in use, a bad
-parameter file), the other is stopped too and `vtol up` exits with its code.
+parameter file), the other is stopped too and `vtol up` exits with its code. If `vtol up` is killed outright, the
+kernel sends both SIGTERM (processes.die_with_parent).
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import sys
 import time
 from pathlib import Path
 
-from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, fleet_home
+from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, die_with_parent, fleet_home
 from transport.cli import fail, stop_on_signals
 from transport.ports import LOOPBACK, Ports
 
@@ -68,8 +69,8 @@ def up(args: argparse.Namespace) -> int:
     for index in range(args.count):
         ports = Ports(args.instance + index)
         plant_command, autopilot_command = commands(args, index)
-        plant = subprocess.Popen(plant_command)
-        autopilot = subprocess.Popen(autopilot_command)
+        plant = subprocess.Popen(plant_command, preexec_fn=die_with_parent())
+        autopilot = subprocess.Popen(autopilot_command, preexec_fn=die_with_parent())
         names[plant.pid], names[autopilot.pid] = "vtol-sim", "vtol-autopilot"
         processes += [autopilot, plant]
         print(f"{PROG}: vehicle {ports.system_id} (instance {ports.instance}): plant pid {plant.pid} "

@@ -217,28 +217,34 @@ def _running(pid: int) -> bool:
         return False
 
 
-@pytest.mark.parametrize("how", ["sigterm", "ctrl-c"])
-def test_a_terminated_scenario_command_leaves_no_worker_or_vehicle_running(tmp_path, how: str) -> None:
+@pytest.mark.parametrize(("how", "jobs"), [("sigterm", 2), ("ctrl-c", 2), ("sigkill", 2), ("sigkill", 1)])
+def test_a_terminated_scenario_command_leaves_no_worker_or_vehicle_running(tmp_path, how: str, jobs: int) -> None:
     """SIGTERM to `vtol scenario` (two runs at a time) mid-flight: its workers stop their runs as on Ctrl-C, which
     kills each run's plant and autopilot, and exit. Ctrl-C (SIGINT to the whole process group) reaches the workers
-    twice: directly, and again when the command ends (their parent-death signal) while they are still stopping."""
-    arguments = ["scenario", "all", "--no-record", "--no-progress", "--jobs", "2", "--out", str(tmp_path)]
+    twice: directly, and again when the command ends (their parent-death signal) while they are still stopping.
+    SIGKILL to the command alone: the workers learn it from their parent-death signal; with one run at a time the
+    command flies the run itself, and its plant and autopilot learn it from theirs."""
+    arguments = ["scenario", "all", "--no-record", "--no-progress", "--jobs", str(jobs), "--out", str(tmp_path)]
     command = subprocess.Popen([sys.executable, "-m", "ground_tools", *arguments], stdout=subprocess.DEVNULL,
                                stderr=subprocess.DEVNULL, start_new_session=True)  # fmt: skip
+    # two workers, two plants and autopilots (and a tracker); or one plant and autopilot
+    flying = 7 if jobs == 2 else 2
     try:
         deadline = time.monotonic() + 120
         under = _descendants(command.pid)
-        while len(under) < 7 and time.monotonic() < deadline:  # two workers, two plants and autopilots (and a tracker)
+        while len(under) < flying and time.monotonic() < deadline:
             time.sleep(0.5)
             under = _descendants(command.pid)
-        assert len(under) >= 7, under
+        assert len(under) >= flying, under
         time.sleep(2.0)  # flying
         if how == "sigterm":
             command.terminate()
+        elif how == "sigkill":
+            command.kill()
         else:
             os.killpg(command.pid, signal.SIGINT)
         returncode = command.wait(timeout=30)
-        assert returncode == (-signal.SIGTERM if how == "sigterm" else 130)
+        assert returncode == {"sigterm": -signal.SIGTERM, "sigkill": -signal.SIGKILL, "ctrl-c": 130}[how]
         deadline = time.monotonic() + 30
         while (alive := {pid for pid in under if _running(pid)}) and time.monotonic() < deadline:
             time.sleep(0.2)

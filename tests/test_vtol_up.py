@@ -106,3 +106,32 @@ def test_vtol_up_stops_the_plant_when_the_autopilot_cannot_start(tmp_path):
     pid = int(re.search(r"plant pid (\d+)", result.stderr).group(1))
     time.sleep(0.2)
     assert not alive(pid)
+
+
+def test_a_killed_vtol_up_leaves_no_vehicle_flying(tmp_path):
+    """SIGKILL to `vtol up` alone (no chance to stop anything): its plant and autopilot learn it from their
+    parent-death signal and stop, so no vehicle holds its ports with no one to stop it."""
+    instance = free_instance()
+    errors = tmp_path / "vtol.stderr"
+    with open(errors, "w") as stderr:
+        vtol = subprocess.Popen([VTOL, "up", "--instance", str(instance), "--controller", "pid", "--no-zenoh",
+                                 "--params", str(tmp_path / "params.json")], stdout=subprocess.DEVNULL, stderr=stderr,
+                                start_new_session=True)  # fmt: skip
+    try:
+        deadline = time.monotonic() + 60
+        while not (found := re.findall(r"plant pid (\d+).*autopilot pid (\d+)", errors.read_text())):
+            assert time.monotonic() < deadline and vtol.poll() is None, errors.read_text()
+            time.sleep(0.1)
+        pids = [int(p) for p in found[0]]
+        time.sleep(3.0)  # both started and running
+        assert all(alive(pid) for pid in pids)
+        vtol.kill()
+        vtol.wait(timeout=10)
+        deadline = time.monotonic() + 20
+        while any(alive(pid) for pid in pids) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not any(alive(pid) for pid in pids)
+    finally:
+        if vtol.poll() is None:
+            vtol.kill()
+        subprocess.run(["pkill", "-KILL", "-s", str(vtol.pid)], check=False)  # its session, should any be left

@@ -11,38 +11,20 @@ vehicle's folder (<name>.stdout, <name>.stderr), so a process that dies during s
 from __future__ import annotations
 
 import atexit
-import ctypes
 import json
-import os
 import signal
 import subprocess
-import sys
 import threading
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from ground_tools.processes import deterministic_environment
+from ground_tools.processes import deterministic_environment, die_with_parent
 
-PR_SET_PDEATHSIG = 1
 STOP_TIMEOUT_S = 5.0
 STDERR_TAIL_LINES = 12
 
 _live: dict[int, subprocess.Popen] = {}  # every child started and not yet reaped, for the atexit safety net
 _live_lock = threading.Lock()
-
-
-def _die_with_parent(parent_pid: int) -> Callable[[], None]:
-    """preexec_fn: ask the kernel for SIGKILL when our parent goes; if it is already gone, go now."""
-
-    def preexec() -> None:
-        if sys.platform.startswith("linux"):
-            libc = ctypes.CDLL(None, use_errno=True)
-            libc.prctl(PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
-        if os.getppid() != parent_pid:
-            os._exit(1)
-
-    return preexec
 
 
 @dataclass
@@ -93,7 +75,7 @@ def _spawn(argv: list[str], stdout_path: Path, stderr_path: Path, mode: str) -> 
     env = {**deterministic_environment(), "PYTHONUNBUFFERED": "1"}
     with open(stdout_path, mode) as output, open(stderr_path, mode) as errors:
         process = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=output, stderr=errors, env=env,
-                                   start_new_session=True, preexec_fn=_die_with_parent(os.getpid()))  # fmt: skip
+                                   start_new_session=True, preexec_fn=die_with_parent(signal.SIGKILL))  # fmt: skip
     with _live_lock:
         _live[process.pid] = process
     return process
