@@ -5,18 +5,30 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import functools
+from typing import Any
 
-matplotlib.use("Agg")  # files only: no display needed
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import numpy as np
 
-from aircraft.actuators import ACTUATOR_NAMES, SURFACES  # noqa: E402
-from transport import flight_log  # noqa: E402
+from aircraft.actuators import ACTUATOR_NAMES, SURFACES
+from transport import flight_log
+
+
+@functools.cache
+def pyplot() -> Any:
+    """matplotlib.pyplot on the Agg backend (files only, no display), imported at the first figure: half a second
+    that the commands drawing none (`vtol up`, `record`, `watch`) and the processes they start need not pay."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
 
 
 def plot_flight(log: flight_log.FlightLog, out_dir: Path, title: str) -> list[Path]:
     """Velocity tracking (x, z), tilt and pitch, roll and yaw, actuator commands, ground track. Returns the files."""
+    plt = pyplot()
     out_dir.mkdir(parents=True, exist_ok=True)
     t = log[flight_log.T]
     deg = np.degrees
@@ -62,6 +74,7 @@ def plot_flight(log: flight_log.FlightLog, out_dir: Path, title: str) -> list[Pa
 
 def save_ground_track(figure, axis, title: str, path: Path) -> Path:
     """Label, square and save a north-over-east ground-track figure."""
+    plt = pyplot()
     axis.set_xlabel("east (m)")
     axis.set_ylabel("north (m)")
     axis.set_aspect("equal", adjustable="datalim")

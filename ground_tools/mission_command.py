@@ -14,20 +14,16 @@ import argparse
 import sys
 from pathlib import Path
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")  # files only: no display needed
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from ground_tools.figures import save_ground_track  # noqa: E402
-from ground_tools.metrics import mean_tilt  # noqa: E402
-from ground_tools.mission_file import MissionFileError, read_mission_file  # noqa: E402
-from ground_tools.mission_run import MissionResult, MissionRunFailed, fly_mission  # noqa: E402
-from ground_tools.processes import Controller  # noqa: E402
-from ground_tools.scenario_figures import _style  # noqa: E402
-from transport import flight_log  # noqa: E402
-from transport.cli import fail, writable_folder  # noqa: E402
+from ground_tools.figures import pyplot, save_ground_track
+from ground_tools.metrics import mean_tilt
+from ground_tools.mission_file import MissionFileError, read_mission_file
+from ground_tools.mission_run import MissionResult, MissionRunFailed, fly_mission
+from ground_tools.processes import Controller
+from ground_tools.scenario_figures import _style
+from transport import flight_log
+from transport.cli import fail, writable_folder
 
 PROG = "vtol"
 FIGURE_FILES = ("ground_track.png", "speed.png", "tilt.png")
@@ -42,6 +38,7 @@ def add_mission_arguments(parser: argparse.ArgumentParser) -> None:
 
 def plot_mission(results: list[MissionResult], logs: dict[str, flight_log.FlightLog], folder: Path) -> list[Path]:
     """The three figures of the flights in `logs` (controller -> log), overlaid."""
+    plt = pyplot()
     title = results[0].mission
     figure, axis = plt.subplots(figsize=(7, 7))
     for controller, log in logs.items():

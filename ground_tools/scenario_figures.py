@@ -13,17 +13,13 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")  # files only: no display needed
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from aircraft.failures import FailureUnit  # noqa: E402
-from ground_tools.figures import save_ground_track  # noqa: E402
-from ground_tools.metrics import mean_tilt  # noqa: E402
-from scenarios.experiments import Scenario  # noqa: E402
-from transport import flight_log  # noqa: E402
+from aircraft.failures import FailureUnit
+from ground_tools.figures import pyplot, save_ground_track
+from ground_tools.metrics import mean_tilt
+from scenarios.experiments import Scenario
+from transport import flight_log
 
 STYLE = {"mpc": ("tab:blue", "-"), "pid": ("tab:orange", "--")}
 SETPOINT = {"color": "black", "linestyle": ":", "linewidth": 1.0}  # the intended circle
@@ -43,6 +39,7 @@ def _mark_failures(axes, failures: dict[str, float | None]) -> None:
 
 def _time_figure(runs, failures, panels, title: str, path: Path) -> Path:
     """panels: (ylabel, column or function of a run, set-point column or None)."""
+    plt = pyplot()
     figure, axes = plt.subplots(len(panels), 1, figsize=(8, 2.4 * len(panels) + 0.6), sharex=True)
     axes = np.atleast_1d(axes)
     for axis, (label, value, setpoint) in zip(axes, panels):
@@ -82,6 +79,7 @@ def plot_scenario(
     scenario: Scenario, runs: dict[str, flight_log.FlightLog], failures: dict[str, float | None], out_dir: Path
 ) -> list[Path]:
     """Write the scenario's figures (every run in `runs` overlaid) to out_dir; returns the files."""
+    plt = pyplot()
     out_dir.mkdir(parents=True, exist_ok=True)
     title = f"{scenario.name}: {scenario.summary}"
     turning = scenario.circle is not None
