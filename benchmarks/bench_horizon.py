@@ -11,10 +11,13 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+from collections.abc import Iterator
+
 import numpy as np
 
 from aircraft.airframe import load_airframe
 from autopilot.controllers import MPC, build_flight_controller
+from autopilot.flight_controller import FlightController
 from autopilot.mpc_horizon import HORIZONS, LONG, MpcHorizon, StageGrid
 from autopilot.vehicle_state import VehicleState
 from bench_mpc import spread, vehicle_state
@@ -24,23 +27,33 @@ from sim_bridge.plant import Plant, Spawn
 BRAKING_S = (15.0, 28.0)
 
 
-def fly(horizon: MpcHorizon, profile_name: str, seconds: float) -> dict:
+def velocity_ticks(
+    horizon: MpcHorizon, profile_name: str, seconds: float
+) -> Iterator[tuple[VehicleState, FlightController, np.ndarray]]:
+    """Fly the profile in one process (plant physics + flight controller, no sockets) from a hover at 100 m: at each
+    velocity tick, after the set-point is given and before the controller runs, the state, the controller and the
+    set-point."""
     airframe = load_airframe()
     profile = PROFILES[profile_name][0]
     plant = Plant(airframe, Spawn(altitude=100.0))
     controller = build_flight_controller(airframe, MPC, mpc_horizon=horizon)
     state = VehicleState()
-    rows = []
     for _ in range(int(seconds * 400)):
         vehicle_state(plant, state)
         if controller.velocity_due(state.time_usec):
             v_sp = profile(state.time_s)
             controller.set_velocity_setpoint(v_sp)
-            rows.append((state.time_s, *state.velocity_ned, *v_sp, *np.degrees(state.euler[:2]),
-                         np.degrees(controller.velocity_command.euler_sp[1])))  # fmt: skip
+            yield state, controller, v_sp
         controller.step(state)
         plant.set_command(controller.command)
         plant.step()
+
+
+def fly(horizon: MpcHorizon, profile_name: str, seconds: float) -> dict:
+    rows = []
+    for state, controller, v_sp in velocity_ticks(horizon, profile_name, seconds):
+        rows.append((state.time_s, *state.velocity_ned, *v_sp, *np.degrees(state.euler[:2]),
+                     np.degrees(controller.velocity_command.euler_sp[1])))  # fmt: skip
     t, vx, vy, vz, sx, sy, sz, roll, pitch, pitch_sp = np.array(rows).T
     braking = (t >= BRAKING_S[0]) & (t <= BRAKING_S[1])
     error = np.hypot(vx - sx, vz - sz)

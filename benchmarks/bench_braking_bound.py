@@ -1,0 +1,108 @@
+"""How well the MPC's own model can brake: a braking manoeuvre for accel-decel found by IPOPT, against the goal.
+
+    python benchmarks/bench_braking_bound.py [--horizon paper|long] [--seconds 4] [--stage 0.1]
+
+Issue 13 asks of the MPC a velocity error of at most 1.5 m/s while accel-decel brakes from 24 m/s at 2 m/s^2, with
+|v_z| <= 0.5 m/s and |pitch| <= 25 deg. Is that the vehicle's limit or the controller's? This flies the profile in
+one process with the chosen horizon up to the start of the braking (15 s) and takes the MPC's state there (velocity,
+tilts, attitude, rates). From that state IPOPT then looks for inputs of the MPC's model (the same dynamics function,
+tilt-rate, thrust and attitude set-point bounds) that keep the largest |v_x - v_sp| over the first `--seconds` of the
+ramp smallest, with |v_z| and |pitch| held to the goals: a controller told of the ramp when it starts, flying the
+model exactly (no servo or motor lag, an allocator that always delivers). The problem is not convex, so what IPOPT
+returns is a local optimum: a braking the model can fly (the best one is at least as good), not a bound below which
+no controller can go. docs/mpc.md 2.9 gives what it measured.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import time
+
+import casadi as ca
+import numpy as np
+
+from aircraft.airframe import load_airframe
+from autopilot.attitude import DEFAULT_GAINS
+from autopilot.mpc_horizon import HORIZONS
+from autopilot.mpc_model import CHI, CHI_DOT, NU, NX, PSI, PSI_D, THRUST, MpcLimits, discrete_dynamics
+from bench_horizon import BRAKING_S, velocity_ticks
+from scenarios.profiles import accel_decel
+
+GOALS = {"braking error": 1.5, "|v_z|": 0.5, "|pitch|": 25.0}  # m/s, m/s, deg
+PITCH = PSI.start + 1
+SUBSTEP_S = 0.01  # RK4 steps of the MPC's own 10 ms inside each stage
+
+
+def cruise_state(horizon: str) -> np.ndarray:
+    """The MPC's state x_0 at its last tick before the braking starts."""
+    x0 = None
+    for state, controller, _ in velocity_ticks(HORIZONS[horizon], "accel-decel", BRAKING_S[0]):
+        if controller.mpc is not None:
+            x0 = controller.mpc.last_x0.copy()
+    if x0 is None:
+        raise SystemExit("the MPC did not fly up to the braking")
+    return x0
+
+
+def best_braking(x0: np.ndarray, seconds: float, stage_s: float) -> dict:
+    """A local minimum over the model's inputs of max_k |v_x,k - v_sp,k|, v_sp the ramp from t = 0, with |v_z| and
+    |pitch| bounded. Raises RuntimeError (with IPOPT's status) when IPOPT does not converge."""
+    airframe, limits = load_airframe(), MpcLimits()
+    stages = int(round(seconds / stage_s))
+    step = discrete_dynamics(airframe, DEFAULT_GAINS, substeps=max(1, int(round(stage_s / SUBSTEP_S))))
+    opti = ca.Opti()
+    x, u, worst = opti.variable(NX, stages + 1), opti.variable(NU, stages), opti.variable()
+    ramp = np.array([accel_decel(BRAKING_S[0] + k * stage_s)[0] for k in range(stages + 1)])
+    grid = ca.DM([stage_s, 0.0])  # the delayed rate in continuous time, as on the long horizon's stages
+    opti.subject_to(x[:, 0] == x0)
+    for k in range(stages):
+        opti.subject_to(x[:, k + 1] == step(x[:, k], u[:, k], grid))
+        opti.subject_to(opti.bounded(-limits.tilt_rate, u[CHI_DOT, k], limits.tilt_rate))
+        opti.subject_to(opti.bounded(0.0, u[THRUST, k], airframe.thrust_planned_max))
+        opti.subject_to(opti.bounded(-limits.attitude_sp[1], u[PSI_D, k][0:2], limits.attitude_sp[1]))
+        opti.subject_to(u[PSI_D, k][2] == x0[PSI.stop - 1])  # the heading held (nothing else weighs the yaw)
+    goal_pitch = math.radians(GOALS["|pitch|"])
+    for k in range(1, stages + 1):
+        opti.subject_to(opti.bounded(-worst, x[0, k] - ramp[k], worst))
+        opti.subject_to(opti.bounded(-GOALS["|v_z|"], x[2, k], GOALS["|v_z|"]))
+        opti.subject_to(opti.bounded(-goal_pitch, x[PITCH, k], goal_pitch))
+        opti.subject_to(opti.bounded(airframe.tilt_min, x[CHI, k], airframe.tilt_max))
+    opti.minimize(worst + 1e-4 * ca.sumsqr(u[CHI_DOT, :]) + 1e-6 * ca.sumsqr(u[THRUST, :]))
+    opti.set_initial(x[0, :], ramp)
+    opti.set_initial(x[CHI, :], math.radians(70.0))
+    opti.set_initial(u[THRUST, :], 5.0)
+    opti.set_initial(worst, 2.0)
+    opti.solver("ipopt", {"print_time": False, "expand": True}, {"print_level": 0, "max_iter": 3000, "tol": 1e-6})
+    started = time.perf_counter()
+    solution = opti.solve()
+    states = solution.value(x)
+    return {
+        "worst": float(solution.value(worst)),
+        "at_s": float(np.argmax(np.abs(states[0] - ramp)) * stage_s),
+        "pitch_deg": float(np.degrees(np.abs(states[PITCH]).max())),
+        "vz": float(np.abs(states[2]).max()),
+        "tilts_deg": np.degrees(states[CHI][:, [0, -1]]),
+        "solve_s": time.perf_counter() - started,
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--horizon", choices=sorted(HORIZONS), default="paper", help="which MPC flies to the braking")
+    parser.add_argument("--seconds", type=float, default=4.0, help="the window of the ramp bounded (s)")
+    parser.add_argument("--stage", type=float, default=0.1, help="stage length of the bound's problem (s)")
+    args = parser.parse_args()
+    x0 = cruise_state(args.horizon)
+    print(f"cruise at {BRAKING_S[0]:g} s ({args.horizon} horizon): v_x {x0[0]:.2f} m/s, tilts "
+          f"{np.round(np.degrees(x0[CHI]), 1).tolist()} deg, pitch {math.degrees(x0[PITCH]):.2f} deg")
+    best = best_braking(x0, args.seconds, args.stage)
+    print(f"best braking over the first {args.seconds:g} s of the ramp (stages of {args.stage:g} s, IPOPT "
+          f"{best['solve_s']:.0f} s): largest |v_x - v_sp| {best['worst']:.3f} m/s at {best['at_s']:.2f} s "
+          f"(goal <= {GOALS['braking error']:g}), |pitch| up to {best['pitch_deg']:.1f} deg, |v_z| up to "
+          f"{best['vz']:.2f} m/s; tilts {np.round(best['tilts_deg'][:, 0], 0).tolist()} -> "
+          f"{np.round(best['tilts_deg'][:, 1], 0).tolist()} deg")
+
+
+if __name__ == "__main__":
+    main()
