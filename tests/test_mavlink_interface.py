@@ -8,6 +8,7 @@ import random
 import socket
 import struct
 import time
+from pathlib import Path
 
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega
@@ -267,6 +268,20 @@ def test_offboard_set_point_checks_and_frames(hovering):
     assert_hovering(gs)
 
 
+def kernel_drops(port: int) -> int:
+    """Datagrams the kernel dropped for the UDP socket bound to 127.0.0.1:port (its receive buffer full), from
+    /proc/net/udp; 0 where there is no such table."""
+    try:
+        rows = Path("/proc/net/udp").read_text().splitlines()[1:]
+    except OSError:
+        return 0
+    for row in rows:
+        fields = row.split()
+        if int(fields[1].split(":")[1], 16) == port:
+            return int(fields[-1])
+    return 0
+
+
 def test_junk_on_both_links_is_dropped_while_the_vehicle_hovers(hovering):
     gs = hovering.gs
     start = gs.latest["LOCAL_POSITION_NED"]
@@ -301,12 +316,16 @@ def test_junk_on_both_links_is_dropped_while_the_vehicle_hovers(hovering):
         sender.close()
     gs.wait_sim(1.0)
     assert_hovering(gs, start)
+    dropped_by_kernel = {name: kernel_drops(hovering.ports[name]) for name in ("gcs", "api")}
     autopilot, plant = hovering.stop()
     assert hovering.autopilot.returncode == 0
     for name in ("gcs", "api"):
         link = autopilot["links"][name]
-        assert link["dropped"].get("bad_crc", 0) >= rounds and link["dropped"].get("truncated", 0) >= rounds
-        assert link["dropped"].get("unknown_message", 0) >= rounds
+        # Every round's junk reaches the autopilot unless the kernel dropped it from the full socket buffer (a
+        # loaded machine, the 60 kB datagrams filling it); what arrives is counted.
+        least = rounds if dropped_by_kernel[name] == 0 else 1
+        assert link["dropped"].get("bad_crc", 0) >= least and link["dropped"].get("truncated", 0) >= least
+        assert link["dropped"].get("unknown_message", 0) >= least
         # One 60 kB datagram per round and port: a socket buffer holds ~3, so on a loaded machine the kernel drops
         # some before the autopilot can count them; each one it receives is counted, none is more than was sent.
         assert 0 < link["dropped"].get("oversized_datagram", 0) <= rounds
