@@ -35,14 +35,13 @@ SUBSTEP_S = 0.01  # RK4 steps of the MPC's own 10 ms inside each stage
 
 
 def cruise_state(horizon: str) -> np.ndarray:
-    """The MPC's state x_0 at its last tick before the braking starts."""
-    x0 = None
-    for state, controller, _ in velocity_ticks(HORIZONS[horizon], "accel-decel", BRAKING_S[0]):
-        if controller.mpc is not None:
-            x0 = controller.mpc.last_x0.copy()
-    if x0 is None:
+    """The MPC's state x_0 at its last tick before the braking starts (read once that tick has run)."""
+    controller = None
+    for _, controller, _ in velocity_ticks(HORIZONS[horizon], "accel-decel", BRAKING_S[0]):
+        pass
+    if controller is None or controller.mpc is None:
         raise SystemExit("the MPC did not fly up to the braking")
-    return x0
+    return controller.mpc.last_x0.copy()
 
 
 def best_braking(x0: np.ndarray, seconds: float, stage_s: float) -> dict:
@@ -60,7 +59,7 @@ def best_braking(x0: np.ndarray, seconds: float, stage_s: float) -> dict:
         opti.subject_to(x[:, k + 1] == step(x[:, k], u[:, k], grid))
         opti.subject_to(opti.bounded(-limits.tilt_rate, u[CHI_DOT, k], limits.tilt_rate))
         opti.subject_to(opti.bounded(0.0, u[THRUST, k], airframe.thrust_planned_max))
-        opti.subject_to(opti.bounded(-limits.attitude_sp[1], u[PSI_D, k][0:2], limits.attitude_sp[1]))
+        opti.subject_to(opti.bounded(-ca.DM(limits.attitude_sp), u[PSI_D, k][0:2], ca.DM(limits.attitude_sp)))
         opti.subject_to(u[PSI_D, k][2] == x0[PSI.stop - 1])  # the heading held (nothing else weighs the yaw)
     goal_pitch = math.radians(GOALS["|pitch|"])
     for k in range(1, stages + 1):

@@ -77,7 +77,7 @@ PR_SET_PDEATHSIG = 1  # Linux prctl(2)
 
 @functools.cache
 def _prctl() -> Callable[..., int]:
-    return ctypes.CDLL(None, use_errno=True).prctl
+    return ctypes.CDLL(None).prctl
 
 
 def follow_parent(parent_pid: int, signum: int) -> bool:
@@ -91,12 +91,14 @@ def follow_parent(parent_pid: int, signum: int) -> bool:
     return not refused
 
 
-def die_with_parent(signum: int = signal.SIGTERM) -> Callable[[], None]:
+def die_with_parent(signum: int = signal.SIGTERM) -> Callable[[], None] | None:
     """A `preexec_fn` for subprocess.Popen: the child gets `signum` when this process ends (`follow_parent`), so a
-    `vtol` command killed by SIGKILL leaves no plant or autopilot flying on. SIGTERM lets them stop as on a request."""
+    `vtol` command killed by SIGKILL leaves no plant or autopilot flying on. SIGTERM lets them stop as on a request.
+    None where there is no such request (not Linux): no preexec_fn, the plain spawn."""
+    if not sys.platform.startswith("linux"):
+        return None
     parent = os.getpid()
-    if sys.platform.startswith("linux"):
-        _prctl()  # resolved here: between fork and exec the child only calls it
+    _prctl()  # resolved here: between fork and exec the child only calls it
 
     def preexec() -> None:
         follow_parent(parent, signum)

@@ -20,16 +20,18 @@ from transport.ports import MAX_SYSID, Ports
 VTOL = os.path.join(os.path.dirname(sys.executable), "vtol")
 
 
-def free_instance() -> int:
+def free_instance(ground_station: bool = True) -> int:
     """An instance whose UDP ports are all free here; below MAX_SYSID, so its system id (instance + 1) tells its
-    vehicle apart from others on 14550."""
+    vehicle apart from others on 14550. ground_station False: only the ports the vehicle binds (not 14550, where
+    every instance's GCS link sends and another test's ground station may listen)."""
     rng = random.Random()
     for _ in range(50):
         instance = rng.randint(100, MAX_SYSID - 1)
         ports = Ports(instance)
         sockets = []
         try:
-            for port in (ports.plant, ports.gcs_bind, ports.gcs_remote, ports.api_bind, ports.api_remote):
+            listened = (ports.gcs_remote, ports.api_remote) if ground_station else ()
+            for port in (ports.plant, ports.gcs_bind, ports.api_bind, *listened):
                 s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
                 sockets.append(s)
                 s.bind(("127.0.0.1", port))
@@ -111,7 +113,7 @@ def test_vtol_up_stops_the_plant_when_the_autopilot_cannot_start(tmp_path):
 def test_a_killed_vtol_up_leaves_no_vehicle_flying(tmp_path):
     """SIGKILL to `vtol up` alone (no chance to stop anything): its plant and autopilot learn it from their
     parent-death signal and stop, so no vehicle holds its ports with no one to stop it."""
-    instance = free_instance()
+    instance = free_instance(ground_station=False)
     errors = tmp_path / "vtol.stderr"
     with open(errors, "w") as stderr:
         vtol = subprocess.Popen([VTOL, "up", "--instance", str(instance), "--controller", "pid", "--no-zenoh",
