@@ -3,9 +3,8 @@ transport/flight_log.py)."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import functools
+from pathlib import Path
 from typing import Any
 
 import numpy as np

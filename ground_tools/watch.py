@@ -45,7 +45,8 @@ def has_display(environ: Mapping[str, str] = os.environ) -> bool:
 
 
 def gui_pyplot() -> Any | None:
-    """pyplot on an interactive backend, or None if none works here (the figure files use Agg instead: ground_tools.figures.pyplot)."""
+    """pyplot on an interactive backend, or None if none works here (the figure files use Agg instead:
+    ground_tools.figures.pyplot)."""
     import matplotlib.pyplot as plt
 
     wanted = os.environ.get("MPLBACKEND")
