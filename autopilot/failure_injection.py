@@ -107,6 +107,11 @@ class FailureInjection:
         self._next_scheduled = 0
         self._awaiting.clear()
 
+    @property
+    def has_outcomes(self) -> bool:
+        """Answers for the ground stations are waiting (the next status snapshot takes them)."""
+        return bool(self._outcomes)
+
     def drain_outcomes(self) -> tuple[InjectionOutcome, ...]:
         return drain(self._outcomes)
 

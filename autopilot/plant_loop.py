@@ -7,7 +7,10 @@ Each plant step:
     3. failures due are injected or learnt; the commander's 100 Hz tick gives the velocity set-point; the flight
        controller runs its tasks; SERVO_OUTPUT_RAW answers the plant
     4. the services read what ground stations sent (typed requests, handled here or by the commander), then the
-       loop publishes the VehicleStatus snapshot, which the services turn into telemetry
+       loop publishes the VehicleStatus snapshot, which the services turn into telemetry: at the steps where a
+       stream is due, the flight stack has news for the services (events, answered injections, arming, mode or
+       ground state, home, missions) or the last snapshot is STATUS_MAX_AGE_USEC old; the other steps (most of the
+       400 per second) would publish nothing, so they build none
 
 A silent plant is waited for (with a HEARTBEAT every 0.25 s so a restarted plant finds us again); a clock that
 goes back (a new plant run) restarts the schedules and the profile; garbage from the plant is dropped, counted
@@ -46,6 +49,9 @@ from transport.plant_link import PlantLinkClient, PlantSample
 SILENCE_NOTICE_S = 1.0
 GROUND_TICK_USEC = 10_000  # the commander's 100 Hz while the flight controller is not running
 IDLE_THRUST = 0.1  # rotor thrust fraction when armed on the ground (PX4 spins its motors at idle)
+# The services' view of the flight stack (what a request such as Go-to "here" reads) is at most this old: the
+# commander's own 100 Hz, at which it acts on their requests.
+STATUS_MAX_AGE_USEC = 10_000
 
 
 @dataclass
@@ -53,6 +59,7 @@ class LoopCounters:
     steps: int = 0
     invalid_states: int = 0
     plant_silences: int = 0
+    status_snapshots: int = 0
     busy_s: float = 0.0
     wall_s: float = 0.0
     notices: list[str] = field(default_factory=list)
@@ -110,6 +117,9 @@ class PlantLoop:
         self._next_ground_tick = 0
         self._dropped_reported = 0
         self._params_seen = params.version
+        self._status_usec: int | None = None  # the last snapshot's time, home and missions
+        self._status_home: object = None
+        self._status_missions: object = None
         self._disarmed_pwm = command_to_pwm(airframe, np.zeros(12))
         idle = np.zeros(12)
         idle[ROTORS] = IDLE_THRUST
@@ -196,7 +206,19 @@ class PlantLoop:
             return None
         return self._idle_pwm if commander.armed else self._disarmed_pwm
 
+    def _status_due(self, t_usec: int) -> bool:
+        """Whether this step builds a VehicleStatus for the services (step 4 of the module's docstring)."""
+        last = self._status_usec
+        return (last is None or not 0 <= t_usec - last < STATUS_MAX_AGE_USEC
+                or self.services is not None and self.services.streams_due(t_usec)
+                or bool(self.events.pending) or self.injection.has_outcomes or self.commander.state_changed
+                or self.commander.homes.position is not self._status_home
+                or self.missions.snapshot is not self._status_missions)  # fmt: skip
+
     def _status(self, t_usec: int, sample: PlantSample, pwm: list[int]) -> VehicleStatus:
+        self.counters.status_snapshots += 1
+        self._status_usec = t_usec
+        self._status_home, self._status_missions = self.commander.homes.position, self.missions.snapshot
         c, report, hil = self.controller, self.commander.report(), sample.state
         throttle = int(round(sum(c.command[ROTORS].tolist()) / ROTOR_COUNT * 100)) if report.flying else 0
         return VehicleStatus(
@@ -260,7 +282,10 @@ class PlantLoop:
             counters.steps += 1
             if self.services is not None:
                 self.services.receive(t_usec)
-                self.services.publish(self._status(t_usec, sample, pwm))
+                if self._status_due(t_usec):
+                    self.services.publish(self._status(t_usec, sample, pwm))
+                else:
+                    self.services.flush()
             if self.outputs.log is not None:
                 self.outputs.log.maybe_write(t, t_usec, self.state, self.controller)
             counters.busy_s += time.perf_counter() - busy_from
@@ -279,6 +304,7 @@ class PlantLoop:
             "wall_time_s": round(c.wall_s, 3),
             "real_time_factor": round(sim_time / c.wall_s, 2) if c.wall_s > 0 else None,
             "busy_us_per_step": round(c.busy_s / max(c.steps, 1) * 1e6, 1),
+            "status_snapshots": c.status_snapshots,
             "invalid_states": c.invalid_states,
             "plant_silences": c.plant_silences,
             "dropped_from_plant": dict(self.client.link.dropped),

@@ -260,8 +260,9 @@ BAD_TRANSFERS = {
 def test_bad_input_is_refused_with_px4s_ack_and_the_mission_stays(vehicle, case):
     sitl, client = vehicle
     bad, result = BAD_TRANSFERS[case]
+    assert client.upload(M.MAV_MISSION_TYPE_MISSION, SURVEY[:3]) == M.MAV_MISSION_ACCEPTED  # whatever ran before
     before = rows_of(client.download(M.MAV_MISSION_TYPE_MISSION))
-    assert before
+    assert same(before, SURVEY[:3])
     assert bad_upload(client, SURVEY[:4], 1, bad) == result
     assert same(rows_of(client.download(M.MAV_MISSION_TYPE_MISSION)), before)
 

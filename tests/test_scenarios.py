@@ -284,6 +284,10 @@ def test_mpc_scenario_run_folder_tlog_recording_and_report(tmp_path) -> None:
     # the zenoh recording
     run = json.loads((run_dir / "run.json").read_text())
     assert run["recording"]["vtol/1/plant/state"] > 1500 and run["recording"]["vtol/1/autopilot/mpc"] > 300
+    # the status snapshot for the MAVLink services: built where a stream is due (the client streams at PX4's rates,
+    # ATTITUDE at 50 Hz) or at least at 100 Hz, not at all 400 plant steps of a second
+    autopilot = run["processes"]["autopilot"]
+    assert 100 * autopilot["sim_time_s"] <= autopilot["status_snapshots"] < 0.5 * autopilot["steps"]
     report = write_report(out)
     assert "| accel | survives" in report.read_text() and "accel/mpc/velocity.png" in report.read_text()
 

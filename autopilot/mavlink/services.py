@@ -4,6 +4,7 @@
                      becomes a typed request to the flight stack (autopilot/requests.py)
     publish(status)  the flight stack's snapshot out: its events as STATUSTEXT, answered injections as
                      COMMAND_ACK, a HEARTBEAT when arming or mode changed, the telemetry streams that are due
+                     (at the steps where streams_due() or the flight stack has news; flush() at the others)
     hold(...)        --offboard-lockstep: serve the links while the simulation waits for stamped set-points
 
 Every input is untrusted: the parser drops and counts bad frames, the services check what they decode and
@@ -120,6 +121,14 @@ class MavlinkServices:
                 message = messages.build(msgid, link.mav, status)
                 if message is not None:
                     link.queue(message)
+        self.router.flush()
+
+    def streams_due(self, now_usec: int) -> bool:
+        """A telemetry stream is due on some link at now_usec: the next publish() has something to send."""
+        return any(link.streams.next_any_due <= now_usec for link in self.router.links)
+
+    def flush(self) -> None:
+        """Send what the services queued this step (answers to requests) on a step without a publish()."""
         self.router.flush()
 
     def hold(self, time_usec: int, released: Callable[[], bool], should_stop: Callable[[], bool]) -> None:
