@@ -172,7 +172,8 @@ def main(argv: list[str] | None = None) -> int:
                           missions=missions, home=home)  # fmt: skip
     try:
         client = PlantLinkClient(sim_port, system_id=system_id, local_port=args.sim_bind_port,
-                                 signing_key=key_file_option(PROG, "--plant-signing-key", args.plant_signing_key))
+                                 signing_key=key_file_option(PROG, "--plant-signing-key", args.plant_signing_key),
+                                 sensors=False)  # fmt: skip
     except OSError as exc:
         fail(PROG, f"cannot bind the plant link to UDP {LOOPBACK}:{args.sim_bind_port}: {exc.strerror}")
     injection = FailureInjection(send=lambda failure: client.send_command_long(mavlink.MAV_CMD_INJECT_FAILURE,

@@ -55,7 +55,7 @@ def build_flight_controller(
 ) -> FlightController:
     """A fresh flight controller of `kind` ("mpc" or "pid"); transition_airspeeds: VT_ARSP_BLEND / VT_ARSP_TRANS
     for the PID (None: PidParameters' defaults); mpc_horizon: the MPC's horizon (autopilot/mpc_horizon.py);
-    mpc_overlap: solve one tick ahead in a process of its own (autopilot/mpc_overlap.py, VT_MPC_OVERLAP) instead of
+    mpc_overlap: solve one tick ahead on the solver's worker thread (autopilot/mpc_overlap.py, VT_MPC_OVERLAP) instead of
     the paper's synchronous solve. Raises
     ValueError for another kind."""
     if kind not in KINDS:

@@ -27,7 +27,7 @@ from aircraft.frames import rotation_from_euler
 from aircraft.wrench import body_wrench
 from autopilot.attitude import DEFAULT_GAINS, AttitudeGains
 from autopilot.mpc_horizon import PAPER, StageGrid
-from autopilot.mpc_hpipm import HpipmSettings, RtiStep, build_hpipm_rti
+from autopilot.mpc_hpipm import GaussNewtonSteps, HpipmSettings, RtiStep, build_hpipm_rti
 from autopilot.mpc_model import (
     CHI,
     CHI_DOT,
@@ -185,6 +185,7 @@ class RtiSolver:
         self._limits_key: np.ndarray | None = None
         self.initialised = False
         self.levenberg = 1.0
+        self._finished: MpcSolution | None = None  # start() without the C back-end: solved at once
 
     # ---- bounds -------------------------------------------------------------------------------------------
     def _nominal_bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -305,35 +306,60 @@ class RtiSolver:
         """One RTI (`gauss_newton_steps` of them at the same state, default one): linearise at the current guess,
         solve the QP, take the full step."""
         started = time.perf_counter()
-        self.params[:] = params
-        self.params[P_SOLVER] = self.solver_rows
+        self._set_params(params)
+        if self.fast is not None:
+            steps = self.fast.iterate(self.w, self.params, x0, self.lbw, self.ubw, self.levenberg,
+                                      self.gauss_newton_steps)  # fmt: skip
+            return self._solution(steps, time.perf_counter() - started)
         qp_iterations = 0
         for _ in range(self.gauss_newton_steps):
-            ok, status, iterations, cost = self._gauss_newton_step(x0)
+            ok, status, iterations, cost = self._conic_step(x0)
             qp_iterations += iterations
             if not ok:
                 break
         elapsed = time.perf_counter() - started
         return MpcSolution(ok, status, elapsed, qp_iterations, self.states(), self.inputs(), cost)
 
-    def _gauss_newton_step(self, x0: np.ndarray) -> tuple[bool, str, int, float]:
-        if self.fast is not None:
-            step = self.last_step = self.fast.solve(self.w, self.params, x0, self.lbw, self.ubw, self.levenberg)
-            dw = self.fast.dw
-            ok, status, iterations, cost = step.ok, step.status_name, step.iterations, step.cost
-        else:
-            H, g, A, lba, uba, lbx, ubx, qp_cost = self.qp_data(
-                self.w, self.params, x0, self.lbw, self.ubw, self.levenberg
-            )
-            result = self.qp(h=H, g=g, a=A, lba=lba, uba=uba, lbx=lbx, ubx=ubx)
-            stats = self.qp.stats()
-            dw = np.asarray(result["x"]).ravel()
-            ok, status = bool(stats.get("success", False)), str(stats.get("return_status", ""))
-            iterations, cost = int(stats.get("iter_count", -1)), float(qp_cost)
+    def start(self, x0: np.ndarray, params: np.ndarray) -> None:
+        """`solve` on the C back-end's worker thread (docs/mpc.md 3.9): returns at once, `finish` waits for it and
+        gives the solution; meanwhile the plan (`w`, `states()`) is the guess it started from. Without the C back-end
+        the solve runs here, now."""
+        if self.fast is None:
+            self._finished = self.solve(x0, params)
+            return
+        self._set_params(params)
+        self.fast.start(self.w, self.params, x0, self.lbw, self.ubw, self.levenberg, self.gauss_newton_steps)
+
+    def finish(self) -> MpcSolution:
+        """The solution of the solve `start` began."""
+        if self.fast is None:
+            solution, self._finished = self._finished, None
+            if solution is None:
+                raise RuntimeError("no solve was started")
+            return solution
+        steps = self.fast.finish(self.w)
+        return self._solution(steps, steps.wall_s)
+
+    def _set_params(self, params: np.ndarray) -> None:
+        self.params[:] = params
+        self.params[P_SOLVER] = self.solver_rows
+
+    def _solution(self, steps: GaussNewtonSteps, elapsed_s: float) -> MpcSolution:
+        step = self.last_step = steps.last
+        return MpcSolution(steps.ok, step.status_name, elapsed_s, steps.iterations, self.states(), self.inputs(),
+                           step.cost)  # fmt: skip
+
+    def _conic_step(self, x0: np.ndarray) -> tuple[bool, str, int, float]:
+        """One Gauss-Newton step through CasADi's conic interface (no C back-end)."""
+        H, g, A, lba, uba, lbx, ubx, qp_cost = self.qp_data(self.w, self.params, x0, self.lbw, self.ubw, self.levenberg)
+        result = self.qp(h=H, g=g, a=A, lba=lba, uba=uba, lbx=lbx, ubx=ubx)
+        stats = self.qp.stats()
+        dw = np.asarray(result["x"]).ravel()
+        ok, status = bool(stats.get("success", False)), str(stats.get("return_status", ""))
         ok = ok and bool(np.all(np.isfinite(dw)))
         if ok:
             self.w += dw
-        return ok, status, iterations, cost
+        return ok, status, int(stats.get("iter_count", -1)), float(qp_cost)
 
 
 class ReferenceNlp:

@@ -104,7 +104,7 @@ class MpcVelocityController:
 
     def health_changed(self, allocator: ControlAllocator, servos: ServoEstimate) -> None:
         """A failure became known. Nothing to copy: this controller shares the allocator and the servo estimate and
-        reads its bounds from them at every tick (OverlappedMpc, whose solver runs in another process, copies)."""
+        reads its bounds from them at every tick."""
 
     def _bounds_from_health(self) -> None:
         """What the allocator and the servo estimate know of failures, as the MPC's bounds (docs/mpc.md 3.5)."""
@@ -139,6 +139,21 @@ class MpcVelocityController:
 
     def update(self, state: VehicleState, v_sp: np.ndarray, tilts: np.ndarray,
                yaw_ref: YawReference | None = None) -> VelocityCommand:  # fmt: skip
+        x0 = self._prepare(state, v_sp, tilts, yaw_ref)
+        return self._command(self.solver.solve(x0, self.params))
+
+    def start(self, state: VehicleState, v_sp: np.ndarray, tilts: np.ndarray,
+              yaw_ref: YawReference | None = None) -> None:  # fmt: skip
+        """`update` in two halves: the solve runs on the solver's worker thread until `finish` (mpc_overlap.py)."""
+        self.solver.start(self._prepare(state, v_sp, tilts, yaw_ref), self.params)
+
+    def finish(self) -> VelocityCommand:
+        """The command of the solve `start` began."""
+        return self._command(self.solver.finish())
+
+    def _prepare(self, state: VehicleState, v_sp: np.ndarray, tilts: np.ndarray,
+                 yaw_ref: YawReference | None) -> np.ndarray:  # fmt: skip
+        """The tick up to its solve: the warm start shifted, x0 (returned), the bounds and the stage parameters."""
         rates = euler_rates(state.euler, state.body_rates)
         previous = rates if self.previous_rates is None else self.previous_rates
         self.previous_rates = rates
@@ -164,7 +179,11 @@ class MpcVelocityController:
             solver.initialise(x0, self.airframe.hover_thrust_per_rotor)
             for _ in range(WARM_UP_ITERATIONS):
                 solver.solve(x0, self.params)
-        solution = solver.solve(x0, self.params)
+        return x0
+
+    def _command(self, solution: MpcSolution) -> VelocityCommand:
+        """The solved tick's first stage as the command; a failed solve counted."""
+        solver = self.solver
         self.solve_times_s.append(solution.solve_time_s)
         self.last_solution = solution
         if solution.ok:

@@ -24,7 +24,7 @@ from autopilot.mpc_qp import StageFunctions
 HPIPM_STATUS = {0: "SUCCESS", 1: "MAX_ITER", 2: "MIN_STEP", 3: "NAN_SOL", 4: "INCONS_EQ"}
 CASADI_DIRECTORY = Path(ca.__file__).parent
 COMPILE_FLAGS = ("-O3", "-fPIC", "-shared", "-I", str(CASADI_DIRECTORY / "include"))
-LINK_FLAGS = ("-L", str(CASADI_DIRECTORY), "-lhpipm", "-lblasfeo", f"-Wl,-rpath,{CASADI_DIRECTORY}")
+LINK_FLAGS = ("-L", str(CASADI_DIRECTORY), "-lhpipm", "-lblasfeo", f"-Wl,-rpath,{CASADI_DIRECTORY}", "-pthread")
 
 
 class HpipmMode(enum.IntEnum):
@@ -92,6 +92,16 @@ class RtiStep:
         return HPIPM_STATUS.get(self.status, str(self.status))
 
 
+@dataclass
+class GaussNewtonSteps:
+    """The Gauss-Newton steps of one controller tick (HpipmRti.iterate)."""
+
+    last: RtiStep  # the last QP solved
+    ok: bool  # the last QP succeeded (status 0, a finite step), so every step was taken
+    iterations: int  # interior-point iterations of all the QPs
+    wall_s: float  # wall time of all the steps, in C
+
+
 def _dense(function: ca.Function) -> ca.Function:
     """The same function with every output dense, as the C driver reads them."""
     inputs = [ca.SX.sym(function.name_in(i), function.sparsity_in(i)) for i in range(function.n_in())]
@@ -136,6 +146,12 @@ class HpipmRti:
         library.mpc_rti_solve.restype = ctypes.c_int
         library.mpc_rti_solve.argtypes = [ctypes.c_void_p] * 6 + [ctypes.c_double] + [ctypes.c_void_p] * 2
         library.mpc_rti_free.argtypes = [ctypes.c_void_p]
+        for name in ("mpc_rti_iterate", "mpc_rti_start"):
+            function = getattr(library, name)
+            function.restype = ctypes.c_int
+            function.argtypes = [ctypes.c_void_p] * 6 + [ctypes.c_double, ctypes.c_int] + [ctypes.c_void_p] * 2
+        library.mpc_rti_wait.restype = ctypes.c_int
+        library.mpc_rti_wait.argtypes = [ctypes.c_void_p]
         idxbx = np.flatnonzero(state_bounded).astype(np.intc)
         idxbu = np.flatnonzero(input_bounded).astype(np.intc)
         s = settings
@@ -152,7 +168,8 @@ class HpipmRti:
         self._w, self._lbw, self._ubw, self.dw = (np.zeros(n_w) for _ in range(4))
         self._params = np.zeros((horizon + 1, NP))  # stage-major: column-major (NP, N+1)
         self._x0 = np.zeros(NX)
-        self._info = np.zeros(8)
+        self._info = np.zeros(11)
+        self._running = False  # steps handed to the worker thread (start) and not yet waited for (finish)
         self._args = [self._handle] + [_pointer(a) for a in (self._w, self._params, self._x0, self._lbw, self._ubw)]
         self._outputs = [_pointer(self.dw), _pointer(self._info)]
 
@@ -165,14 +182,54 @@ class HpipmRti:
         self, w: np.ndarray, params: np.ndarray, x0: np.ndarray, lbw: np.ndarray, ubw: np.ndarray, levenberg: float
     ) -> RtiStep:
         """The step of one RTI at the guess w (params (NP, N+1)); the step is in self.dw."""
+        self._load(w, params, x0, lbw, ubw)
+        status = self._library.mpc_rti_solve(*self._args, levenberg, *self._outputs)
+        return self._step(status)
+
+    def iterate(self, w: np.ndarray, params: np.ndarray, x0: np.ndarray, lbw: np.ndarray, ubw: np.ndarray,
+                levenberg: float, steps: int) -> GaussNewtonSteps:  # fmt: skip
+        """`steps` RTI steps at x0 from the guess w, each taken while they succeed (mpc_rti_iterate); w is moved in
+        place."""
+        self._load(w, params, x0, lbw, ubw)
+        status = self._library.mpc_rti_iterate(*self._args, levenberg, steps, *self._outputs)
+        return self._steps(status, w)
+
+    def start(self, w: np.ndarray, params: np.ndarray, x0: np.ndarray, lbw: np.ndarray, ubw: np.ndarray,
+              levenberg: float, steps: int) -> None:  # fmt: skip
+        """`iterate` on this object's worker thread: returns at once; `finish` waits for it. The arguments are
+        copied first, so the caller may change them meanwhile."""
+        if self._running:
+            raise RuntimeError("a solve is running: finish() it first")
+        self._load(w, params, x0, lbw, ubw)
+        if self._library.mpc_rti_start(*self._args, levenberg, steps, *self._outputs) != 0:
+            raise OSError("cannot start the MPC solver's thread")
+        self._running = True
+
+    def finish(self, w: np.ndarray) -> GaussNewtonSteps:
+        """Wait for the steps `start` handed on; w becomes the guess they moved."""
+        if not self._running:
+            raise RuntimeError("no solve was started")
+        status = self._library.mpc_rti_wait(self._handle)
+        self._running = False
+        return self._steps(status, w)
+
+    def _load(self, w: np.ndarray, params: np.ndarray, x0: np.ndarray, lbw: np.ndarray, ubw: np.ndarray) -> None:
+        if self._running:
+            raise RuntimeError("a solve is running: finish() it first")
         np.copyto(self._w, w)
         np.copyto(self._params, params.T)
         np.copyto(self._x0, x0)
         np.copyto(self._lbw, lbw)
         np.copyto(self._ubw, ubw)
-        status = self._library.mpc_rti_solve(*self._args, levenberg, *self._outputs)
+
+    def _step(self, status: int) -> RtiStep:
         info = self._info
         return RtiStep(status, int(info[1]), float(info[0]), tuple(info[2:6]), float(info[6]), float(info[7]))
+
+    def _steps(self, status: int, w: np.ndarray) -> GaussNewtonSteps:
+        np.copyto(w, self._w)
+        info = self._info
+        return GaussNewtonSteps(self._step(status), bool(info[10]), int(info[8]), float(info[9]))
 
 
 def build_hpipm_rti(

@@ -7,8 +7,14 @@
  * Dimensions and the yaw row come from mpc_rti_dims.h, written by autopilot/mpc_hpipm.py.
  *
  * Vectors are laid out as in autopilot/mpc.py: w = [x0 u0 x1 u1 ... xN], P column-major (NP x N+1).
+ *
+ * mpc_rti_iterate takes the Gauss-Newton steps of one controller tick (each a QP, w moved by its step while the
+ * steps succeed); mpc_rti_start hands them to a worker thread of this object and returns, mpc_rti_wait waits
+ * for them (docs/mpc.md 3.9: the solve overlapped with the autopilot's steps). The caller leaves the vectors it
+ * passed alone in between.
  */
 #include <math.h>
+#include <pthread.h>
 #include <time.h>
 #include <stdlib.h>
 #include <string.h>
@@ -22,6 +28,13 @@
 
 #define NZ (NX + NU)
 #define STAGE_WORK 64
+
+typedef struct {
+    double *w, *dw, *info;
+    const double *P, *x0, *lbw, *ubw;
+    double levenberg;
+    int steps, status;
+} rti_job;
 
 typedef struct {
     int horizon, nbx, nbu;
@@ -38,6 +51,12 @@ typedef struct {
     void *blocks[5]; /* dim, qp, sol, arg, ws memory */
     casadi_int *iw;
     casadi_real *work;
+    /* the worker thread of mpc_rti_start / mpc_rti_wait, started at the first mpc_rti_start */
+    int worker_started, pending, done, quit;
+    pthread_t worker;
+    pthread_mutex_t lock;
+    pthread_cond_t changed;
+    rti_job job;
 } mpc_rti;
 
 static void *aligned(size_t size) {
@@ -47,6 +66,15 @@ static void *aligned(size_t size) {
 
 void mpc_rti_free(mpc_rti *s) {
     if (s == NULL) return;
+    if (s->worker_started) {
+        pthread_mutex_lock(&s->lock);
+        s->quit = 1;
+        pthread_cond_broadcast(&s->changed);
+        pthread_mutex_unlock(&s->lock);
+        pthread_join(s->worker, NULL);
+        pthread_mutex_destroy(&s->lock);
+        pthread_cond_destroy(&s->changed);
+    }
     for (int i = 0; i < 5; i++) free(s->blocks[i]);
     free(s->iw);
     free(s->work);
@@ -265,5 +293,82 @@ int mpc_rti_solve(mpc_rti *s, const double *w, const double *P, const double *x0
     d_ocp_qp_ipm_get_max_res_eq(&s->ws, info + 3);
     d_ocp_qp_ipm_get_max_res_ineq(&s->ws, info + 4);
     d_ocp_qp_ipm_get_max_res_comp(&s->ws, info + 5);
+    return status;
+}
+
+/* The Gauss-Newton steps of one tick: `steps` QPs at the same x0, w += dw after each one that succeeded (status 0
+ * and a finite step); stops at the first that did not. info as mpc_rti_solve's for the last QP, and info[8] the
+ * QP iterations of all steps, info[9] the wall time of all steps (s), info[10] 1 if the last step succeeded. */
+int mpc_rti_iterate(mpc_rti *s, double *w, const double *P, const double *x0, const double *lbw, const double *ubw,
+                    double levenberg, int steps, double *dw, double *info) {
+    const double started = now();
+    const int n_w = s->horizon * NZ + NX;
+    double iterations = 0.0;
+    int status = 0, ok = 0;
+    for (int step = 0; step < steps; step++) {
+        status = mpc_rti_solve(s, w, P, x0, lbw, ubw, levenberg, dw, info);
+        iterations += info[1];
+        ok = !s->cold_next; /* status 0 and a finite step */
+        if (!ok) break;
+        for (int i = 0; i < n_w; i++) w[i] += dw[i];
+    }
+    info[8] = iterations;
+    info[9] = now() - started;
+    info[10] = ok;
+    return status;
+}
+
+static void *work(void *arg) {
+    mpc_rti *s = arg;
+    pthread_mutex_lock(&s->lock);
+    for (;;) {
+        while (!s->pending && !s->quit) pthread_cond_wait(&s->changed, &s->lock);
+        if (s->quit) break;
+        s->pending = 0;
+        rti_job *j = &s->job;
+        pthread_mutex_unlock(&s->lock);
+        int status = mpc_rti_iterate(s, j->w, j->P, j->x0, j->lbw, j->ubw, j->levenberg, j->steps, j->dw, j->info);
+        pthread_mutex_lock(&s->lock);
+        j->status = status;
+        s->done = 1;
+        pthread_cond_broadcast(&s->changed);
+    }
+    pthread_mutex_unlock(&s->lock);
+    return NULL;
+}
+
+/* mpc_rti_iterate on the worker thread; 0, or -1 if the thread cannot be started (nothing was started then). */
+int mpc_rti_start(mpc_rti *s, double *w, const double *P, const double *x0, const double *lbw, const double *ubw,
+                  double levenberg, int steps, double *dw, double *info) {
+    if (!s->worker_started) {
+        if (pthread_mutex_init(&s->lock, NULL) != 0) return -1;
+        if (pthread_cond_init(&s->changed, NULL) != 0) {
+            pthread_mutex_destroy(&s->lock);
+            return -1;
+        }
+        if (pthread_create(&s->worker, NULL, work, s) != 0) {
+            pthread_cond_destroy(&s->changed);
+            pthread_mutex_destroy(&s->lock);
+            return -1;
+        }
+        s->worker_started = 1;
+    }
+    pthread_mutex_lock(&s->lock);
+    s->job = (rti_job){w, dw, info, P, x0, lbw, ubw, levenberg, steps, 0};
+    s->done = 0;
+    s->pending = 1;
+    pthread_cond_broadcast(&s->changed);
+    pthread_mutex_unlock(&s->lock);
+    return 0;
+}
+
+/* Wait for the steps mpc_rti_start handed on; their status (mpc_rti_iterate's), -1 if none was ever started. */
+int mpc_rti_wait(mpc_rti *s) {
+    if (!s->worker_started) return -1;
+    pthread_mutex_lock(&s->lock);
+    while (!s->done) pthread_cond_wait(&s->changed, &s->lock);
+    s->done = 0;
+    int status = s->job.status;
+    pthread_mutex_unlock(&s->lock);
     return status;
 }

@@ -73,6 +73,23 @@ def test_a_step_datagram_and_extensions_left_out() -> None:
     assert parsed[0].attitude_quaternion == [1.0, 0.0, 0.0, 0.0] and parsed[1].id == 0 and parsed[2].yaw == 0
 
 
+def test_checked_types_are_checked_not_returned() -> None:
+    """The autopilot's plant link checks HIL_SENSOR and HIL_GPS without decoding them: a good step datagram gives
+    HIL_STATE_QUATERNION alone, and a bad frame of a checked type is still refused and counted as pymavlink does."""
+    sender = Link(1, 200, fast=PLANT_STEP_FORMATS)
+    state = (2500, (1.0, 0.0, 0.0, 0.0), 0.1, -0.2, 0.3, 404_443_000, -799_960_000, 400_000, 10, -20, 30, 1500, 1500,
+             0, 0, -1000)  # fmt: skip
+    datagram = sender.pack_fields(HIL_STATE_QUATERNION, *state) + sender.pack_fields(HIL_SENSOR, 2500, *[0.5] * 13, 7)
+    reader = Link(1, 1, fast=PLANT_STEP_FORMATS, checked=(HIL_SENSOR, HIL_GPS))
+    assert [(m.get_type(), m.time_usec) for m in reader.parse(datagram)] == [("HIL_STATE_QUATERNION", 2500)]
+    bad = bytearray(datagram)
+    bad[-1] ^= 0xFF  # the HIL_SENSOR frame's CRC
+    slow = Link(1, 1)
+    assert [m.get_type() for m in reader.parse(bytes(bad))] == [m.get_type() for m in slow.parse(bytes(bad))] == [
+        "HIL_STATE_QUATERNION"]  # fmt: skip
+    assert reader.dropped == slow.dropped and sum(slow.dropped.values()) == 1
+
+
 def test_anything_irregular_goes_to_pymavlink_and_is_counted_the_same() -> None:
     sender = Link(1, 1)
     good = sender.pack_fields(SERVO_OUTPUT_RAW, 2500, 0, *[1500] * 12)

@@ -1,11 +1,9 @@
-"""The MPC solving one tick ahead in its own process (autopilot/mpc_overlap.py, VT_MPC_OVERLAP): the maths of the
-prediction, the failure state handed to the solving process, the process's end, and lockstep flights through the
-real processes that repeat bit for bit."""
+"""The MPC solving one tick ahead on its solver's worker thread (autopilot/mpc_overlap.py, VT_MPC_OVERLAP): the
+maths of the prediction, the C back-end's steps on the worker thread equal to the same steps taken here, a failure
+reaching the next solve, and lockstep flights through the real processes that repeat bit for bit."""
 
 from __future__ import annotations
 
-import math
-import os
 from pathlib import Path
 
 import numpy as np
@@ -13,13 +11,12 @@ import pytest
 
 from aircraft.actuators import ALLOCATED_ROTORS
 from aircraft.failures import FailureType, FailureUnit, parse_failure
-from autopilot.actuator_health import ActuatorHealth, ServoEstimate
-from autopilot.allocation import ControlAllocator
 from autopilot.controllers import build_flight_controller
 from autopilot.flight_controller import MPC, VELOCITY_PERIOD_USEC
 from autopilot.mpc_controller import euler_rates
-from autopilot.mpc_model import THRUST
-from autopilot.mpc_overlap import HealthSnapshot, OverlappedMpc, body_rates
+from autopilot.mpc_horizon import HORIZONS
+from autopilot.mpc_model import P_SOLVER, THRUST
+from autopilot.mpc_overlap import OverlappedMpc, body_rates
 from autopilot.vehicle_state import VehicleState
 from tiltrotor_sitl import Vehicle
 from transport.flight_log import VN, VN_SP, read_flight_log
@@ -31,28 +28,40 @@ def test_body_rates_invert_the_euler_rates(euler):
     assert np.allclose(body_rates(euler, euler_rates(euler, omega)), omega, atol=1e-12)
 
 
-def test_the_health_snapshot_carries_every_failure_kind(airframe):
-    allocator, servos = ControlAllocator(airframe), ServoEstimate(airframe)
-    servos.tilt[:] = [0.1, 0.2, 0.3, 0.4]
-    health = ActuatorHealth(airframe, allocator, servos)
-    for unit, kind, instance, value in ((FailureUnit.MOTOR, FailureType.OFF, 1, 0.0),
-                                        (FailureUnit.MOTOR, FailureType.WRONG, 3, 0.3),
-                                        (FailureUnit.SERVO, FailureType.STUCK, 2, math.nan),
-                                        (FailureUnit.SERVO, FailureType.WRONG, 4, 0.5)):  # fmt: skip
-        health.apply(parse_failure(unit, kind, instance, value))
-    copy_allocator, copy_servos = ControlAllocator(airframe), ServoEstimate(airframe)
-    HealthSnapshot.of(allocator, servos).apply_to(copy_allocator, copy_servos)
-    for name in ("effectiveness", "lower", "upper"):
-        assert np.array_equal(getattr(copy_allocator, name), getattr(allocator, name)), name
-    assert np.array_equal(copy_servos.stuck, servos.stuck, equal_nan=True) and copy_servos.stuck[1] == 0.2
-    assert np.array_equal(copy_servos.rate_scale, servos.rate_scale)
+def test_the_worker_threads_steps_are_the_steps_taken_one_by_one(airframe):
+    """RtiSolver.start/finish (the C worker thread) and solve (the same steps in C, here) give the same plan, bit for
+    bit, as the QPs solved one at a time with each step added in numpy: on the long horizon's two Gauss-Newton steps
+    a tick, over ticks of a hover spawn with a velocity step."""
+    horizon = HORIZONS["long"]
+    mpcs = [build_flight_controller(airframe, MPC, mpc_horizon=horizon).mpc for _ in range(3)]
+    for mpc in mpcs:
+        assert mpc.solver.fast is not None
+    v_sp = np.array([3.0, 1.0, -0.5])
+    tilts = np.zeros(4)
+    for tick in range(6):
+        state = hover(tick * VELOCITY_PERIOD_USEC)
+        threaded, here, by_hand = mpcs
+        threaded.start(state, v_sp, tilts)
+        a = threaded.finish()
+        b = here.update(state, v_sp, tilts)
+        x0 = by_hand._prepare(state, v_sp, tilts, None)
+        solver = by_hand.solver
+        solver.params[:] = by_hand.params
+        solver.params[P_SOLVER] = solver.solver_rows
+        for _ in range(solver.gauss_newton_steps):
+            step = solver.fast.solve(solver.w, solver.params, x0, solver.lbw, solver.ubw, solver.levenberg)
+            assert step.ok and np.all(np.isfinite(solver.fast.dw))
+            solver.w += solver.fast.dw
+        assert np.array_equal(threaded.solver.w, here.solver.w) and np.array_equal(here.solver.w, solver.w), tick
+        assert np.array_equal(a.euler_sp, b.euler_sp) and np.array_equal(a.force_sp_body, b.force_sp_body)
+        assert threaded.last_solution.iterations == here.last_solution.iterations >= 2
 
 
 def hover(time_usec: int) -> VehicleState:
     return VehicleState(time_usec=time_usec, valid=True)
 
 
-def test_a_motor_failure_reaches_the_solving_process_and_the_process_ends(airframe):
+def test_a_motor_failure_reaches_the_next_solve(airframe):
     controller = build_flight_controller(airframe, MPC, mpc_overlap=True)
     mpc = controller.mpc
     assert isinstance(mpc, OverlappedMpc)
@@ -68,10 +77,6 @@ def test_a_motor_failure_reaches_the_solving_process_and_the_process_ends(airfra
     assert thrusts[0] > 1.0 and max(abs(t) for t in thrusts[1:]) < 0.05
     assert controller.allocator.upper[ALLOCATED_ROTORS][0] == 0.0
     assert controller.controller_statistics()["solves_failed"] == 0
-    pid = mpc.pid
-    mpc.close()
-    with pytest.raises(ProcessLookupError):
-        os.kill(pid, 0)
 
 
 def fly_accel(tmp_path: Path, name: str, overlap: int, duration_s: float = 3.0) -> tuple[bytes, dict]:

@@ -23,7 +23,7 @@ from autopilot.velocity_controller import VelocityController
 from autopilot.yaw_setpoint import YawReference
 
 TICKS = 25  # 0.25 s at 100 Hz per case
-MPC_OVERLAPPED = "mpc-overlapped"  # the MPC solving one tick ahead in its own process (VT_MPC_OVERLAP = 1)
+MPC_OVERLAPPED = "mpc-overlapped"  # the MPC solving one tick ahead on its worker thread (VT_MPC_OVERLAP = 1)
 VARIANTS = (*KINDS, MPC_OVERLAPPED)
 TOLERANCE = 1e-6  # rad: the MPC meets its bounds to the QP's tolerance
 

@@ -37,16 +37,17 @@ class Link:
 
     def __init__(
         self, system_id: int, component_id: int, signing_key: bytes | None = None,
-        fast: tuple[FrameFormat, ...] = (),
+        fast: tuple[FrameFormat, ...] = (), checked: tuple[FrameFormat, ...] = (),
     ) -> None:
         """`signing_key`: sign everything sent and keep only frames signed with it (transport/link_signing.py).
-        `fast`: message types parsed by precompiled structs (transport/mavlink_frames.py)."""
+        `fast`: message types parsed by precompiled structs (transport/mavlink_frames.py), of which `checked` are
+        only checked and not returned (on the fast path: pymavlink's parser returns what it decodes)."""
         self.mav = mavlink.MAVLink(None, srcSystem=system_id, srcComponent=component_id)
         self.mav.robust_parsing = True
         self.dropped: Counter[str] = Counter()
         if signing_key is not None:
             sign_everything(self.mav, signing_key)
-        self.frames = FastFrames(self.mav, fast)
+        self.frames = FastFrames(self.mav, fast, checked)
 
     def parse(self, data: bytes) -> list[mavlink.MAVLink_message]:
         """Every good message in one UDP datagram; bad frames are counted in `dropped`, never raised."""

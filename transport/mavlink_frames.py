@@ -86,10 +86,14 @@ class FrameFormat:
 class FastFrames:
     """Packs and parses the given message types for one pymavlink endpoint (its ids, sequence and signing)."""
 
-    def __init__(self, mav: mavlink.MAVLink, formats: Sequence[FrameFormat]) -> None:
-        """`formats`: the types `parse` handles (any FrameFormat can be packed)."""
+    def __init__(
+        self, mav: mavlink.MAVLink, formats: Sequence[FrameFormat], checked: Sequence[FrameFormat] = ()
+    ) -> None:
+        """`formats`: the types `parse` handles (any FrameFormat can be packed); of those, `checked` are only
+        checked (header, length, CRC) and left out of the result: a reader that has no use for them."""
         self.mav = mav
         self.formats = {frame_format.msgid: frame_format for frame_format in formats}
+        self.checked = frozenset(frame_format.msgid for frame_format in checked)
 
     def pack(self, frame_format: FrameFormat, *fields: Any) -> bytes:
         """One frame with the endpoint's sequence number as `message.pack(mav)` gives it (which does not advance
@@ -128,6 +132,9 @@ class FastFrames:
             crc = CRC.unpack_from(data, crc_at)[0]
             if crc != frame_crc(memoryview(data)[offset + 1:crc_at], frame_format.crc_extra):
                 return None
+            if msgid in self.checked:
+                offset = crc_at + 2
+                continue
             frame = bytearray(data[offset:crc_at + 2])
             payload = data[offset + HEADER_LEN:crc_at]
             if length < size:
