@@ -55,9 +55,8 @@ def build_flight_controller(
 ) -> FlightController:
     """A fresh flight controller of `kind` ("mpc" or "pid"); transition_airspeeds: VT_ARSP_BLEND / VT_ARSP_TRANS
     for the PID (None: PidParameters' defaults); mpc_horizon: the MPC's horizon (autopilot/mpc_horizon.py);
-    mpc_overlap: solve one tick ahead on the solver's worker thread (autopilot/mpc_overlap.py, VT_MPC_OVERLAP) instead of
-    the paper's synchronous solve. Raises
-    ValueError for another kind."""
+    mpc_overlap: solve one tick ahead on the solver's worker thread (autopilot/mpc_overlap.py, VT_MPC_OVERLAP)
+    instead of the paper's synchronous solve. Raises ValueError for another kind."""
     if kind not in KINDS:
         raise ValueError(f"controller must be one of {', '.join(KINDS)}, got {kind!r}")
     u_initial = np.zeros(ALLOCATED_COUNT)

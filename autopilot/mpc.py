@@ -69,7 +69,7 @@ class MpcSolution:
 
     ok: bool
     status: str
-    solve_time_s: float
+    solve_time_s: float  # solve(): the call's wall time, copies included; start()/finish(): the C steps' own
     iterations: int
     x: np.ndarray  # (N+1, NX) predicted states
     u: np.ndarray  # (N, NU) planned inputs
@@ -132,6 +132,8 @@ class RtiSolver:
         self.airframe = airframe
         self.gains = gains
         self.grid = grid
+        if gauss_newton_steps < 1:
+            raise ValueError(f"gauss_newton_steps must be at least 1, got {gauss_newton_steps}")
         self.gauss_newton_steps = gauss_newton_steps
         self.horizon = n = grid.stages
         self.limits = limits
@@ -325,6 +327,8 @@ class RtiSolver:
         gives the solution; meanwhile the plan (`w`, `states()`) is the guess it started from. Without the C back-end
         the solve runs here, now."""
         if self.fast is None:
+            if self._finished is not None:
+                raise RuntimeError("a solve is running: finish() it first")
             self._finished = self.solve(x0, params)
             return
         self._set_params(params)

@@ -3,7 +3,9 @@
 autopilot/mpc_rti.c evaluates the CasADi-generated stage functions, writes each stage's blocks into HPIPM's
 structures and runs HPIPM's interior-point method; this module builds it (with aircraft/codegen.py's cache,
 linked against the HPIPM and BLASFEO that the casadi wheel ships) and calls it through ctypes, which releases the
-GIL during the call. Building returns None where there is no C compiler; the caller then uses CasADi's `conic`.
+GIL during the call: `solve` (one QP), `iterate` (a tick's Gauss-Newton steps), and `start` / `finish` (the same
+steps on the C object's worker thread, docs/mpc.md 3.9). Building returns None where there is no C compiler; the
+caller then uses CasADi's `conic`.
 """
 
 from __future__ import annotations
@@ -146,8 +148,7 @@ class HpipmRti:
         library.mpc_rti_solve.restype = ctypes.c_int
         library.mpc_rti_solve.argtypes = [ctypes.c_void_p] * 6 + [ctypes.c_double] + [ctypes.c_void_p] * 2
         library.mpc_rti_free.argtypes = [ctypes.c_void_p]
-        for name in ("mpc_rti_iterate", "mpc_rti_start"):
-            function = getattr(library, name)
+        for function in (library.mpc_rti_iterate, library.mpc_rti_start):
             function.restype = ctypes.c_int
             function.argtypes = [ctypes.c_void_p] * 6 + [ctypes.c_double, ctypes.c_int] + [ctypes.c_void_p] * 2
         library.mpc_rti_wait.restype = ctypes.c_int

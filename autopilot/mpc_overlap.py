@@ -11,8 +11,9 @@ runs the 400 Hz steps between the ticks:
 
 The first tick solves at once. The tick's Python (the warm start, the bounds from the failures known, the stage
 parameters) runs here; the worker thread is the C back-end's own (autopilot/mpc_rti.c), which runs the
-Gauss-Newton steps on copies of their inputs and touches no Python object, so the commands are the same run to run,
-bit for bit, whatever the timing. The paper's synchronous way: VT_MPC_OVERLAP = 0.
+Gauss-Newton steps on copies of their inputs and writes only the C object's own buffers (no Python object, no
+allocation), so the commands are the same run to run, bit for bit, whatever the timing. The paper's synchronous
+way: VT_MPC_OVERLAP = 0.
 """
 
 from __future__ import annotations
@@ -32,6 +33,7 @@ from autopilot.mpc_model import CHI, PSI, PSI_DOT, PSI_INDEX, V, discrete_dynami
 from autopilot.vehicle_state import VehicleState
 from autopilot.velocity_command import SetpointTrajectory, VelocityCommand
 from autopilot.yaw_setpoint import YawReference
+
 
 def body_rates(euler: np.ndarray, rates: np.ndarray) -> np.ndarray:
     """omega = E(Psi) Psi_dot for ZYX Euler angles: the inverse of mpc_controller.euler_rates."""
@@ -119,7 +121,8 @@ class OverlappedMpc:
         self.mpc.health_changed(allocator, servos)
 
     def statistics(self) -> dict:
-        """The MPC's solver metrics (mpc_controller), the solve in flight included."""
+        """The MPC's solver metrics (mpc_controller), the solve in flight included (waited for: its command is held
+        for its tick, but the MPC's last solution and failure counts are that solve's from now on)."""
         if self._in_flight:
             self._held = self._finish()
         return self.mpc.statistics()

@@ -15,6 +15,7 @@
  */
 #include <math.h>
 #include <pthread.h>
+#include <signal.h>
 #include <time.h>
 #include <stdlib.h>
 #include <string.h>
@@ -28,6 +29,7 @@
 
 #define NZ (NX + NU)
 #define STAGE_WORK 64
+#define BUSY (-2) /* returned while a started solve runs (it owns the workspace) */
 
 typedef struct {
     double *w, *dw, *info;
@@ -51,8 +53,9 @@ typedef struct {
     void *blocks[5]; /* dim, qp, sol, arg, ws memory */
     casadi_int *iw;
     casadi_real *work;
-    /* the worker thread of mpc_rti_start / mpc_rti_wait, started at the first mpc_rti_start */
-    int worker_started, pending, done, quit;
+    /* the worker thread of mpc_rti_start / mpc_rti_wait, started at the first mpc_rti_start; busy from a start
+     * to its wait (set and cleared by the caller's thread only) */
+    int worker_started, pending, done, quit, busy;
     pthread_t worker;
     pthread_mutex_t lock;
     pthread_cond_t changed;
@@ -200,8 +203,8 @@ static void set_bounds(mpc_rti *s, int k, const double *w, const double *lbw, co
 /* One RTI: the QP at the guess w, solved. Writes the step dw (same layout as w) and
  * info = [cost at w, iterations, res_stat, res_eq, res_ineq, res_comp, seconds building the QP, seconds in HPIPM];
  * returns HPIPM's status (0 = solved). */
-int mpc_rti_solve(mpc_rti *s, const double *w, const double *P, const double *x0, const double *lbw,
-                  const double *ubw, double levenberg, double *dw, double *info) {
+static int solve_one(mpc_rti *s, const double *w, const double *P, const double *x0, const double *lbw,
+                     const double *ubw, double levenberg, double *dw, double *info) {
     const int n = s->horizon;
     double dx0[NX], gap[NX], A[NX * NX], B[NX * NU], H[NZ * NZ], g[NZ], cost, total = 0.0;
     double Q[NX * NX], S[NU * NX], R[NU * NU], lg, ug;
@@ -299,14 +302,14 @@ int mpc_rti_solve(mpc_rti *s, const double *w, const double *P, const double *x0
 /* The Gauss-Newton steps of one tick: `steps` QPs at the same x0, w += dw after each one that succeeded (status 0
  * and a finite step); stops at the first that did not. info as mpc_rti_solve's for the last QP, and info[8] the
  * QP iterations of all steps, info[9] the wall time of all steps (s), info[10] 1 if the last step succeeded. */
-int mpc_rti_iterate(mpc_rti *s, double *w, const double *P, const double *x0, const double *lbw, const double *ubw,
-                    double levenberg, int steps, double *dw, double *info) {
+static int iterate(mpc_rti *s, double *w, const double *P, const double *x0, const double *lbw, const double *ubw,
+                   double levenberg, int steps, double *dw, double *info) {
     const double started = now();
     const int n_w = s->horizon * NZ + NX;
     double iterations = 0.0;
     int status = 0, ok = 0;
     for (int step = 0; step < steps; step++) {
-        status = mpc_rti_solve(s, w, P, x0, lbw, ubw, levenberg, dw, info);
+        status = solve_one(s, w, P, x0, lbw, ubw, levenberg, dw, info);
         iterations += info[1];
         ok = !s->cold_next; /* status 0 and a finite step */
         if (!ok) break;
@@ -318,6 +321,17 @@ int mpc_rti_iterate(mpc_rti *s, double *w, const double *P, const double *x0, co
     return status;
 }
 
+/* One QP (the step in dw), and the steps of a tick (w moved), here and now; BUSY while a started solve runs. */
+int mpc_rti_solve(mpc_rti *s, const double *w, const double *P, const double *x0, const double *lbw,
+                  const double *ubw, double levenberg, double *dw, double *info) {
+    return s->busy ? BUSY : solve_one(s, w, P, x0, lbw, ubw, levenberg, dw, info);
+}
+
+int mpc_rti_iterate(mpc_rti *s, double *w, const double *P, const double *x0, const double *lbw, const double *ubw,
+                    double levenberg, int steps, double *dw, double *info) {
+    return s->busy ? BUSY : iterate(s, w, P, x0, lbw, ubw, levenberg, steps, dw, info);
+}
+
 static void *work(void *arg) {
     mpc_rti *s = arg;
     pthread_mutex_lock(&s->lock);
@@ -327,7 +341,7 @@ static void *work(void *arg) {
         s->pending = 0;
         rti_job *j = &s->job;
         pthread_mutex_unlock(&s->lock);
-        int status = mpc_rti_iterate(s, j->w, j->P, j->x0, j->lbw, j->ubw, j->levenberg, j->steps, j->dw, j->info);
+        int status = iterate(s, j->w, j->P, j->x0, j->lbw, j->ubw, j->levenberg, j->steps, j->dw, j->info);
         pthread_mutex_lock(&s->lock);
         j->status = status;
         s->done = 1;
@@ -337,22 +351,30 @@ static void *work(void *arg) {
     return NULL;
 }
 
-/* mpc_rti_iterate on the worker thread; 0, or -1 if the thread cannot be started (nothing was started then). */
+/* mpc_rti_iterate on the worker thread; 0, BUSY if a started solve has not been waited for, or -1 if the thread
+ * cannot be started (nothing was started then). The worker blocks every signal: they stay the caller's. */
 int mpc_rti_start(mpc_rti *s, double *w, const double *P, const double *x0, const double *lbw, const double *ubw,
                   double levenberg, int steps, double *dw, double *info) {
+    if (s->busy) return BUSY;
     if (!s->worker_started) {
         if (pthread_mutex_init(&s->lock, NULL) != 0) return -1;
         if (pthread_cond_init(&s->changed, NULL) != 0) {
             pthread_mutex_destroy(&s->lock);
             return -1;
         }
-        if (pthread_create(&s->worker, NULL, work, s) != 0) {
+        sigset_t all, previous;
+        sigfillset(&all);
+        pthread_sigmask(SIG_SETMASK, &all, &previous);
+        int failed = pthread_create(&s->worker, NULL, work, s) != 0;
+        pthread_sigmask(SIG_SETMASK, &previous, NULL);
+        if (failed) {
             pthread_cond_destroy(&s->changed);
             pthread_mutex_destroy(&s->lock);
             return -1;
         }
         s->worker_started = 1;
     }
+    s->busy = 1;
     pthread_mutex_lock(&s->lock);
     s->job = (rti_job){w, dw, info, P, x0, lbw, ubw, levenberg, steps, 0};
     s->done = 0;
@@ -362,13 +384,14 @@ int mpc_rti_start(mpc_rti *s, double *w, const double *P, const double *x0, cons
     return 0;
 }
 
-/* Wait for the steps mpc_rti_start handed on; their status (mpc_rti_iterate's), -1 if none was ever started. */
+/* Wait for the steps mpc_rti_start handed on; their status (mpc_rti_iterate's), -1 if none was started. */
 int mpc_rti_wait(mpc_rti *s) {
-    if (!s->worker_started) return -1;
+    if (!s->busy) return -1;
     pthread_mutex_lock(&s->lock);
     while (!s->done) pthread_cond_wait(&s->changed, &s->lock);
     s->done = 0;
     int status = s->job.status;
     pthread_mutex_unlock(&s->lock);
+    s->busy = 0;
     return status;
 }

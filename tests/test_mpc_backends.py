@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import math
 
 import numpy as np
@@ -57,3 +58,36 @@ def test_without_a_compiler_the_mpc_says_so_and_solves_through_casadi(airframe, 
     assert solver.backend is QpBackend.CASADI_CONIC
     assert "conic interface" in capsys.readouterr().err
     assert all(solution.ok for solution in iterate(solver, 2))
+
+
+@pytest.mark.parametrize("backend", [QpBackend.HPIPM_C, QpBackend.CASADI_CONIC])
+def test_start_and_finish_give_what_solve_gives_one_solve_at_a_time(airframe, backend):
+    """RtiSolver.start/finish (the C back-end's worker thread; without it, solved at start) equal solve, and a solve
+    is started and finished once at a time."""
+    grid = StageGrid.uniform(5)
+    here, started = (RtiSolver(airframe, grid, backend=backend, gauss_newton_steps=2) for _ in range(2))
+    x0, params = problem(grid.stages)
+    for solver in (here, started):
+        solver.set_actuator_limits(np.full(4, 23.0), np.full(4, np.nan))
+        solver.initialise(x0, airframe.hover_thrust_per_rotor)
+        solver.levenberg = 0.1
+    for _ in range(3):
+        a = here.solve(x0, params)
+        started.start(x0, params)
+        with pytest.raises(RuntimeError, match="finish"):
+            started.start(x0, params)
+        b = started.finish()
+        assert a.ok and b.ok and (a.status, a.iterations, a.cost) == (b.status, b.iterations, b.cost)
+        assert np.array_equal(here.w, started.w) and np.array_equal(a.u, b.u)
+    with pytest.raises(RuntimeError, match="no solve"):
+        started.finish()
+
+
+def test_a_solver_dropped_while_its_solve_runs_is_freed_after_it(airframe):
+    """The C object's worker thread ends when the object is freed, after the solve it runs (no hang, no crash)."""
+    solver = RtiSolver(airframe, StageGrid.uniform(25), gauss_newton_steps=2)
+    x0, params = problem(25)
+    solver.initialise(x0, airframe.hover_thrust_per_rotor)
+    solver.start(x0, params)
+    del solver
+    gc.collect()

@@ -8,9 +8,11 @@ order, array lengths, CRC extra and id), and `FastFrames` frames it the way pyma
 trailing zero bytes of the payload stripped, CRC-16/MCRF4XX with the CRC extra, the endpoint's sequence number. The
 bytes on the wire are pymavlink's, bit for bit (tests/test_mavlink_frames.py), so any MAVLink peer reads them.
 
-Parsing takes the fast path only for a datagram made entirely of well-formed, unsigned MAVLink 2 frames of those
-types with good CRCs; anything else (another message, a bad CRC, a truncated frame, MAVLink 1, a signed frame,
-a link that signs) goes to pymavlink's parser whole, so refusals and their counters are exactly pymavlink's.
+A reader may name types it only wants checked (`checked`: the autopilot has no use for HIL_SENSOR and HIL_GPS):
+their frames are checked as the others and left out of the result. Parsing takes the fast path only for a datagram
+made entirely of well-formed, unsigned MAVLink 2 frames of those types with good CRCs; anything else (another
+message, a bad CRC, a truncated frame, MAVLink 1, a signed frame, a link that signs) goes to pymavlink's parser
+whole, so refusals and their counters are exactly pymavlink's.
 """
 
 from __future__ import annotations

@@ -101,12 +101,12 @@ class PlantLinkClient:
                 kind = message.get_type()
                 if kind == "HIL_STATE_QUATERNION":
                     sample = PlantSample(message.time_usec, message)
-                elif kind == "HIL_SENSOR":
-                    if sample is not None and self.sensors:
-                        sample.sensor = message
-                elif kind == "HIL_GPS":
-                    if sample is not None and self.sensors:
-                        sample.gps = message
+                elif kind in ("HIL_SENSOR", "HIL_GPS") and not self.sensors:
+                    continue  # checked, not wanted (pymavlink's parser, unlike the fast path, decodes them)
+                elif kind == "HIL_SENSOR" and sample is not None:
+                    sample.sensor = message
+                elif kind == "HIL_GPS" and sample is not None:
+                    sample.gps = message
                 elif not (kind == "PING" and self._answer_challenge(message)):
                     self.received_other.append(message)
             if sample is not None:
