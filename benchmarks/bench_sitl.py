@@ -4,7 +4,9 @@
 
 Prints, for the PID and for the MPC (solving one tick ahead, VT_MPC_OVERLAP = 1, and the paper's synchronous
 way, 0), the median real-time factor over the repeats against its goal, and each process's own work per physics
-step (the rest of the wall time is the two processes waiting for each other's datagrams).
+step (the rest of the wall time is the two processes waiting for each other's datagrams); and the MPC's two ways
+against each other, round by round. A round flies every configuration once, so a machine whose speed drifts
+meets each of them alike.
 """
 
 from __future__ import annotations
@@ -33,9 +35,12 @@ def run_once(profile: str, duration: float, controller: str, params: Path) -> di
     }
 
 
+OVERLAPPED, SYNCHRONOUS = "mpc, overlapped (VT_MPC_OVERLAP 1)", "mpc, synchronous (VT_MPC_OVERLAP 0)"
+
+
 def variants(controller: str) -> list[tuple[str, str, int]]:
     """(label, controller, VT_MPC_OVERLAP) of each configuration to fly."""
-    mpc = [("mpc, overlapped (VT_MPC_OVERLAP 1)", "mpc", 1), ("mpc, synchronous (VT_MPC_OVERLAP 0)", "mpc", 0)]
+    mpc = [(OVERLAPPED, "mpc", 1), (SYNCHRONOUS, "mpc", 0)]
     pid = [("pid", "pid", 1)]
     return {"both": pid + mpc, "mpc": mpc, "pid": pid}[controller]
 
@@ -58,11 +63,20 @@ def main() -> None:
     args = parser.parse_args()
     duration = args.duration or PROFILES[args.profile][1]
     print(f"profile {args.profile}, {duration:g} s simulated, lockstep, {args.repeats} runs each")
+    configurations = variants(args.controller)
+    runs: dict[str, list[dict[str, float]]] = {label: [] for label, _, _ in configurations}
     with tempfile.TemporaryDirectory() as scratch:
-        for label, controller, overlap in variants(args.controller):
-            params = overlap_params(Path(scratch) / f"params-{overlap}.json", overlap)
-            runs = [run_once(args.profile, duration, controller, params) for _ in range(args.repeats)]
-            report(label, GOALS[controller], runs)
+        params = {overlap: overlap_params(Path(scratch) / f"params-{overlap}.json", overlap)
+                  for _, _, overlap in configurations}  # fmt: skip
+        for _ in range(args.repeats):
+            for label, controller, overlap in configurations:
+                runs[label].append(run_once(args.profile, duration, controller, params[overlap]))
+    for label, controller, _ in configurations:
+        report(label, GOALS[controller], runs[label])
+    if OVERLAPPED in runs and SYNCHRONOUS in runs:
+        ratios = [a["real_time_factor"] / b["real_time_factor"] for a, b in zip(runs[OVERLAPPED], runs[SYNCHRONOUS])]
+        print(f"mpc, overlapped / synchronous, round by round: median {statistics.median(ratios):.2f} "
+              f"(min {min(ratios):.2f}, max {max(ratios):.2f})")  # fmt: skip
 
 
 def report(label: str, goal: float, runs: list[dict[str, float]]) -> None:
