@@ -199,9 +199,7 @@ class HpipmRti:
               levenberg: float, steps: int) -> None:  # fmt: skip
         """`iterate` on this object's worker thread: returns at once; `finish` waits for it. The arguments are
         copied first, so the caller may change them meanwhile."""
-        if self._running:
-            raise RuntimeError("a solve is running: finish() it first")
-        self._load(w, params, x0, lbw, ubw)
+        self._load(w, params, x0, lbw, ubw)  # refuses while a started solve runs
         if self._library.mpc_rti_start(*self._args, levenberg, steps, *self._outputs) != 0:
             raise OSError("cannot start the MPC solver's thread")
         self._running = True

@@ -37,8 +37,9 @@ from autopilot.control_telemetry import ControlTelemetry
 from autopilot.failure_injection import FailureInjection
 from autopilot.flight_controller import FlightController
 from autopilot.flight_logger import FlightLogger
+from autopilot.home_position import HomePosition
 from autopilot.mavlink.services import MavlinkServices
-from autopilot.mission_store import MissionStore
+from autopilot.mission_store import Missions, MissionStore
 from autopilot.parameters import ParameterStore
 from autopilot.vehicle_state import VehicleState, update_from_hil_state
 from autopilot.vehicle_status import EventOutbox, GlobalPosition, VehicleStatus, copy_state, vtol_state
@@ -118,8 +119,8 @@ class PlantLoop:
         self._dropped_reported = 0
         self._params_seen = params.version
         self._status_usec: int | None = None  # the last snapshot's time, home and missions
-        self._status_home: object = None
-        self._status_missions: object = None
+        self._status_home: HomePosition | None = None
+        self._status_missions: Missions | None = None
         self._disarmed_pwm = command_to_pwm(airframe, np.zeros(12))
         idle = np.zeros(12)
         idle[ROTORS] = IDLE_THRUST

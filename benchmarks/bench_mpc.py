@@ -22,11 +22,12 @@ import numpy as np
 
 from aircraft.airframe import load_airframe
 from autopilot.controllers import MPC, build_flight_controller
-from autopilot.mpc import QpBackend, ReferenceNlp, RtiSolver, solve_reference_nlp
+from autopilot.mpc import QpBackend, RtiSolver
 from autopilot.mpc_controller import LEVENBERG, WARM_UP_ITERATIONS
 from autopilot.mpc_horizon import LONG, PAPER, MpcHorizon, StageGrid
 from autopilot.mpc_hpipm import HpipmMode, HpipmSettings
 from autopilot.mpc_model import THRUST
+from autopilot.mpc_reference import ReferenceNlp, solve_reference_nlp
 from autopilot.vehicle_state import VehicleState, euler_from_quaternion
 from scenarios.profiles import accel
 from sim_bridge.plant import Plant, Spawn
