@@ -87,6 +87,10 @@ class MpcWeights:
     # Each working servo's tilt away from the working servos' mean, per rad^2 (docs/mpc.md 2.9); 0 leaves the four
     # tilts independent, as the paper does.
     q_tilt_spread: float = 0.0
+    # The yaw's error from its reference bounded softly as the roll and pitch are, |psi - psi_ref| <= yaw_bound
+    # (docs/mpc.md 2.9); q = 0: no bound, as the paper.
+    q_yaw_bound: float = 0.0
+    yaw_bound: float = math.radians(15.0)
     # The first stage's roll and pitch set-point away from the one flown at the previous tick, per rad^2 (move
     # suppression, docs/mpc.md 2.9); 0: none, as the paper.
     q_attitude_sp_move: float = 0.0
@@ -169,17 +173,32 @@ def discrete_dynamics(airframe: Airframe, gains: AttitudeGains, substeps: int = 
     return ca.Function("mpc_step", [x, u, grid], [ca.vertcat(z, x[PSI_DOT])], ["x", "u", "grid"], ["x_next"])
 
 
+def soft_bound(q: float, width: float, excess: ca.SX) -> ca.SX:
+    """~0 where excess (how far beyond the bound) < -a few widths, ~sqrt(q) excess beyond it; smooth (softplus),
+    so that the Gauss-Newton Hessian sees the bound before the plan reaches it."""
+    scaled = excess / width
+    softplus = ca.if_else(scaled > 30, scaled, ca.log1p(ca.exp(ca.fmin(scaled, 30))))
+    return math.sqrt(q) * width * softplus
+
+
 def attitude_bound_residual(weights: MpcWeights, limits: MpcLimits, x: ca.SX) -> ca.SX:
-    """The soft roll and pitch bound: ~0 inside |angle| <= bound - a few widths, ~sqrt(q) (|angle| - bound)
-    beyond it; smooth (softplus), so that the Gauss-Newton Hessian sees the bound before the plan reaches it."""
+    """The soft roll and pitch bound |angle| <= limits.attitude (docs/mpc.md 2.8)."""
     if weights.q_attitude_bound <= 0:
         return ca.SX.zeros(0)
-    width = weights.attitude_bound_width
     angles = x[ROLL_PITCH]
     bound = ca.DM(limits.attitude)
-    excess = ca.vertcat(angles - bound, -angles - bound) / width
-    softplus = ca.if_else(excess > 30, excess, ca.log1p(ca.exp(ca.fmin(excess, 30))))
-    return math.sqrt(weights.q_attitude_bound) * width * softplus
+    return soft_bound(weights.q_attitude_bound, weights.attitude_bound_width,
+                      ca.vertcat(angles - bound, -angles - bound))  # fmt: skip
+
+
+def yaw_bound_residual(weights: MpcWeights, x: ca.SX, psi_ref: ca.SX) -> ca.SX:
+    """The soft bound |psi - psi_ref| <= yaw_bound: on a 2 s horizon the cheapest braking at speed was to yaw the
+    aircraft across its course and brake on the fuselage's side force (docs/mpc.md 2.9)."""
+    if weights.q_yaw_bound <= 0:
+        return ca.SX.zeros(0)
+    error = wrap_angle(x[PSI_INDEX] - psi_ref)
+    return soft_bound(weights.q_yaw_bound, weights.attitude_bound_width,
+                      ca.vertcat(error - weights.yaw_bound, -error - weights.yaw_bound))  # fmt: skip
 
 
 def tilt_spread_residual(weights: MpcWeights, x: ca.SX, free_tilt: ca.SX) -> ca.SX:
@@ -234,6 +253,7 @@ def stage_residual(
         * ca.vertcat(u[PSI_D][0] - phi_ref, u[PSI_D][1], wrap_angle(u[PSI_D][2] - psi_d_ref)),
         ca.exp(soft.exponent(forward_speed, mean_tilt_deg) / 2),
         attitude_bound_residual(weights, limits or MpcLimits(), x),
+        yaw_bound_residual(weights, x, psi_ref),
         tilt_spread_residual(weights, x, free_tilt),
         attitude_sp_move_residual(weights, u, p),
     )

@@ -3,7 +3,8 @@
     python benchmarks/bench_horizon.py [--grids paper,long] [--profile accel-decel] [--seconds 32]
 
 A screening tool for the grids of docs/mpc.md 2.9 (the decision itself rests on `vtol scenario` through MAVLink).
-Per grid: the largest velocity error while braking (15-28 s of accel-decel), max |v_z|, max |pitch|, the largest
+Per grid: the largest velocity error while braking (15-28 s of accel-decel), max |v_z|, max |pitch|, max |roll|,
+the largest heading error from the set-point's course, the largest
 tick-to-tick step of the pitch set-point, failed solves, whether the PID took over, and the solve times.
 """
 
@@ -11,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import math
 from collections.abc import Iterator
 
 import numpy as np
@@ -49,12 +51,16 @@ def velocity_ticks(
         plant.step()
 
 
+def wrap_deg(angle: np.ndarray) -> np.ndarray:
+    return (angle + 180.0) % 360.0 - 180.0
+
+
 def fly(horizon: MpcHorizon, profile_name: str, seconds: float) -> dict:
     rows = []
     for state, controller, v_sp in velocity_ticks(horizon, profile_name, seconds):
-        rows.append((state.time_s, *state.velocity_ned, *v_sp, *np.degrees(state.euler[:2]),
+        rows.append((state.time_s, *state.velocity_ned, *v_sp, *np.degrees(state.euler),
                      np.degrees(controller.velocity_command.euler_sp[1])))  # fmt: skip
-    t, vx, vy, vz, sx, sy, sz, roll, pitch, pitch_sp = np.array(rows).T
+    t, vx, vy, vz, sx, sy, sz, roll, pitch, yaw, pitch_sp = np.array(rows).T
     braking = (t >= BRAKING_S[0]) & (t <= BRAKING_S[1])
     error = np.hypot(vx - sx, vz - sz)
     mpc = controller.mpc
@@ -63,6 +69,9 @@ def fly(horizon: MpcHorizon, profile_name: str, seconds: float) -> dict:
         "vx_rmse": float(np.sqrt(np.mean((vx - sx) ** 2))),
         "vz_max": float(np.abs(vz).max()),
         "pitch_max": float(np.abs(pitch).max()),
+        "roll_max": float(np.abs(roll).max()),
+        # the heading's error from the set-point's course, where the set-point has a horizontal speed
+        "yaw_error_max": float(np.abs(wrap_deg(yaw - np.degrees(np.arctan2(sy, sx)))[np.hypot(sx, sy) > 1]).max()),
         "pitch_sp_step_max": float(np.abs(np.diff(pitch_sp)).max()),
         "braking_pitch_sp_step_max": float(np.abs(np.diff(pitch_sp))[braking[1:]].max()) if braking.any() else 0.0,
         "failed": mpc.solves_failed if mpc else -1,
@@ -74,7 +83,7 @@ def fly(horizon: MpcHorizon, profile_name: str, seconds: float) -> dict:
 def parse_horizon(text: str) -> MpcHorizon:
     """A horizon by name (paper, long) or a grid as COUNTxTICKS+..., e.g. 10x1+15x13 (10 one-tick stages, 15 of 13
     ticks), with the long horizon's weights and one Gauss-Newton step per tick; options after it: /sM (M RK4 steps
-    per stage), /qQ (q_tilt_spread), /mQ (q_attitude_sp_move), /u (stages weighed alike), /iK (K Gauss-Newton
+    per stage), /qQ (q_tilt_spread), /mQ (q_attitude_sp_move), /u (stages weighed alike), /yQ (q_yaw_bound), /YD (yaw_bound, deg), /LR (r_rotor_lift), /iK (K Gauss-Newton
     steps per tick)."""
     text, *options = text.split("/")
     if text in HORIZONS:
@@ -91,6 +100,12 @@ def parse_horizon(text: str) -> MpcHorizon:
             grid = grid.but(substeps=int(option[1:]))
         elif option.startswith("q"):
             weights = dataclasses.replace(weights, q_tilt_spread=float(option[1:]))
+        elif option.startswith("y"):
+            weights = dataclasses.replace(weights, q_yaw_bound=float(option[1:]))
+        elif option.startswith("Y"):
+            weights = dataclasses.replace(weights, yaw_bound=math.radians(float(option[1:])))
+        elif option.startswith("L"):
+            weights = dataclasses.replace(weights, r_rotor_lift=float(option[1:]))
         elif option.startswith("i"):
             steps = int(option[1:])
         elif option == "u":
@@ -112,6 +127,7 @@ def main() -> None:
         r = fly(horizon, args.profile, args.seconds)
         print(f"{name:12s} span {grid.span_s:5.2f} s  braking |v err| max {r['braking_error_max']:5.2f} m/s  "
               f"vx RMS {r['vx_rmse']:5.2f}  |vz| max {r['vz_max']:5.2f}  |pitch| max {r['pitch_max']:5.1f} deg  "
+              f"|roll| max {r['roll_max']:5.1f} deg  |yaw - course| max {r['yaw_error_max']:5.1f} deg  "
               f"pitch sp step max {r['pitch_sp_step_max']:5.1f} (braking {r['braking_pitch_sp_step_max']:5.1f}) deg  "
               f"failed {r['failed']}  PID {r['fell_back']}  "
               f"{spread(r['ms']) if r['ms'] else ''}", flush=True)  # fmt: skip

@@ -12,13 +12,14 @@ from collections.abc import Mapping
 import numpy as np
 
 from scenarios.experiments import Circle
-from transport.flight_log import DOWN, EAST, NORTH, PITCH, ROLL, T, TILT_EST, VD, VD_SP, VE, VE_SP, VN, VN_SP
+from transport.flight_log import DOWN, EAST, NORTH, PITCH, ROLL, T, TILT_EST, VD, VD_SP, VE, VE_SP, VN, VN_SP, YAW
 
 REACH_TOLERANCE = 0.5  # m/s: "reached" the target speed when within this of it
 GROUND_CLEARANCE = 1.0  # m: closer than this to the ground counts as ground contact for `survived`
 ATTITUDE_LIMIT_DEG = 60.0  # survived = |roll| and |pitch| stayed below this
 TURN_SETTLE_S = 5.0  # the steady turn (mean bank) starts this long after the circle begins
 FINAL_WINDOW_S = 1.0  # final_speed: mean speed over the last second
+COURSE_MIN_SPEED = 1.0  # m/s: heading_error_max_deg counts where the horizontal set-point is at least this fast
 
 
 def rms(values: np.ndarray) -> float:
@@ -41,6 +42,17 @@ def tilt_tv_ratio(mean_tilt: np.ndarray) -> float:
 def mean_tilt(log: Mapping[str, np.ndarray]) -> np.ndarray:
     """The four rotors' mean estimated tilt (rad) at each row."""
     return np.mean([log[name] for name in TILT_EST], axis=0)
+
+
+def heading_error_max_deg(yaw: np.ndarray, vn_sp: np.ndarray, ve_sp: np.ndarray) -> float | None:
+    """Largest |yaw - the set-point's course| (deg, wrapped to 180) where the horizontal set-point is at least
+    COURSE_MIN_SPEED; None if it never is. The scenarios fly with the nose on the course, so a large value is the
+    aircraft turned across its path (a controller braking on the fuselage's side force, docs/mpc.md 2.9)."""
+    moving = np.hypot(vn_sp, ve_sp) >= COURSE_MIN_SPEED
+    if not np.any(moving):
+        return None
+    error = np.angle(np.exp(1j * (yaw[moving] - np.arctan2(ve_sp[moving], vn_sp[moving]))))
+    return float(np.degrees(np.abs(error)).max())
 
 
 def mode_switches(modes: list[str]) -> int:
@@ -88,6 +100,7 @@ def flight_metrics(
         "vz_max_abs": float(np.abs(log[VD]).max()),
         "roll_max_abs_deg": float(roll_deg.max()),
         "pitch_max_abs_deg": float(pitch_deg.max()),
+        "heading_error_max_deg": heading_error_max_deg(log[YAW], log[VN_SP], log[VE_SP]),
         "alt_change_max_m": float(np.abs(altitude - altitude[0]).max()),
         "t_reach_s": time_to_reach(t, np.hypot(log[VN], log[VE]), float(horizontal_sp.max())),
         "tilt_tv_ratio": tilt_tv_ratio(np.degrees(mean_tilt(log))),

@@ -57,6 +57,7 @@ TABLE_KEYS = (
     ("vz_max_abs", "max abs v_z (m/s)", "{:.2f}"),
     ("roll_max_abs_deg", "max abs roll (deg)", "{:.1f}"),
     ("pitch_max_abs_deg", "max abs pitch (deg)", "{:.1f}"),
+    ("heading_error_max_deg", "max heading off the course (deg)", "{:.1f}"),
     ("alt_change_max_m", "max altitude change (m)", "{:.2f}"),
     ("t_reach_s", "time to reach (s)", "{:.2f}"),
     ("tilt_tv_ratio", "tilt TV / range", "{:.2f}"),

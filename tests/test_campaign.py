@@ -19,7 +19,7 @@ import pytest
 
 from ground_tools.campaign.points import campaign_points
 from ground_tools.campaign.spec import CampaignError, flight_count, load_campaign
-from ground_tools.campaign.store import ResultStore
+from ground_tools.campaign.store import COLUMNS, ResultStore
 from ground_tools.cli import main
 from ground_tools.processes import SimCommand
 from scenarios.experiments import SCENARIOS
@@ -135,6 +135,22 @@ def test_the_same_key_twice_is_one_row(tmp_path: Path) -> None:
     store.close()
     assert len(frame) == 1 and frame["vx_rmse"][0] == 0.7 and not frame["survived"][0]
     assert frame["duration_s"][0] == 1.0 and json.loads(frame["params"][0]) == {"duration_s": 1.0}
+
+
+def test_a_store_written_before_a_metric_existed_gets_its_column(tmp_path: Path) -> None:
+    path = tmp_path / "old.duckdb"
+    old = duckdb.connect(str(path))
+    columns = ", ".join(f'"{name}" {kind}' for name, kind in COLUMNS.items() if name != "heading_error_max_deg")
+    old.execute(f"CREATE TABLE flights ({columns})")
+    old.execute("INSERT INTO flights (key, status, vx_rmse) VALUES ('k0', 'done', 0.3)")
+    old.close()
+    store = ResultStore(path)
+    store.put("c", {"key": "k1", "scenario": "accel", "controller": "mpc", "repetition": 0, "params": {},
+                    "status": "done", "metrics": {"vx_rmse": 0.5, "heading_error_max_deg": 2.5}})
+    frame = store.frame().set_index("key")
+    store.close()
+    assert frame.loc["k1", "heading_error_max_deg"] == 2.5 and np.isnan(frame.loc["k0", "heading_error_max_deg"])
+    assert frame.loc["k0", "vx_rmse"] == 0.3
 
 
 # ---- a real campaign ----------------------------------------------------------------------------------------------

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from ground_tools.metrics import flight_metrics, mode_switches, tilt_tv_ratio, time_to_reach
+from ground_tools.metrics import flight_metrics, heading_error_max_deg, mode_switches, tilt_tv_ratio, time_to_reach
 from scenarios.experiments import Circle
 
 
@@ -39,6 +39,19 @@ def test_velocity_errors_extremes_and_survival_by_hand():
     assert metrics["survived"] is True and metrics["radial_rmse_m"] is None and metrics["solves_failed"] is None
     log["roll"][10] = math.radians(61)
     assert flight_metrics(log, ["MPC"] * len(log["t"]))["survived"] is False
+
+
+def test_heading_error_from_the_set_points_course_by_hand():
+    log = synthetic_log()
+    assert flight_metrics(log, ["MPC"] * len(log["t"]))["heading_error_max_deg"] is None  # never 1 m/s
+    log["vn_sp"][100:] = -5.0  # course 180 deg: a yaw of -170 deg is 10 deg off it, not 350
+    log["yaw"][:] = math.radians(-170)
+    log["yaw"][:100] = 0.0  # standing still: not counted
+    assert flight_metrics(log, ["MPC"] * len(log["t"]))["heading_error_max_deg"] == pytest.approx(10.0)
+    # A course to the east, the nose 60 deg off it to the north-east and then across it to the south-west.
+    yaw = np.radians([30.0, 90.0, 210.0])
+    assert heading_error_max_deg(yaw, np.zeros(3), np.full(3, 2.0)) == pytest.approx(120.0)
+    assert heading_error_max_deg(yaw, np.zeros(3), np.array([2.0, 2.0, 0.5])) == pytest.approx(60.0)
 
 
 def test_time_to_reach_tilt_smoothness_and_mode_switches():

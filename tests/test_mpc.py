@@ -274,7 +274,7 @@ def test_a_servo_stuck_near_its_estimate_leaves_the_qp_feasible(solver):
 
 # ---- the soft roll and pitch bound (docs/mpc.md 2.8) ----
 
-from autopilot.mpc_model import MpcLimits, MpcWeights, attitude_bound_residual  # noqa: E402
+from autopilot.mpc_model import MpcLimits, MpcWeights, attitude_bound_residual, yaw_bound_residual  # noqa: E402
 
 
 def test_soft_attitude_bound_is_zero_inside_and_quadratic_beyond():
@@ -299,6 +299,29 @@ def test_soft_attitude_bound_is_zero_inside_and_quadratic_beyond():
     assert penalty(15.4, 12.0) < 1e-3
     # q = 0: the paper's hard bound, no penalty.
     assert attitude_bound_residual(MpcWeights(q_attitude_bound=0.0), limits, ca.DM(np.zeros(NX))).numel() == 0
+
+
+def test_soft_yaw_bound_acts_on_the_wrapped_error_from_the_reference():
+    import casadi as ca
+
+    weights = MpcWeights(q_yaw_bound=1e6)
+    q, width, bound = weights.q_yaw_bound, weights.attitude_bound_width, weights.yaw_bound
+
+    def penalty(yaw_deg: float, reference_deg: float) -> float:
+        x = np.zeros(NX)
+        x[9] = math.radians(yaw_deg)
+        return float(ca.sumsqr(yaw_bound_residual(weights, ca.DM(x), ca.DM(math.radians(reference_deg)))))
+
+    at_bound = q * (width * math.log(2)) ** 2
+    assert penalty(15.0, 0.0) == pytest.approx(at_bound, rel=1e-6)
+    assert penalty(-15.0, 0.0) == pytest.approx(at_bound, rel=1e-6)
+    # The error is wrapped: 170 deg against -175 deg is 15 deg, not 345.
+    assert penalty(170.0, -175.0) == pytest.approx(at_bound, rel=1e-6)
+    # On the reference, 5 widths inside each side: 2 q (w softplus(-5))^2 = 0.25, flat (its slope there is 0).
+    assert penalty(0.0, 0.0) == pytest.approx(2 * q * (width * math.log1p(math.exp(-5))) ** 2, rel=1e-9)
+    assert penalty(45.0, 0.0) == pytest.approx(q * (math.radians(45) - bound) ** 2, rel=0.01)
+    # q = 0 (the default, and the paper): no residual at all.
+    assert yaw_bound_residual(MpcWeights(), ca.DM(np.zeros(NX)), ca.DM(0.0)).numel() == 0
 
 
 def pitching_through_the_bound() -> tuple[np.ndarray, np.ndarray]:

@@ -268,6 +268,7 @@ def test_mpc_scenario_run_folder_tlog_recording_and_report(tmp_path) -> None:
     assert spec_keys <= set(metrics)
     assert metrics["survived"] and metrics["solves_failed"] == 0 and metrics["solve_ms_median"] > 0
     assert metrics["vx_rmse"] < 1.0
+    assert metrics["heading_error_max_deg"] < 5.0  # nose on the course
     table = (run_dir / "timeseries.csv").read_text().splitlines()
     assert table[1].startswith("0.0000,") and len(table) > 300  # t = 0 at the profile start, 100 Hz
     for figure in ("velocity.png", "tilt_pitch.png", "roll_yaw.png", "actuators.png", "ground_track.png"):

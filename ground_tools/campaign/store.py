@@ -17,9 +17,9 @@ STORE_FILE = "campaign.duckdb"
 TABLE = "flights"
 METRICS: dict[str, str] = {
     **{key: "DOUBLE" for key in (
-        "vx_rmse", "vy_rmse", "vz_rmse", "vz_max_abs", "roll_max_abs_deg", "pitch_max_abs_deg", "alt_change_max_m",
-        "alt_loss_max_m", "t_reach_s", "tilt_tv_ratio", "radial_rmse_m", "radial_max_m", "bank_mean_deg",
-        "final_speed", "failure_t_s", "vx_rmse_after_failure", "solve_ms_median", "solve_ms_p99", "solve_ms_max")},
+        "vx_rmse", "vy_rmse", "vz_rmse", "vz_max_abs", "roll_max_abs_deg", "pitch_max_abs_deg", "heading_error_max_deg",
+        "alt_change_max_m", "alt_loss_max_m", "t_reach_s", "tilt_tv_ratio", "radial_rmse_m", "radial_max_m",
+        "bank_mean_deg", "final_speed", "failure_t_s", "vx_rmse_after_failure", "solve_ms_median", "solve_ms_p99", "solve_ms_max")},
     "mode_switches": "INTEGER",
     "solves_failed": "INTEGER",
     "survived": "BOOLEAN",
@@ -59,16 +59,23 @@ class ResultStore:
         if not read_only:
             columns = ", ".join(f'"{name}" {kind}' for name, kind in COLUMNS.items())
             self.db.execute(f"CREATE TABLE IF NOT EXISTS {TABLE} ({columns})")
+            self._add_columns(METRICS)  # a store written before a metric was added gets its column
+
+    def _columns(self) -> set[str]:
+        return {row[0] for row in self.db.execute(f"SELECT column_name FROM (DESCRIBE {TABLE})").fetchall()}
+
+    def _add_columns(self, types: dict[str, str]) -> None:
+        have = self._columns()
+        for name, kind in types.items():
+            if name not in have:
+                self.db.execute(f'ALTER TABLE {TABLE} ADD COLUMN "{name}" {kind}')
 
     def close(self) -> None:
         self.db.close()
 
     def add_parameter_columns(self, example: dict[str, Any]) -> None:
         """A column for each parameter not yet in the table, typed after `example`'s value."""
-        have = {row[0] for row in self.db.execute(f"SELECT column_name FROM (DESCRIBE {TABLE})").fetchall()}
-        for name, value in example.items():
-            if name not in have:
-                self.db.execute(f'ALTER TABLE {TABLE} ADD COLUMN "{name}" {_sql_type(value)}')
+        self._add_columns({name: _sql_type(value) for name, value in example.items()})
 
     def finished_keys(self) -> set[str]:
         return {row[0] for row in self.db.execute(f"SELECT key FROM {TABLE} WHERE status = 'done'").fetchall()}
