@@ -29,7 +29,7 @@ from autopilot.offboard_setpoint import OffboardSetpoint
 from autopilot.parameters import ParameterStore
 from autopilot.return_route import plan_return
 from autopilot.vehicle_state import VehicleState
-from autopilot.yaw_setpoint import YawSetpoint
+from autopilot.yaw_setpoint import StickYaw, YawSetpoint
 from transport.mavlink import mavlink
 
 HOLD, TAKEOFF, LAND, OFFBOARD = "Hold", "Takeoff", "Land", "Offboard"
@@ -269,17 +269,19 @@ class ReturnMode(FlightMode):
 
 class OrbitMode(FlightMode):
     """Orbit (PX4's POSCTL.ORBIT navigation state): circle a centre for ever; the nose as the orbit's yaw behaviour
-    asks, RC_CONTROLLED: turned by the yaw stick (`stick_yaw_rate`: rad/s at a simulation time, None without fresh
-    sticks)."""
+    asks, RC_CONTROLLED: turned by the yaw stick and locked where it stops, as in Position mode (`stick_yaw_rate`:
+    rad/s at a simulation time, None without fresh sticks)."""
 
     name = ORBIT
 
     def __init__(self, auto: AutoFlight, stick_yaw_rate: Callable[[int], float | None]) -> None:
         self.auto = auto
         self.stick_yaw_rate = stick_yaw_rate
+        self.stick_yaw = StickYaw()
 
     def start(self, state: VehicleState, circle: Circle) -> None:
         self.auto.start(state, [circle])
+        self.stick_yaw.reset(float(state.euler[2]))
 
     def setpoint(self, state: VehicleState) -> np.ndarray:
         return self.auto.step(state)
@@ -288,5 +290,8 @@ class OrbitMode(FlightMode):
         target = self.auto.target
         if isinstance(target, Circle) and target.yaw_behaviour == ORBIT_RC_CONTROLLED:
             rate = self.stick_yaw_rate(state.time_usec)
-            return None if rate is None else YawSetpoint(rate=rate)
+            if rate is None:  # the nose is free until the sticks are back, and then locked where it is
+                self.stick_yaw.reset(float(state.euler[2]))
+                return None
+            return self.stick_yaw.update(rate, float(state.euler[2]), float(state.body_rates[2]))
         return self.auto.yaw(state)

@@ -25,13 +25,12 @@ from autopilot.guidance import limit_norm, ramp, vertical_velocity
 from autopilot.parameters import ParameterStore
 from autopilot.requests import ManualControlInput, Reply
 from autopilot.vehicle_state import VehicleState
-from autopilot.yaw_setpoint import YawSetpoint
+from autopilot.yaw_setpoint import StickYaw, YawSetpoint
 from transport.mavlink import mavlink
 
 POSITION, ALTITUDE = "Position", "Altitude"
 TICK_S = 0.01
 BRAKED_SPEED = 1.0  # m/s: a centred stick locks the position (or altitude) once slower than this
-YAW_STOPPED = math.radians(5.0)  # rad/s: a centred yaw stick locks the heading once the yaw rate is below this
 NO_MAVLINK_MANUAL_CONTROL = (0, 4)  # COM_RC_IN_MODE: RC only (there is no RC here), manual control disabled
 
 
@@ -103,15 +102,15 @@ class StickMode(FlightMode):
         self.name = name
         self.params = params
         self.manual = manual
-        self.heading = 0.0  # rad: the sticks' frame (forward = x): the nose while the yaw stick turns it, then held
-        self.turn_rate = 0.0  # rad/s: the yaw stick's
+        self.stick_yaw = StickYaw()  # its heading is the sticks' frame (forward = x)
+        self.yaw_setpoint = YawSetpoint()
         self.hold_xy: np.ndarray | None = None
         self.hold_down: float | None = None
         self.velocity = np.zeros(3)
 
     def activate(self, state: VehicleState) -> None:
-        self.heading = float(state.euler[2])
-        self.turn_rate = 0.0
+        self.stick_yaw.reset(float(state.euler[2]))
+        self.yaw_setpoint = YawSetpoint(self.stick_yaw.heading)
         self.hold_xy = None
         self.hold_down = None
         self.velocity = state.velocity_ned.copy()
@@ -122,11 +121,10 @@ class StickMode(FlightMode):
     def setpoint(self, state: VehicleState) -> np.ndarray:
         p, sticks = self.params, self.manual.sticks
         zone = p["MPC_HOLD_DZ"]
-        self.turn_rate = self.manual.stick_yaw_rate()
-        if self.turning(state):
-            self.heading = float(state.euler[2])
+        self.yaw_setpoint = self.stick_yaw.update(self.manual.stick_yaw_rate(), float(state.euler[2]),
+                                                  float(state.body_rates[2]))  # fmt: skip
         forward, right = deadzone(sticks.pitch, zone), deadzone(sticks.roll, zone)
-        c, s = math.cos(self.heading), math.sin(self.heading)
+        c, s = math.cos(self.stick_yaw.heading), math.sin(self.stick_yaw.heading)
         horizontal = limit_norm(np.array([c * forward - s * right, s * forward + c * right]), 1.0) * p["MPC_VEL_MANUAL"]
         horizontal = self._horizontal_hold(state, horizontal, forward == right == 0.0)
         climb = deadzone(climb_stick(sticks.throttle), zone)
@@ -135,13 +133,8 @@ class StickMode(FlightMode):
         self.velocity = ramp(self.velocity, np.array([*horizontal, down]), p["MPC_ACC_HOR"], TICK_S)
         return self.velocity.copy()
 
-    def turning(self, state: VehicleState) -> bool:
-        """The yaw stick is out, or the turn it made has not stopped yet (the heading is locked once it has: locked
-        at once, the weak hover yaw overshot a fast turn's lock by 110 deg and swung back)."""
-        return self.turn_rate != 0.0 or abs(float(state.body_rates[2])) > YAW_STOPPED
-
     def yaw(self, state: VehicleState) -> YawSetpoint | None:
-        return YawSetpoint(rate=self.turn_rate) if self.turning(state) else YawSetpoint(self.heading)
+        return self.yaw_setpoint  # this tick's, from setpoint()
 
     def _horizontal_hold(self, state: VehicleState, wanted: np.ndarray, centred: bool) -> np.ndarray:
         if not centred or self.name == ALTITUDE:

@@ -3,6 +3,7 @@ and the yaw reference the velocity controllers follow, shaped from it, while the
 
     YawSetpoint    heading (rad, NED) and/or rate (rad/s), as PX4's trajectory set-point carries yaw and yawspeed
     YawReference   the shaped reference: a yaw now (within pi of the nose) turning at a rate
+    StickYaw       the yaw stick -> set-point: a rate while it is out, then the heading locked where the nose stopped
     YawShaper      set-point -> reference at 100 Hz: a heading is turned to at most the auto yaw rate
                    (MPC_YAWRAUTO_MAX, or faster when the set-point's own rate asks), a rate alone turns from where
                    the nose is; None above the multicopter speed, where the controllers point the nose along the
@@ -25,6 +26,28 @@ class YawSetpoint:
 
     heading: float | None = None
     rate: float | None = None
+
+
+YAW_STOPPED = math.radians(5.0)  # rad/s: a centred yaw stick locks the heading once the yaw rate is below this
+
+
+class StickYaw:
+    """The yaw stick as PX4's StickYaw: the stick's rate while it is out or the turn it made is still stopping, then
+    the heading locked where the nose stopped (locked at once, the weak hover yaw overshot a fast turn's lock by
+    110 deg and swung back). `heading` is the nose while turning, then the locked heading."""
+
+    def __init__(self) -> None:
+        self.heading = 0.0
+
+    def reset(self, yaw: float) -> None:
+        self.heading = yaw
+
+    def update(self, stick_rate: float, yaw: float, yaw_rate: float) -> YawSetpoint:
+        """The set-point for the stick's rate (rad/s) at the nose's yaw (rad) and body yaw rate (rad/s)."""
+        if stick_rate != 0.0 or abs(yaw_rate) > YAW_STOPPED:
+            self.heading = yaw
+            return YawSetpoint(rate=stick_rate)
+        return YawSetpoint(self.heading)
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,7 @@ import pytest
 
 from autopilot.attitude import wrap
 from autopilot.auto_flight import ORBIT_FRONT_TO_CENTER, ORBIT_INITIAL_HEADING, ORBIT_TANGENT, Circle, orbit_yaw
-from autopilot.yaw_setpoint import YawSetpoint, YawShaper, multicopter_speed
+from autopilot.yaw_setpoint import YAW_STOPPED, StickYaw, YawSetpoint, YawShaper, multicopter_speed
 from tests.ground_station import OFFBOARD
 from tests.test_mavlink_failsafes import hovering, set_param
 from tests.test_mavlink_manual_control import POSCTL
@@ -41,6 +41,16 @@ def test_a_heading_is_turned_to_at_the_auto_yaw_rate_and_a_rate_alone_turns_from
     assert math.isclose(fast.yaw, 0.02)  # a heading with a faster feed-forward moves at that rate
     assert shaper.update(None, 0.0, limit, dt) is None and shaper.reference is None
     assert multicopter_speed(np.array([3.0, 4.0, -2.0]), 5.0) and not multicopter_speed(np.array([12.1, 0, 0]), 12.0)
+
+
+def test_the_yaw_stick_turns_at_its_rate_and_locks_the_heading_once_the_nose_has_stopped():
+    stick = StickYaw()
+    stick.reset(0.3)
+    assert stick.update(0.0, 0.31, 0.0) == YawSetpoint(0.3)  # centred from the start: the heading it was reset to
+    assert stick.update(0.5, 0.4, 0.2) == YawSetpoint(rate=0.5)  # out: its rate, from the nose
+    assert stick.update(0.0, 0.6, 2 * YAW_STOPPED) == YawSetpoint(rate=0.0)  # centred, the nose still turning
+    assert stick.update(0.0, 0.62, YAW_STOPPED / 2) == YawSetpoint(0.6)  # stopped: locked where it last turned
+    assert stick.heading == 0.6
 
 
 def test_orbit_yaw_behaviours_face_the_centre_the_track_or_the_first_heading():
@@ -191,6 +201,66 @@ def test_an_orbit_faces_its_centre_by_default_goto_and_condition_yaw_turn_to_the
     print(f"condition yaw +60: heading {yaw_deg(gs):.2f} deg for 90")
     assert abs(yaw_deg(gs) - 90.0) < 3.0
     assert gs.command(M.MAV_CMD_CONDITION_YAW, 10.0, 0, 0, 2).result == M.MAV_RESULT_DENIED
+
+
+def test_orbit_yaw_behaviours_hold_the_first_heading_follow_the_track_or_the_yaw_stick(mpc_gs):
+    gs = mpc_gs
+    assert gs.command(M.MAV_CMD_DO_REPOSITION, -1, 0, 0, math.radians(40.0), math.nan, math.nan,
+                      math.nan).result == M.MAV_RESULT_ACCEPTED  # fmt: skip
+    gs.wait_sim(5.0)  # in Hold, turned to 40 deg
+    here = gs.latest["LOCAL_POSITION_NED"]
+    centre = (here.x + 15.0, here.y)
+    lat, lon = latlon_e7(*centre)
+
+    def orbit(behaviour: int) -> None:
+        ack = gs.command(M.MAV_CMD_DO_ORBIT, 15.0, 3.0, behaviour, math.nan, lat * 1e-7, lon * 1e-7, math.nan)
+        assert ack.result == M.MAV_RESULT_ACCEPTED and gs.mode == ORBIT_MODE
+
+    def worst_error(seconds: float, wanted) -> tuple[float, float]:
+        """The largest |yaw - wanted(position)| (deg) and the largest |distance to the centre - 15 m| over
+        `seconds`."""
+        yaw_errors, radial = [], []
+
+        def sample() -> None:
+            p = gs.latest["LOCAL_POSITION_NED"]
+            yaw_errors.append(abs(wrap(wanted(p) - gs.latest["ATTITUDE"].yaw)))
+            radial.append(abs(math.hypot(p.x - centre[0], p.y - centre[1]) - 15.0))
+
+        gs.wait_sim(seconds, every=sample)
+        return math.degrees(max(yaw_errors)), max(radial)
+
+    # HOLD_INITIAL_HEADING: the nose stays where it was when the orbit began, whatever the position on the circle.
+    orbit(M.ORBIT_YAW_BEHAVIOUR_HOLD_INITIAL_HEADING)
+    gs.wait_sim(20.0)
+    initial, radial = worst_error(5.0, lambda p: math.radians(40.0))
+    # HOLD_FRONT_TANGENT_TO_CIRCLE: along the track; a positive radius orbits clockwise, so the track is the
+    # direction to the centre turned 90 deg anticlockwise.
+    orbit(M.ORBIT_YAW_BEHAVIOUR_HOLD_FRONT_TANGENT_TO_CIRCLE)
+    gs.wait_sim(10.0)
+    tangent, _ = worst_error(5.0, lambda p: math.atan2(centre[1] - p.y, centre[0] - p.x) - math.pi / 2)
+    print(f"orbit: initial heading held within {initial:.2f} deg (on the circle within {radial:.2f} m), "
+          f"tangent within {tangent:.2f} deg")  # fmt: skip
+    assert initial < 3.0 and radial < 2.0 and tangent < 5.0
+
+    # RC_CONTROLLED: the yaw stick turns the nose at its rate (0.3: 33.3 deg/s, as in Position mode), and centred
+    # it holds the heading while the orbit goes on.
+    stick_r = [300]
+
+    def send() -> None:
+        gs.conn.mav.manual_control_send(1, 0, 0, 500, stick_r[0], 0)
+
+    set_param(gs, "COM_RC_LOSS_T", 5.0)  # lockstep runs faster than the wall clock the sticks are sent on
+    send()
+    orbit(M.ORBIT_YAW_BEHAVIOUR_RC_CONTROLLED)
+    gs.wait_sim(1.0, every=send)
+    rate = measured_rate(gs, send, 3.0)
+    stick_r[0] = 0
+    gs.wait_sim(2.0, every=send)
+    held = gs.latest["ATTITUDE"].yaw
+    gs.wait_sim(3.0, every=send)
+    drift = math.degrees(abs(wrap(gs.latest["ATTITUDE"].yaw - held)))
+    print(f"orbit, yaw stick 0.3: {math.degrees(rate):.1f} deg/s for 33.3; centred: {drift:.2f} deg in 3 s")
+    assert abs(math.degrees(rate) - 100.0 / 3.0) < 3.0 and drift < 0.5 and gs.mode == ORBIT_MODE
 
 
 def test_the_yaw_stick_turns_the_hover_at_its_rate_and_centred_stops_and_holds_the_heading(mpc_gs):
