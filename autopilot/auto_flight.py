@@ -163,8 +163,10 @@ class AutoFlight:
 
     def _yaw_reached(self, state: VehicleState, yaw: float | None) -> bool:
         """No yaw, or the heading within MIS_YAW_ERR of it; in a mission's fixed-wing phase the nose follows the
-        track, so the yaw is not waited for (PX4 ignores it in fixed-wing flight too)."""
-        if yaw is None or self.forward_flight:
+        track, so the yaw is not waited for (PX4 ignores it in fixed-wing flight too); nor with a yaw timeout
+        (MIS_YAW_TMT > 0): PX4 then waits only for a forced heading (its VTOL's alignment before a front transition,
+        which is not flown here), and aborts the mission when that times out."""
+        if yaw is None or self.forward_flight or self.params["MIS_YAW_TMT"] > 0.0:
             return True
         return abs(wrap(yaw - float(state.euler[2]))) <= math.radians(self.params["MIS_YAW_ERR"])
 

@@ -80,6 +80,9 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
       "Go-to, Orbit; PX4's default 45: docs/autopilot.md section 6)"),
     P("MIS_YAW_ERR", REAL32, 12.0, 1.0, 90.0, "deg", "a mission waypoint with a yaw (param4) is reached once the "
       "heading is within this of it (flown as a multicopter)"),
+    P("MIS_YAW_TMT", REAL32, -1.0, -1.0, 20.0, "s", "mission yaw timeout: above 0, a waypoint's yaw is not waited "
+      "for (PX4 then waits only for forced headings, which these missions have not); -1 (and 0): wait for "
+      "MIS_YAW_ERR"),
     P("COM_POS_FS_DELAY", INT32, 1, 1, 100, "s", "position loss failsafe (GPS OFF): Descend after this long"),
     P("GF_ACTION", INT32, 2, 0, 5, "", "geofence breach action: 0 none, 1 warning, 2 Hold, 3 Return, 4 terminate "
       "(motors off), 5 Land"),

@@ -165,6 +165,24 @@ def test_a_hover_waypoint_with_a_yaw_arrives_with_that_heading_and_holds_it(mpc_
     assert abs(yaw_deg(gs) + 120.0) < 3.0 and math.hypot(position.x - 15.0, position.y - 5.0) < 2.0
 
 
+def test_with_a_yaw_timeout_a_waypoint_is_reached_on_its_position_and_then_turns_to_its_yaw(mpc_gs):
+    gs = mpc_gs
+    set_param(gs, "MIS_YAW_TMT", 5.0)
+    north, east = latlon_e7(0.0, 3.0)
+    rows = [(M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, M.MAV_CMD_NAV_WAYPOINT, 0, 2.0, 0, 180.0, north, east, ALTITUDE)]
+    assert Client(gs).upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
+    start = gs.sim_time
+    assert gs.set_mode(MISSION_MODE).result == M.MAV_RESULT_ACCEPTED
+    gs.wait(lambda: "MISSION_ITEM_REACHED" in gs.latest, "the waypoint reached", 120)
+    reached, after_s = yaw_deg(gs), gs.sim_time - start
+    gs.wait_sim(8.0)
+    print(f"MIS_YAW_TMT 5: reached after {after_s:.2f} s with heading {reached:.1f} deg; {yaw_deg(gs):.2f} deg 8 s "
+          f"later")  # fmt: skip
+    # 180 deg at MPC_YAWRAUTO_MAX (30 deg/s) takes 6 s: reached well before, on its position alone.
+    assert abs(wrap(math.radians(reached - 180.0))) > math.radians(90.0)
+    assert abs(wrap(math.radians(yaw_deg(gs) - 180.0))) < math.radians(3.0)
+
+
 def test_an_orbit_faces_its_centre_by_default_goto_and_condition_yaw_turn_to_theirs(mpc_gs):
     gs = mpc_gs
     here = gs.latest["LOCAL_POSITION_NED"]
