@@ -93,10 +93,13 @@ def test_acceptance_checks_by_hand() -> None:
     pid = {**base, "vx_rmse": 1.0}
     assert all(passed for _, passed in acceptance("circle", circle, pid))
     bad = acceptance("circle", {**circle, "radial_rmse_m": 5.1, "bank_mean_deg": BANK_THEORY_DEG - 3.1}, pid)
-    assert [passed for _, passed in bad] == [True, False, False, True]
+    assert [passed for _, passed in bad] == [True, True, False, False, True]
     # a PID that crashed is not a bar to beat
-    assert len(acceptance("accel", base, {**pid, "survived": False})) == 1
-    assert not acceptance("accel-decel", {**base, "final_speed": 0.6}, None)[1][1]
+    assert len(acceptance("accel", base, {**pid, "survived": False})) == 2
+    assert not acceptance("accel-decel", {**base, "final_speed": 0.6}, None)[2][1]
+    # the nose across the course (a skid), and a run that never moved (no course: nothing to check)
+    assert [passed for _, passed in acceptance("accel", {**base, "heading_error_max_deg": 20.1}, None)] == [True, False]
+    assert acceptance("accel", {**base, "heading_error_max_deg": None}, None)[1][1]
 
 
 # ---- the autopilot's --offboard-lockstep, through the real processes ---------------------------------------------
