@@ -14,7 +14,8 @@ A route is a list of targets flown one after the other:
 The set-point is ramped at MPC_ACC_HOR (guidance.ramp) like the Offboard position set-points. The speeds are
 velocity set-points only: the unified MPC flies a leg at FW_AIRSPD_TRIM in forward flight with no mode logic.
 A target's yaw (rad; None: the velocity controllers' own rule) is its yaw set-point; a FlyTo with a yaw flown as a
-multicopter is done only once the heading is within MIS_YAW_ERR of it (PX4's waypoint yaw check); a HoldAt without
+multicopter is done only once the heading is within MIS_YAW_ERR of it (PX4's waypoint yaw check; not waited for
+with a yaw timeout, MIS_YAW_TMT > 0); a HoldAt without
 one holds the yaw of the last target that had one.
 """
 

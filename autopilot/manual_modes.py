@@ -103,7 +103,7 @@ class StickMode(FlightMode):
         self.params = params
         self.manual = manual
         self.stick_yaw = StickYaw()  # its heading is the sticks' frame (forward = x)
-        self.yaw_setpoint = YawSetpoint()
+        self.yaw_setpoint: YawSetpoint | None = None  # this tick's (setpoint() makes it before yaw() reads it)
         self.hold_xy: np.ndarray | None = None
         self.hold_down: float | None = None
         self.velocity = np.zeros(3)

@@ -23,7 +23,8 @@ back to multicopter at the item to MC (so the PID back-transitions before its la
 chooses each leg's speed by its length: the unified MPC transitions by itself (docs/mavlink.md, "Mission").
 
 A yaw (param4, degrees; NaN: the velocity controllers' own rule, the nose along the leg) is the item's targets' yaw
-set-point (autopilot/auto_flight.py: a waypoint with one is reached once the heading is within MIS_YAW_ERR).
+set-point (autopilot/auto_flight.py: a waypoint with one is reached once the heading is within MIS_YAW_ERR, or
+at once with a yaw timeout, MIS_YAW_TMT > 0).
 
 A mission started on the ground whose first navigation item is a waypoint or loiter (no takeoff item) takes off
 first, as PX4's mission does: a climb over the current position to the higher of the item's altitude and

@@ -87,8 +87,8 @@ class MpcWeights:
     # Each working servo's tilt away from the working servos' mean, per rad^2 (docs/mpc.md 2.9); 0 leaves the four
     # tilts independent, as the paper does.
     q_tilt_spread: float = 0.0
-    # The yaw's error from its reference bounded softly as the roll and pitch are, |psi - psi_ref| <= yaw_bound
-    # (docs/mpc.md 2.9); q = 0: no bound, as the paper.
+    # The yaw's error from its reference bounded softly in every stage (not at the end), |psi - psi_ref| <=
+    # yaw_bound (rad), q per rad^2, the roll and pitch bound's width (docs/mpc.md 2.9); q = 0: no bound, as the paper.
     q_yaw_bound: float = 0.0
     yaw_bound: float = math.radians(15.0)
     # The first stage's roll and pitch set-point away from the one flown at the previous tick, per rad^2 (move

@@ -75,7 +75,8 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
       "2 Return, 3 Land, 5 Terminate, 6 Disarm (motors off)"),
     P("MPC_VEL_MANUAL", REAL32, 10.0, 3.0, 20.0, "m/s", "Position: horizontal speed at full stick"),
     P("MPC_HOLD_DZ", REAL32, 0.1, 0.0, 1.0, "", "stick deadzone of Position and Altitude (centred: hold)"),
-    P("MPC_MAN_Y_MAX", REAL32, 150.0, 0.0, 400.0, "deg/s", "yaw stick: yaw rate at full stick (Position, Altitude)"),
+    P("MPC_MAN_Y_MAX", REAL32, 150.0, 0.0, 400.0, "deg/s", "yaw stick: yaw rate at full stick (Position, Altitude, "
+      "Orbit with yaw behaviour 4)"),
     P("MPC_YAWRAUTO_MAX", REAL32, 30.0, 5.0, 360.0, "deg/s", "fastest turn to a yaw set-point (Offboard, Mission, "
       "Go-to, Orbit; PX4's default 45: docs/autopilot.md section 6)"),
     P("MIS_YAW_ERR", REAL32, 12.0, 1.0, 90.0, "deg", "a mission waypoint with a yaw (param4) is reached once the "

@@ -32,14 +32,17 @@ YAW_STOPPED = math.radians(5.0)  # rad/s: a centred yaw stick locks the heading 
 
 
 class StickYaw:
-    """The yaw stick as PX4's StickYaw: the stick's rate while it is out or the turn it made is still stopping, then
-    the heading locked where the nose stopped (locked at once, the weak hover yaw overshot a fast turn's lock by
-    110 deg and swung back). `heading` is the nose while turning, then the locked heading."""
+    """The yaw stick (Position, Altitude, Orbit's RC_CONTROLLED): the stick's rate while it is out or the turn it
+    made is still stopping, then the heading locked where the nose stopped. PX4's StickYaw locks once its filtered
+    rate set-point is back to zero; here it locks once the body yaw rate is below YAW_STOPPED (locked at once, the
+    weak hover yaw overshot a fast turn's lock by 110 deg and swung back). `heading` (rad) is the nose while
+    turning, then the locked heading."""
 
     def __init__(self) -> None:
         self.heading = 0.0
 
     def reset(self, yaw: float) -> None:
+        """Lock the heading at `yaw` (rad)."""
         self.heading = yaw
 
     def update(self, stick_rate: float, yaw: float, yaw_rate: float) -> YawSetpoint:

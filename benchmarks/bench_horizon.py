@@ -22,6 +22,7 @@ from autopilot.controllers import MPC, build_flight_controller
 from autopilot.flight_controller import FlightController
 from autopilot.mpc_horizon import HORIZONS, LONG, MpcHorizon, StageGrid
 from autopilot.vehicle_state import VehicleState
+from ground_tools.metrics import heading_error_max_deg
 from bench_mpc import spread, vehicle_state
 from scenarios.profiles import PROFILES
 from sim_bridge.plant import Plant, Spawn
@@ -51,10 +52,6 @@ def velocity_ticks(
         plant.step()
 
 
-def wrap_deg(angle: np.ndarray) -> np.ndarray:
-    return (angle + 180.0) % 360.0 - 180.0
-
-
 def fly(horizon: MpcHorizon, profile_name: str, seconds: float) -> dict:
     rows = []
     for state, controller, v_sp in velocity_ticks(horizon, profile_name, seconds):
@@ -70,8 +67,7 @@ def fly(horizon: MpcHorizon, profile_name: str, seconds: float) -> dict:
         "vz_max": float(np.abs(vz).max()),
         "pitch_max": float(np.abs(pitch).max()),
         "roll_max": float(np.abs(roll).max()),
-        # the heading's error from the set-point's course, where the set-point has a horizontal speed
-        "yaw_error_max": float(np.abs(wrap_deg(yaw - np.degrees(np.arctan2(sy, sx)))[np.hypot(sx, sy) > 1]).max()),
+        "yaw_error_max": heading_error_max_deg(np.radians(yaw), sx, sy),  # deg off the set-point's course; None
         "pitch_sp_step_max": float(np.abs(np.diff(pitch_sp)).max()),
         "braking_pitch_sp_step_max": float(np.abs(np.diff(pitch_sp))[braking[1:]].max()) if braking.any() else 0.0,
         "failed": mpc.solves_failed if mpc else -1,
@@ -83,8 +79,8 @@ def fly(horizon: MpcHorizon, profile_name: str, seconds: float) -> dict:
 def parse_horizon(text: str) -> MpcHorizon:
     """A horizon by name (paper, long) or a grid as COUNTxTICKS+..., e.g. 10x1+15x13 (10 one-tick stages, 15 of 13
     ticks), with the long horizon's weights and one Gauss-Newton step per tick; options after it: /sM (M RK4 steps
-    per stage), /qQ (q_tilt_spread), /mQ (q_attitude_sp_move), /u (stages weighed alike), /yQ (q_yaw_bound), /YD (yaw_bound, deg), /LR (r_rotor_lift), /iK (K Gauss-Newton
-    steps per tick)."""
+    per stage), /qQ (q_tilt_spread), /mQ (q_attitude_sp_move), /u (stages weighed alike), /yQ (q_yaw_bound),
+    /YD (yaw_bound, deg), /LR (r_rotor_lift), /iK (K Gauss-Newton steps per tick)."""
     text, *options = text.split("/")
     if text in HORIZONS:
         horizon = HORIZONS[text]
@@ -127,7 +123,7 @@ def main() -> None:
         r = fly(horizon, args.profile, args.seconds)
         print(f"{name:12s} span {grid.span_s:5.2f} s  braking |v err| max {r['braking_error_max']:5.2f} m/s  "
               f"vx RMS {r['vx_rmse']:5.2f}  |vz| max {r['vz_max']:5.2f}  |pitch| max {r['pitch_max']:5.1f} deg  "
-              f"|roll| max {r['roll_max']:5.1f} deg  |yaw - course| max {r['yaw_error_max']:5.1f} deg  "
+              f"|roll| max {r['roll_max']:5.1f} deg  |yaw - course| max {r['yaw_error_max'] or 0.0:5.1f} deg  "
               f"pitch sp step max {r['pitch_sp_step_max']:5.1f} (braking {r['braking_pitch_sp_step_max']:5.1f}) deg  "
               f"failed {r['failed']}  PID {r['fell_back']}  "
               f"{spread(r['ms']) if r['ms'] else ''}", flush=True)  # fmt: skip

@@ -37,7 +37,8 @@ def _at_most(key: str, limit: float) -> Callable[[Metrics], bool]:
 # controller that brakes by skidding across its path (the long horizon, docs/mpc.md 2.9) is not.
 HEADING_LIMIT_DEG = 20.0
 
-# What the MPC must achieve in each scenario (issue 6's "done means"); every run must also survive.
+# What the MPC must achieve in each scenario (issue 6's "done means"); every run must also survive and keep its
+# nose on the course (acceptance()).
 CHECKS: dict[str, list[Check]] = {
     "accel": [],
     "accel-decel": [Check("ends in hover (mean speed over the last second <= 0.5 m/s)", _at_most("final_speed", 0.5))],

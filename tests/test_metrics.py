@@ -46,7 +46,7 @@ def test_heading_error_from_the_set_points_course_by_hand():
     assert flight_metrics(log, ["MPC"] * len(log["t"]))["heading_error_max_deg"] is None  # never 1 m/s
     log["vn_sp"][100:] = -5.0  # course 180 deg: a yaw of -170 deg is 10 deg off it, not 350
     log["yaw"][:] = math.radians(-170)
-    log["yaw"][:100] = 0.0  # standing still: not counted
+    log["yaw"][:100] = math.radians(90.0)  # standing still (no course): not counted
     assert flight_metrics(log, ["MPC"] * len(log["t"]))["heading_error_max_deg"] == pytest.approx(10.0)
     # A course to the east, the nose 60 deg off it to the north-east and then across it to the south-west.
     yaw = np.radians([30.0, 90.0, 210.0])

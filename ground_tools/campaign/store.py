@@ -17,9 +17,10 @@ STORE_FILE = "campaign.duckdb"
 TABLE = "flights"
 METRICS: dict[str, str] = {
     **{key: "DOUBLE" for key in (
-        "vx_rmse", "vy_rmse", "vz_rmse", "vz_max_abs", "roll_max_abs_deg", "pitch_max_abs_deg", "heading_error_max_deg",
-        "alt_change_max_m", "alt_loss_max_m", "t_reach_s", "tilt_tv_ratio", "radial_rmse_m", "radial_max_m",
-        "bank_mean_deg", "final_speed", "failure_t_s", "vx_rmse_after_failure", "solve_ms_median", "solve_ms_p99", "solve_ms_max")},
+        "vx_rmse", "vy_rmse", "vz_rmse", "vz_max_abs", "roll_max_abs_deg", "pitch_max_abs_deg",
+        "heading_error_max_deg", "alt_change_max_m", "alt_loss_max_m", "t_reach_s", "tilt_tv_ratio", "radial_rmse_m",
+        "radial_max_m", "bank_mean_deg", "final_speed", "failure_t_s", "vx_rmse_after_failure", "solve_ms_median",
+        "solve_ms_p99", "solve_ms_max")},
     "mode_switches": "INTEGER",
     "solves_failed": "INTEGER",
     "survived": "BOOLEAN",
