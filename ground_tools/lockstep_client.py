@@ -32,7 +32,7 @@ from transport.mavlink import MAV_RESULT_ACCEPTED, Link, mavlink
 M = mavlink
 PERIOD_MS = 20  # set-points at 50 Hz of simulation time (at least 20 Hz)
 START_MS = 1000  # the profile starts after 1 s of hovering in Offboard: its t = 0
-BATCH = 5  # set-points per answer once no trigger is pending (the profile is known ahead: fewer holds)
+BATCH = 50  # set-points per answer once no trigger is pending (1 s: the profile is known ahead, fewer holds)
 STREAM_RATES_HZ = {M.MAVLINK_MSG_ID_ATTITUDE: 50.0, M.MAVLINK_MSG_ID_LOCAL_POSITION_NED: 50.0,
                    M.MAVLINK_MSG_ID_SERVO_OUTPUT_RAW: 50.0}  # fmt: skip
 PX4_OFFBOARD = 6  # PX4 main mode
