@@ -13,9 +13,8 @@ u (8), the wrench set-point and the allocation's residual (see `encode_control`)
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
+import orjson
 
 PLANT_STATE_FIELDS: tuple[str, ...] = (
     ("t",)
@@ -107,8 +106,13 @@ def decode_plant_states(payload: bytes) -> list[dict[str, float]]:
     return [dict(zip(PLANT_STATE_FIELDS, row)) for row in plant_state_rows(payload).tolist()]
 
 
+# The JSON payloads are written by orjson: at 100 Hz the MPC's prediction (about 190 numbers) took json.dumps 93 us a
+# sample and orjson 6 us, on the cores the lockstep pair flies on (docs/performance.md). Compact separators; a
+# non-finite number is written as null (JSON has no NaN).
+
+
 def encode_event(t: float, event: str, text: str) -> bytes:
-    return json.dumps({"t": t, "event": event, "text": text}).encode()
+    return orjson.dumps({"t": t, "event": event, "text": text})
 
 
 def control_key(system_id: int) -> str:
@@ -126,7 +130,7 @@ def encode_control(
     residual: np.ndarray,
 ) -> bytes:
     """One autopilot control sample as JSON (SI units, angles in rad)."""
-    return json.dumps(
+    return orjson.dumps(
         {
             "t": t,
             "mode": mode,
@@ -137,7 +141,7 @@ def encode_control(
             "wrench_sp": wrench_sp.tolist(),
             "residual": residual.tolist(),
         }
-    ).encode()
+    )
 
 
 def mpc_key(system_id: int) -> str:
@@ -145,4 +149,4 @@ def mpc_key(system_id: int) -> str:
 
 
 def encode_mpc_solution(t: float, summary: dict) -> bytes:
-    return json.dumps({"t": t, **summary}).encode()
+    return orjson.dumps({"t": t, **summary})
