@@ -47,10 +47,15 @@ def _json_text(payload: bytes) -> tuple[str, Any]:
     """The payload as text and parsed; ValueError (with the reason) if it is not UTF-8 JSON."""
     try:
         text = payload.decode("utf-8")
-        return text, orjson.loads(text)
     except UnicodeDecodeError as exc:
         raise ValueError(f"not UTF-8: {exc.reason} at byte {exc.start}") from None
-    except orjson.JSONDecodeError as exc:
+    try:
+        return text, orjson.loads(text)
+    except orjson.JSONDecodeError:
+        pass  # strict JSON: Python's json also reads NaN / Infinity, which other publishers may send
+    try:
+        return text, json.loads(text)
+    except json.JSONDecodeError as exc:
         raise ValueError(f"not JSON: {exc.msg} at character {exc.pos}") from None
 
 

@@ -48,15 +48,17 @@ def plant_row(state: dict[str, float]) -> dict[str, float]:
 
 def control_row(control: dict) -> dict[str, Any]:
     """What the view keeps of one autopilot/control sample: time, velocity and attitude set-points, mode."""
-    vsp, esp = control["velocity_sp"], control["euler_sp"]
+    # a non-finite number arrives as null (orjson): nan here, as a gap in the plot
+    vsp = np.asarray(control["velocity_sp"], dtype=float)
+    esp = np.degrees(np.asarray(control["euler_sp"], dtype=float))
     return {
         "t": float(control["t"]),
         "vn_sp": float(vsp[0]),
         "ve_sp": float(vsp[1]),
         "vd_sp": float(vsp[2]),
-        "roll_sp": math.degrees(esp[0]),
-        "pitch_sp": math.degrees(esp[1]),
-        "yaw_sp": math.degrees(esp[2]),
+        "roll_sp": float(esp[0]),
+        "pitch_sp": float(esp[1]),
+        "yaw_sp": float(esp[2]),
         "mode": str(control["mode"]),
     }
 

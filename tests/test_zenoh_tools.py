@@ -71,6 +71,16 @@ def test_decode_samples_and_records():
         assert not ok and json.loads(lines[0])["error"].startswith(reason)
     lines, ok = encode_records(plant_state_key(1), plant_payload())
     assert ok and json.loads(lines[0])["payload"]["tilt1"] == pytest.approx(math.radians(30))
+    # Python's json writes NaN; orjson does not read it, the recorder still does
+    lines, ok = encode_records("vtol/2/autopilot/events", b'{"t": NaN, "text": "x"}')
+    assert ok and math.isnan(json.loads(lines[0])["payload"]["t"])
+    # the autopilot's own payloads carry a non-finite number as null; the view plots it as a gap
+    nan_control = encode_control(1.0, "MC", np.array([np.nan, 0.0, 0.0]), np.zeros(3), np.zeros(4), np.zeros(8),
+                                 np.zeros(6), np.zeros(6))  # fmt: skip
+    assert b'"velocity_sp":[null,0.0,0.0]' in nan_control
+    view = TelemetryView()
+    view.add(control_key(1), nan_control)
+    assert not view.errors and math.isnan(view.last_control["vn_sp"])
 
 
 def test_a_batched_plant_payload_is_a_record_a_step():
