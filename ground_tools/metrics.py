@@ -51,7 +51,8 @@ def heading_error_max_deg(yaw: np.ndarray, vn_sp: np.ndarray, ve_sp: np.ndarray)
     moving = np.hypot(vn_sp, ve_sp) >= COURSE_MIN_SPEED
     if not np.any(moving):
         return None
-    error = np.angle(np.exp(1j * (yaw[moving] - np.arctan2(ve_sp[moving], vn_sp[moving]))))
+    difference = yaw[moving] - np.arctan2(ve_sp[moving], vn_sp[moving])
+    error = np.arctan2(np.sin(difference), np.cos(difference))  # wrapped, as autopilot.attitude.wrap
     return float(np.degrees(np.abs(error)).max())
 
 

@@ -111,8 +111,9 @@ def decode_plant_states(payload: bytes) -> list[dict[str, float]]:
 # non-finite number is written as null (JSON has no NaN).
 
 
-def encode_event(t: float, event: str, text: str) -> bytes:
-    return orjson.dumps({"t": t, "event": event, "text": text})
+def encode_event(t: float, event: str, text: str, **fields: int | float | str) -> bytes:
+    """An event of plant/events or autopilot/events: {"t": <sim s>, "event": ..., "text": ..., **fields}."""
+    return orjson.dumps({"t": t, "event": event, "text": text, **fields})
 
 
 def control_key(system_id: int) -> str:

@@ -8,12 +8,12 @@ cannot flood the links.
 
 from __future__ import annotations
 
-import json
 import sys
 from collections.abc import Callable
 from typing import Any
 
 from autopilot.mavlink.router import Router
+from transport.telemetry import encode_event
 
 NOTICE_PERIOD_USEC = 1_000_000
 NOTICES_PER_PERIOD = 20
@@ -48,8 +48,7 @@ class Announcer:
             for chunk, text_id, sequence in chunks:
                 link.queue(link.mav.statustext_encode(severity, chunk, text_id, sequence))
         if self.events_publisher is not None:
-            self.events_publisher.put(json.dumps({"t": self.clock() / 1e6, "event": "statustext",
-                                                  "severity": severity, "text": text}).encode())  # fmt: skip
+            self.events_publisher.put(encode_event(self.clock() / 1e6, "statustext", text, severity=severity))
 
     def _may_say(self, key: str) -> bool:
         now = self.clock()
