@@ -189,7 +189,7 @@ def main(argv: list[str] | None = None) -> int:
         session = open_session(args.zenoh_listen or [ports.zenoh_autopilot], args.zenoh_connect, PROG)
     flight_stack = FlightStack(commander, GuidedRequests(commander), injection, params, missions)
     services = MavlinkServices(
-        router, params, flight_stack, system_id=system_id, home=home,
+        router, params, flight_stack, system_id=system_id, home=home, missions=missions.snapshot,
         events_publisher=None if session is None else session.declare_publisher(autopilot_events_key(system_id)),
         quiet=args.quiet,
     )  # fmt: skip

@@ -2,9 +2,10 @@
 
 Uploads and downloads run one at a time (mission_transfer.py holds their state); a complete, checked upload
 becomes a `StoreMission` request to the flight stack, which keeps the lists (autopilot/mission_store.py). The
-stored lists are read from the VehicleStatus only (downloads, MISSION_CURRENT, MISSION_ITEM_REACHED). Bad input
-is refused with the MISSION_ACK result PX4 sends (or, where PX4 sends none, the one the MAVLink spec names) and
-a STATUSTEXT, and leaves the stored lists as they were. Messages for another system id are ignored.
+stored lists are read from the VehicleStatus only (downloads, MISSION_CURRENT, MISSION_ITEM_REACHED), and before
+the first one from the lists loaded at start (StatusView.missions). Bad input is refused with the MISSION_ACK
+result PX4 sends (or, where PX4 sends none, the one the MAVLink spec names) and a STATUSTEXT, and leaves the
+stored lists as they were. Messages for another system id are ignored.
 """
 
 from __future__ import annotations
@@ -35,7 +36,7 @@ from autopilot.mission_items import (
     result_name,
     to_float_coordinates,
 )
-from autopilot.mission_store import EMPTY, Missions
+from autopilot.mission_store import Missions
 from autopilot.requests import ClearMission, RequestHandler, SetMissionCurrent, StoreMission
 from autopilot.vehicle_status import VehicleStatus
 from transport.mavlink import mavlink as M
@@ -68,8 +69,7 @@ class MissionService:
 
     @property
     def stored(self) -> Missions:
-        status = self.view.status
-        return EMPTY if status is None else status.missions
+        return self.view.missions
 
     # ---- uploads ----------------------------------------------------------------------------------------------------
     def on_count(self, link: GroundLink, message: Any) -> None:

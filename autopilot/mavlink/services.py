@@ -30,6 +30,7 @@ from autopilot.mavlink.router import GroundLink, Router
 from autopilot.mavlink.signing import SigningService
 from autopilot.mavlink.statustext import Announcer
 from autopilot.mavlink.view import StatusView
+from autopilot.mission_store import Missions
 from autopilot.parameters import ParameterStore
 from autopilot.requests import GcsHeartbeat, RequestHandler
 from autopilot.vehicle_status import VehicleStatus
@@ -46,10 +47,12 @@ Handler = Callable[[GroundLink, Any], None]
 
 class MavlinkServices:
     def __init__(self, router: Router, params: ParameterStore, flight_stack: RequestHandler, *, system_id: int,
-                 home: Home, events_publisher: Any | None = None, quiet: bool = False) -> None:  # fmt: skip
+                 home: Home, missions: Missions, events_publisher: Any | None = None,
+                 quiet: bool = False) -> None:  # fmt: skip
+        """missions: the stored lists as loaded from the mission file at start (served until the first publish)."""
         self.router = router
         self.flight_stack = flight_stack
-        self.view = StatusView()
+        self.view = StatusView(loaded_missions=missions)
         self._announced_home: HomePosition | None = None
         self.announcer = Announcer(router, self.view.clock, events_publisher, quiet)
         self.commands = CommandService(flight_stack, self.view, self.announcer, system_id=system_id, home=home)
