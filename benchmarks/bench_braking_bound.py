@@ -1,7 +1,7 @@
 """How well the MPC's own model can brake: a braking manoeuvre for accel-decel found by IPOPT, against the goal.
 
     python benchmarks/bench_braking_bound.py [--horizon paper|long] [--seconds 4] [--stage 0.1] [--on-course]
-                                             [--guess TILT_DEG,THRUST_N,PITCH_DEG]
+                                             [--guess TILT_DEG,THRUST_N,PITCH_DEG] [--decel A]
 
 Issue 13 asks of the MPC a velocity error of at most 1.5 m/s while accel-decel brakes from 24 m/s at 2 m/s^2, with
 |v_z| <= 0.5 m/s and |pitch| <= 25 deg. Is that the vehicle's limit or the controller's? This flies the profile in
@@ -30,7 +30,7 @@ from autopilot.attitude import DEFAULT_GAINS
 from autopilot.mpc_horizon import HORIZONS
 from autopilot.mpc_model import CHI, CHI_DOT, NU, NX, PSI, PSI_D, THRUST, MpcLimits, discrete_dynamics
 from bench_horizon import BRAKING_S, velocity_ticks
-from scenarios.profiles import accel_decel
+from scenarios.profiles import PROFILES, accel_decel_braking_at
 
 GOALS = {"braking error": 1.5, "|v_z|": 0.5, "|pitch|": 25.0}  # m/s, m/s, deg
 PITCH = PSI.start + 1
@@ -40,7 +40,7 @@ SUBSTEP_S = 0.01  # RK4 steps of the MPC's own 10 ms inside each stage
 def cruise_state(horizon: str) -> np.ndarray:
     """The MPC's state x_0 at its last tick before the braking starts (read once that tick has run)."""
     controller = None
-    for _, controller, _ in velocity_ticks(HORIZONS[horizon], "accel-decel", BRAKING_S[0]):
+    for _, controller, _ in velocity_ticks(HORIZONS[horizon], PROFILES["accel-decel"][0], BRAKING_S[0]):
         pass
     if controller is None or controller.mpc is None:
         raise SystemExit("the MPC did not fly up to the braking")
@@ -48,7 +48,7 @@ def cruise_state(horizon: str) -> np.ndarray:
 
 
 def best_braking(x0: np.ndarray, seconds: float, stage_s: float, on_course: bool = False,
-                 guess: tuple[float, float, float] = (70.0, 5.0, 0.0)) -> dict:
+                 guess: tuple[float, float, float] = (70.0, 5.0, 0.0), deceleration: float = 2.0) -> dict:
     """A local minimum over the model's inputs of max_k |v_k - v_sp,k|, v_sp = (the ramp from t = 0, 0, 0), with
     |v_z| and |pitch| bounded (on_course: |v_y| too). guess: IPOPT's start, the tilts (deg), thrusts (N) and pitch
     (deg) all along. Raises RuntimeError (with IPOPT's status) when IPOPT does not converge."""
@@ -57,7 +57,8 @@ def best_braking(x0: np.ndarray, seconds: float, stage_s: float, on_course: bool
     step = discrete_dynamics(airframe, DEFAULT_GAINS, substeps=max(1, int(round(stage_s / SUBSTEP_S))))
     opti = ca.Opti()
     x, u, worst = opti.variable(NX, stages + 1), opti.variable(NU, stages), opti.variable()
-    ramp = np.array([accel_decel(BRAKING_S[0] + k * stage_s)[0] for k in range(stages + 1)])
+    profile = accel_decel_braking_at(deceleration)
+    ramp = np.array([profile(BRAKING_S[0] + k * stage_s)[0] for k in range(stages + 1)])
     grid = ca.DM([stage_s, 0.0])  # the delayed rate in continuous time, as on the long horizon's stages
     opti.subject_to(x[:, 0] == x0)
     for k in range(stages):
@@ -107,12 +108,13 @@ def main() -> None:
     parser.add_argument("--stage", type=float, default=0.1, help="stage length of the bound's problem (s)")
     parser.add_argument("--on-course", action="store_true", help="bound |v_y| as |v_z|: no sliding sideways")
     parser.add_argument("--guess", default="70,5,0", help="IPOPT's start: tilt (deg), thrust (N), pitch (deg)")
+    parser.add_argument("--decel", type=float, default=2.0, help="the braking's deceleration (m/s^2; accel-decel: 2)")
     args = parser.parse_args()
     x0 = cruise_state(args.horizon)
     print(f"cruise at {BRAKING_S[0]:g} s ({args.horizon} horizon): v_x {x0[0]:.2f} m/s, tilts "
           f"{np.round(np.degrees(x0[CHI]), 1).tolist()} deg, pitch {math.degrees(x0[PITCH]):.2f} deg")
     tilt_deg, thrust, pitch_deg = (float(text) for text in args.guess.split(","))
-    best = best_braking(x0, args.seconds, args.stage, args.on_course, (tilt_deg, thrust, pitch_deg))
+    best = best_braking(x0, args.seconds, args.stage, args.on_course, (tilt_deg, thrust, pitch_deg), args.decel)
     print(f"best braking over the first {args.seconds:g} s of the ramp (stages of {args.stage:g} s, IPOPT "
           f"{best['solve_s']:.0f} s): largest |v - v_sp| {best['worst']:.3f} m/s at {best['at_s']:.2f} s "
           f"(goal <= {GOALS['braking error']:g}), |pitch| up to {best['pitch_deg']:.1f} deg, |roll| up to "

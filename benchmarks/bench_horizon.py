@@ -1,6 +1,6 @@
 """The MPC's horizon grids on the braking of accel-decel, in one process (plant physics + flight controller).
 
-    python benchmarks/bench_horizon.py [--grids paper,long] [--profile accel-decel] [--seconds 32]
+    python benchmarks/bench_horizon.py [--grids paper,long] [--profile accel-decel] [--seconds 32] [--decel A]
 
 A screening tool for the grids of docs/mpc.md 2.9 (the decision itself rests on `vtol scenario` through MAVLink).
 Per grid: the largest velocity error |v - v_sp| while braking (15-28 s of accel-decel; sideways too), max |v_z|,
@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import numpy as np
 
@@ -24,20 +24,19 @@ from autopilot.mpc_horizon import HORIZONS, LONG, MpcHorizon, StageGrid
 from autopilot.vehicle_state import VehicleState
 from ground_tools.metrics import heading_error_max_deg
 from bench_mpc import spread, vehicle_state
-from scenarios.profiles import PROFILES
+from scenarios.profiles import PROFILES, accel_decel_braking_at
 from sim_bridge.plant import Plant, Spawn
 
-BRAKING_S = (15.0, 28.0)
+BRAKING_S = (15.0, 28.0)  # accel-decel's braking from 24 m/s at 2 m/s^2, and 1 s after it
 
 
 def velocity_ticks(
-    horizon: MpcHorizon, profile_name: str, seconds: float
+    horizon: MpcHorizon, profile: Callable[[float], np.ndarray], seconds: float
 ) -> Iterator[tuple[VehicleState, FlightController, np.ndarray]]:
     """Fly the profile in one process (plant physics + flight controller, no sockets) from a hover at 100 m: at each
     velocity tick, after the set-point is given and before the controller runs, the state, the controller and the
     set-point."""
     airframe = load_airframe()
-    profile = PROFILES[profile_name][0]
     plant = Plant(airframe, Spawn(altitude=100.0))
     controller = build_flight_controller(airframe, MPC, mpc_horizon=horizon)
     state = VehicleState()
@@ -52,13 +51,14 @@ def velocity_ticks(
         plant.step()
 
 
-def fly(horizon: MpcHorizon, profile_name: str, seconds: float) -> dict:
+def fly(horizon: MpcHorizon, profile: Callable[[float], np.ndarray], seconds: float,
+        braking_s: tuple[float, float] = BRAKING_S) -> dict:
     rows = []
-    for state, controller, v_sp in velocity_ticks(horizon, profile_name, seconds):
+    for state, controller, v_sp in velocity_ticks(horizon, profile, seconds):
         rows.append((state.time_s, *state.velocity_ned, *v_sp, *np.degrees(state.euler),
                      np.degrees(controller.velocity_command.euler_sp[1])))  # fmt: skip
     t, vx, vy, vz, sx, sy, sz, roll, pitch, yaw, pitch_sp = np.array(rows).T
-    braking = (t >= BRAKING_S[0]) & (t <= BRAKING_S[1])
+    braking = (t >= braking_s[0]) & (t <= braking_s[1])
     error = np.sqrt((vx - sx) ** 2 + (vy - sy) ** 2 + (vz - sz) ** 2)  # the whole vector's: a skid's v_y counts
     mpc = controller.mpc
     return {
@@ -115,12 +115,22 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--grids", default="paper,long")
     parser.add_argument("--profile", default="accel-decel", choices=sorted(PROFILES))
-    parser.add_argument("--seconds", type=float, default=32.0)
+    parser.add_argument("--seconds", type=float, help="default: the profile's length (accel-decel 32 s)")
+    parser.add_argument("--decel", type=float, metavar="A",
+                        help="accel-decel braking at A m/s^2 instead of 2 (the braking window and length follow)")
     args = parser.parse_args()
+    profile, seconds = PROFILES[args.profile]
+    braking_s = BRAKING_S
+    if args.decel is not None:
+        if args.profile != "accel-decel" or args.decel <= 0:
+            parser.error("--decel needs --profile accel-decel and a positive deceleration")
+        profile, stop_s = accel_decel_braking_at(args.decel), BRAKING_S[0] + 24.0 / args.decel
+        braking_s, seconds = (BRAKING_S[0], stop_s + 1.0), stop_s + 5.0
+    seconds = args.seconds or seconds
     for name in args.grids.split(","):
         horizon = parse_horizon(name)
         grid = horizon.grid
-        r = fly(horizon, args.profile, args.seconds)
+        r = fly(horizon, profile, seconds, braking_s)
         print(f"{name:12s} span {grid.span_s:5.2f} s  braking |v err| max {r['braking_error_max']:5.2f} m/s  "
               f"vx RMS {r['vx_rmse']:5.2f}  |vz| max {r['vz_max']:5.2f}  |pitch| max {r['pitch_max']:5.1f} deg  "
               f"|roll| max {r['roll_max']:5.1f} deg  |yaw - course| max {r['yaw_error_max'] or 0.0:5.1f} deg  "

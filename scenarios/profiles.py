@@ -34,6 +34,18 @@ def accel_decel(t: float) -> np.ndarray:
     return np.array([max(0.0, 24.0 - ACCELERATION * (t - 15.0)), 0.0, 0.0])
 
 
+def accel_decel_braking_at(deceleration: float) -> Callable[[float], np.ndarray]:
+    """accel-decel with its braking at `deceleration` (m/s^2) instead of 2, for measuring how fast the aircraft can
+    brake (benchmarks/bench_horizon.py, bench_braking_bound.py --decel; docs/mpc.md 2.9)."""
+
+    def profile(t: float) -> np.ndarray:
+        if t <= 15.0:
+            return accel_decel(t)
+        return np.array([max(0.0, 24.0 - deceleration * (t - 15.0)), 0.0, 0.0])
+
+    return profile
+
+
 @dataclass(frozen=True)
 class CircleProfile:
     """Accelerate north at 2 m/s^2 to `speed`, then v = speed (cos wt', sin wt', 0), w = speed / radius: `turns`

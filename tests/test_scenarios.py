@@ -24,6 +24,7 @@ from ground_tools.processes import AutopilotCommand
 from ground_tools.scenario_report import acceptance, velocity_rmse, write_report
 from ground_tools.scenario_run import WALL_CLOCK_KEYS
 from scenarios.experiments import BANK_THEORY_DEG, SCENARIOS, Telemetry, servo_reaches, yaw_reaches
+from scenarios.profiles import PROFILES, accel_decel_braking_at
 from tiltrotor_sitl import Vehicle
 from transport.flight_log import ALLOCATED, T, read_flight_log
 from transport.mavlink import Link, mavlink
@@ -61,6 +62,15 @@ def test_grid_and_profile_setpoints() -> None:
     assert np.array_equal(setpoint_for(accel, START_MS - PERIOD_MS), np.zeros(3))  # hover before the profile
     assert setpoint_for(accel, START_MS + 5000)[0] == pytest.approx(10.0)  # 2 m/s^2 x 5 s
     assert setpoint_for(accel, START_MS + 20000)[0] == pytest.approx(27.74)
+
+
+def test_accel_decel_with_another_braking_rate() -> None:
+    paper, gentle = PROFILES["accel-decel"][0], accel_decel_braking_at(1.0)
+    for t in (0.0, 7.5, 15.0, 15.5, 20.0, 31.0):
+        assert np.array_equal(accel_decel_braking_at(2.0)(t), paper(t))
+    assert np.array_equal(gentle(10.0), paper(10.0))  # the same acceleration and cruise
+    assert gentle(21.0)[0] == pytest.approx(18.0) and paper(21.0)[0] == pytest.approx(12.0)
+    assert gentle(40.0)[0] == 0.0
 
 
 def test_triggers() -> None:
