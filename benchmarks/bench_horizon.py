@@ -24,10 +24,10 @@ from autopilot.mpc_horizon import HORIZONS, LONG, MpcHorizon, StageGrid
 from autopilot.vehicle_state import VehicleState
 from ground_tools.metrics import heading_error_max_deg
 from bench_mpc import spread, vehicle_state
-from scenarios.profiles import PROFILES, accel_decel_braking_at
+from scenarios.profiles import DECEL_CRUISE, DECEL_START_S, PROFILES, accel_decel_braking_at
 from sim_bridge.plant import Plant, Spawn
 
-BRAKING_S = (15.0, 28.0)  # accel-decel's braking from 24 m/s at 2 m/s^2, and 1 s after it
+BRAKING_S = (DECEL_START_S, 28.0)  # accel-decel's braking from 24 m/s at 2 m/s^2, and 1 s after it
 
 
 def velocity_ticks(
@@ -124,7 +124,7 @@ def main() -> None:
     if args.decel is not None:
         if args.profile != "accel-decel" or args.decel <= 0:
             parser.error("--decel needs --profile accel-decel and a positive deceleration")
-        profile, stop_s = accel_decel_braking_at(args.decel), BRAKING_S[0] + 24.0 / args.decel
+        profile, stop_s = accel_decel_braking_at(args.decel), DECEL_START_S + DECEL_CRUISE / args.decel
         braking_s, seconds = (BRAKING_S[0], stop_s + 1.0), stop_s + 5.0
     seconds = args.seconds or seconds
     for name in args.grids.split(","):

@@ -6,6 +6,7 @@ ground station streams set-points, `vtol-autopilot --profile`) and by the scenar
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -27,23 +28,22 @@ def accel(t: float) -> np.ndarray:
     return np.array([min(ACCELERATION * t, ACCEL_TARGET), 0.0, 0.0])
 
 
-def accel_decel(t: float) -> np.ndarray:
-    """v_x = min(2t, 24) up to 15 s, then max(0, 24 - 2 (t - 15)); 32 s."""
-    if t <= 15.0:
-        return np.array([min(ACCELERATION * t, 24.0), 0.0, 0.0])
-    return np.array([max(0.0, 24.0 - ACCELERATION * (t - 15.0)), 0.0, 0.0])
+DECEL_CRUISE = 24.0  # m/s, accel-decel's cruise
+DECEL_START_S = 15.0  # s, where accel-decel's braking starts
+
+
+def accel_decel(t: float, deceleration: float = ACCELERATION) -> np.ndarray:
+    """v_x = min(2t, 24) up to 15 s, then max(0, 24 - 2 (t - 15)); 32 s. `deceleration` (m/s^2) other than 2 is for
+    measuring how fast the aircraft can brake (accel_decel_braking_at; docs/mpc.md 2.9)."""
+    if t <= DECEL_START_S:
+        return np.array([min(ACCELERATION * t, DECEL_CRUISE), 0.0, 0.0])
+    return np.array([max(0.0, DECEL_CRUISE - deceleration * (t - DECEL_START_S)), 0.0, 0.0])
 
 
 def accel_decel_braking_at(deceleration: float) -> Callable[[float], np.ndarray]:
-    """accel-decel with its braking at `deceleration` (m/s^2) instead of 2, for measuring how fast the aircraft can
-    brake (benchmarks/bench_horizon.py, bench_braking_bound.py --decel; docs/mpc.md 2.9)."""
-
-    def profile(t: float) -> np.ndarray:
-        if t <= 15.0:
-            return accel_decel(t)
-        return np.array([max(0.0, 24.0 - deceleration * (t - 15.0)), 0.0, 0.0])
-
-    return profile
+    """accel-decel with its braking at `deceleration` (m/s^2) instead of 2 (benchmarks/bench_horizon.py,
+    bench_braking_bound.py --decel)."""
+    return functools.partial(accel_decel, deceleration=deceleration)
 
 
 @dataclass(frozen=True)
