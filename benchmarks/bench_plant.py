@@ -21,7 +21,8 @@ import numpy as np
 from aircraft.actuators import command_to_pwm, pwm_to_command
 from aircraft.airframe import load_airframe
 from aircraft.wrench import body_wrench
-from ground_tools.processes import SimCommand, Zenoh, free_udp_port
+from ground_tools.free_ports import free_udp_port
+from ground_tools.processes import SimCommand, Zenoh
 from sim_bridge.plant import Plant, Spawn, hover_command
 from sim_bridge.sensors import SensorSuite
 from transport.geodesy import Home, LocalGeodetic

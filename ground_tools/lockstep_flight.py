@@ -11,8 +11,9 @@ import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
+from ground_tools.free_ports import free_udp_port
 from ground_tools.processes import (AutopilotCommand, Controller, SimCommand, Zenoh, deterministic_argv,
-                                    deterministic_environment, die_with_parent, free_link_ports, free_udp_port)  # fmt: skip
+                                    deterministic_environment, die_with_parent, free_link_ports)  # fmt: skip
 
 
 class FlightFailed(RuntimeError):

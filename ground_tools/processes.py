@@ -13,16 +13,17 @@ import os
 import signal
 import subprocess
 import shutil
+import socket
 import platform
 import functools
 
-import socket
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
+from ground_tools.free_ports import lease_ports
 from transport.geodesy import Home, LocalGeodetic, home_from
 from transport.ports import LOOPBACK, Ports
 
@@ -65,13 +66,7 @@ def fleet_home(index: int, home: Home | None = None, spacing_m: float = FLEET_SP
     return Home(lat, lon, alt)
 
 
-# ---- free ports --------------------------------------------------------------------------------------------------
-def _free_port(kind: socket.SocketKind) -> int:
-    with socket.socket(socket.AF_INET, kind) as s:
-        s.bind((LOOPBACK, 0))
-        return s.getsockname()[1]
-
-
+# ---- children that end with their parent -----------------------------------------------------------------------
 PR_SET_PDEATHSIG = 1  # Linux prctl(2)
 
 
@@ -132,21 +127,6 @@ def deterministic_argv(argv: list[str]) -> list[str]:
     return [*_no_randomization_prefix(), *argv]
 
 
-def free_udp_port() -> int:
-    """A UDP port on the loopback that nobody had bound a moment ago."""
-    return _free_port(socket.SOCK_DGRAM)
-
-
-def free_tcp_port() -> int:
-    """A TCP port on the loopback that nobody had bound a moment ago."""
-    return _free_port(socket.SOCK_STREAM)
-
-
-def free_zenoh_endpoint() -> str:
-    """A zenoh endpoint on a free loopback TCP port."""
-    return f"tcp/{LOOPBACK}:{free_tcp_port()}"
-
-
 @dataclass(frozen=True)
 class LinkPorts:
     """The autopilot's two ground-station links: the UDP ports it binds and those it sends to until a client
@@ -166,7 +146,7 @@ class LinkPorts:
 def free_link_ports() -> LinkPorts:
     """Ground-station links on free ports (nobody listens on the remote ones), so an autopilot can run beside a
     `vtol up` or another one."""
-    return LinkPorts(free_udp_port(), free_udp_port(), free_udp_port(), free_udp_port())
+    return LinkPorts(*lease_ports([socket.SOCK_DGRAM] * 4))
 
 
 @dataclass(frozen=True)
@@ -188,7 +168,8 @@ class VehiclePorts:
     @classmethod
     def free(cls) -> VehiclePorts:
         """Free ports, so a vehicle can run beside `vtol up` or another vehicle."""
-        return cls(free_udp_port(), free_link_ports(), free_zenoh_endpoint(), free_zenoh_endpoint())
+        plant, *links, zenoh_plant, zenoh_autopilot = lease_ports([socket.SOCK_DGRAM] * 5 + [socket.SOCK_STREAM] * 2)
+        return cls(plant, LinkPorts(*links), f"tcp/{LOOPBACK}:{zenoh_plant}", f"tcp/{LOOPBACK}:{zenoh_autopilot}")
 
 
 # ---- the command lines -----------------------------------------------------------------------------------------

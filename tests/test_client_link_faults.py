@@ -5,7 +5,7 @@ stream, and a link that drops everything triggers the Offboard-loss failsafe."""
 from __future__ import annotations
 
 from ground_tools.fault_proxy import Faults, FaultProxy
-from ground_tools.processes import free_udp_port
+from ground_tools.free_ports import free_udp_port
 from tests.ground_station import HOLD, OFFBOARD, GroundStation
 from tiltrotor_sitl import Vehicle
 from transport.mavlink import mavlink as M

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ground_tools.processes import free_udp_port
+from ground_tools.free_ports import free_udp_port
 from tiltrotor_sitl import Vehicle
 from transport.flight_log import DOWN, read_flight_log
 from transport.mavlink import mavlink

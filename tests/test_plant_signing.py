@@ -12,7 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, free_link_ports, free_udp_port
+from ground_tools.free_ports import free_udp_port
+from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, free_link_ports
 from tests.test_plant_ownership import hellos_answered
 from transport.link_signing import KeyFileRefused, parse_key
 

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from ground_tools import cli
-from ground_tools.processes import free_zenoh_endpoint
+from ground_tools.free_ports import free_zenoh_endpoint
 from ground_tools.telemetry_record import (
     TelemetryRecorder,
     decode_samples,

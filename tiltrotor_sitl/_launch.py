@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Literal
 
 from autopilot.parameters import ParameterRejected, ParameterStore
+from ground_tools.free_ports import free_udp_port
 from ground_tools.processes import (AutopilotCommand, LinkPorts, SimCommand, VehiclePorts, Zenoh,
                                     deterministic_argv, fleet_home)  # fmt: skip
 from tiltrotor_sitl import _children
@@ -248,7 +249,7 @@ def launch(options: Options, count: int, folder: Path | None = None) -> tuple[li
     began = time.monotonic()
     first = options.first_sysid()
     default_gcs = Ports(0).gcs_remote if options.instance is not None else None
-    gcs_remote = options.gcs_port or default_gcs or _free_udp_port()
+    gcs_remote = options.gcs_port or default_gcs or free_udp_port()
     plan = [(first + i, _vehicle_ports(options, i, gcs_remote)) for i in range(count)]
     for sysid, ports in plan:
         _check_free(options, ports, sysid)
@@ -293,12 +294,6 @@ def launch(options: Options, count: int, folder: Path | None = None) -> tuple[li
 
 def _not_listening() -> str:
     return f"no plant said {PLANT_LISTENING!r} on stderr"
-
-
-def _free_udp_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind((LOOPBACK, 0))
-        return s.getsockname()[1]
 
 
 def stop(vehicles: list[Started], remove: Path | None) -> None:

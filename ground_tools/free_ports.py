@@ -1,0 +1,136 @@
+"""Free loopback ports for processes this program starts, handed out so that nothing takes them before the
+process binds them.
+
+A port found by binding port 0 and closing the socket again comes from the kernel's ephemeral range, the range
+it also draws from for every other socket bound to port 0 or connected without a bind (a pymavlink client, a
+zenoh connection). A vehicle's processes bind their ports about a second after they are chosen (their imports),
+and in that gap such a socket elsewhere could take one. So ports are chosen below the ephemeral range, where the
+kernel never hands out a port by itself, and every choice is written into a lease file shared by all the
+programs of this user on this machine: a port stays leased for `LEASE_S` seconds, and no other caller gets it
+meanwhile. A candidate is also bound once before it is given, so a port some process holds is never chosen.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import os
+import random
+import socket
+import tempfile
+import time
+from collections.abc import Iterable
+from pathlib import Path
+
+from transport.ports import LOOPBACK
+
+LEASE_S = 60.0  # far longer than a process takes to start and bind
+POOL_FLOOR = 20000  # above every default port of every instance (transport/ports.py: at most 19569)
+POOL_CEILING = 65535
+DEFAULT_EPHEMERAL = (32768, 60999)  # Linux's default net.ipv4.ip_local_port_range
+MIN_POOL = 1000
+TRIES = 200  # candidates tried, in random order, before giving up
+
+
+def ephemeral_range(text: str | None = None) -> tuple[int, int]:
+    """The kernel's ephemeral port range: Linux's /proc/sys/net/ipv4/ip_local_port_range (or `text` in its
+    format, "low high"), or Linux's default where the file is missing or unreadable."""
+    if text is None:
+        try:
+            text = Path("/proc/sys/net/ipv4/ip_local_port_range").read_text()
+        except OSError:
+            return DEFAULT_EPHEMERAL
+    fields = text.split()
+    if len(fields) != 2 or not all(field.isdigit() for field in fields):
+        return DEFAULT_EPHEMERAL
+    low, high = int(fields[0]), int(fields[1])
+    return (low, high) if low <= high else DEFAULT_EPHEMERAL
+
+
+def pool(ephemeral: tuple[int, int]) -> range:
+    """The ports to choose from: the larger of the stretches below and above the ephemeral range (from
+    POOL_FLOOR), or everything from POOL_FLOOR where neither has MIN_POOL ports."""
+    low, high = ephemeral
+    below = range(POOL_FLOOR, max(POOL_FLOOR, low))
+    above = range(max(POOL_FLOOR, high + 1), POOL_CEILING + 1)
+    best = max(below, above, key=len)
+    return best if len(best) >= MIN_POOL else range(POOL_FLOOR, POOL_CEILING + 1)
+
+
+def lease_file() -> Path:
+    """Where the leases are kept: one file per user in the temporary directory."""
+    return Path(tempfile.gettempdir()) / f"tiltrotor-sitl-ports-{os.getuid()}.leases"
+
+
+def _read_leases(text: str, now: float) -> dict[tuple[str, int], float]:
+    """The unexpired leases in the file's text: lines "udp|tcp PORT EXPIRY" (epoch seconds); others are skipped."""
+    leases = {}
+    for line in text.splitlines():
+        fields = line.split()
+        if len(fields) != 3 or fields[0] not in ("udp", "tcp") or not fields[1].isdigit():
+            continue
+        try:
+            expiry = float(fields[2])
+        except ValueError:
+            continue
+        if expiry > now:
+            leases[(fields[0], int(fields[1]))] = expiry
+    return leases
+
+
+def _bindable(kind: socket.SocketKind, port: int) -> bool:
+    with socket.socket(socket.AF_INET, kind) as probe:
+        try:
+            probe.bind((LOOPBACK, port))
+        except OSError:
+            return False
+    return True
+
+
+def _protocol(kind: socket.SocketKind) -> str:
+    return "udp" if kind == socket.SOCK_DGRAM else "tcp"
+
+
+def lease_ports(kinds: Iterable[socket.SocketKind], path: Path | None = None, candidates: range | None = None,
+                lease_s: float = LEASE_S) -> list[int]:
+    """One free loopback port for each socket kind in `kinds` (SOCK_DGRAM or SOCK_STREAM), all different, leased
+    for `lease_s` seconds in the lease file `path` (default: `lease_file()`), drawn from `candidates` (default: the
+    pool outside the ephemeral range). OSError if the lease file cannot be used or no free port is found."""
+    path = lease_file() if path is None else path
+    candidates = pool(ephemeral_range()) if candidates is None else candidates
+    chosen: list[int] = []
+    with open(path, "a+", encoding="ascii", errors="replace") as file:
+        fcntl.flock(file, fcntl.LOCK_EX)  # released when the file closes
+        file.seek(0)
+        now = time.time()
+        leases = _read_leases(file.read(), now)
+        taken = {port for (_, port) in leases}
+        for kind in kinds:
+            for port in random.sample(candidates, min(TRIES, len(candidates))):
+                if port not in taken and _bindable(kind, port):
+                    break
+            else:
+                raise OSError(f"no free {_protocol(kind).upper()} port on {LOOPBACK} in {candidates.start}.."
+                              f"{candidates.stop - 1}: all tried were leased or bound")  # fmt: skip
+            taken.add(port)
+            chosen.append(port)
+            leases[(_protocol(kind), port)] = now + lease_s
+        file.seek(0)
+        file.truncate()
+        file.write("".join(f"{protocol} {port} {expiry!r}\n" for (protocol, port), expiry in leases.items()))
+        file.flush()
+    return chosen
+
+
+def free_udp_port() -> int:
+    """A UDP port on the loopback that nobody holds and nobody else will be given for LEASE_S seconds."""
+    return lease_ports([socket.SOCK_DGRAM])[0]
+
+
+def free_tcp_port() -> int:
+    """A TCP port on the loopback that nobody holds and nobody else will be given for LEASE_S seconds."""
+    return lease_ports([socket.SOCK_STREAM])[0]
+
+
+def free_zenoh_endpoint() -> str:
+    """A zenoh endpoint on a free loopback TCP port."""
+    return f"tcp/{LOOPBACK}:{free_tcp_port()}"
