@@ -200,7 +200,7 @@ class PlantLoop:
                 self.controller.set_yaw_reference(commander.yaw_reference)
                 self.controller.set_attitude_setpoint(commander.attitude_setpoint)
                 if self.outputs.telemetry is not None:
-                    self.outputs.telemetry.publish(t, self.controller)
+                    self.outputs.telemetry.publish(t, self.controller, gather=self.client.states_come_quickly)
             for event in self.controller.pop_events():  # e.g. the MPC fell back to the PID
                 self.events.say(mavlink.MAV_SEVERITY_WARNING, event)
         if commander.flying:
@@ -243,6 +243,8 @@ class PlantLoop:
         while not self.should_stop():
             sample = self.client.receive_step(0.25)
             if sample is None:
+                if self.outputs.telemetry is not None:
+                    self.outputs.telemetry.flush()  # nothing gathered waits on a plant that has stopped
                 if time.monotonic() - last_heard > SILENCE_NOTICE_S:
                     counters.plant_silences += 1
                     self.note("the plant is silent; waiting for it")
@@ -293,6 +295,8 @@ class PlantLoop:
             # Half a plant step of tolerance: the plant rounds a duration to whole steps (2.5 ms) too.
             if self.duration_usec is not None and t_usec - self._start_usec >= self.duration_usec - 1250:
                 break
+        if self.outputs.telemetry is not None:
+            self.outputs.telemetry.flush()
         counters.wall_s = time.perf_counter() - start_wall
         return counters
 

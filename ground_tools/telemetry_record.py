@@ -3,7 +3,7 @@
 One JSON object per line, in arrival order (gzip-compressed when the file name ends in .gz):
 
     {"key": "vtol/1/plant/state", "payload": {"t": 0.0025, "north": 0.0, ...}}    plant state, decoded (a line a step)
-    {"key": "vtol/1/autopilot/control", "payload": {"t": 0.01, "mode": "MC", ...}} JSON payloads, parsed
+    {"key": "vtol/1/autopilot/control", "payload": {"t": 0.01, "mode": "MC", ...}} JSON payloads, parsed (a line a sample)
     {"key": "vtol/1/plant/state", "error": "plant state payload has 24 bytes, expected a multiple of 344", "bytes": 24}
 
 A sample that cannot be decoded is written as an error record (never dropped, never fatal) and counted in
@@ -43,28 +43,41 @@ def key_expression(sysid: int | None) -> str:
     return "vtol/**" if sysid is None else f"vtol/{sysid}/**"
 
 
-def _json_text(payload: bytes) -> tuple[str, Any]:
-    """The payload as text and parsed; ValueError (with the reason) if it is not UTF-8 JSON."""
+def _parse_json(text: str) -> Any:
+    """One JSON value; ValueError (with the reason) if `text` is not one."""
+    try:
+        return orjson.loads(text)
+    except orjson.JSONDecodeError:
+        pass  # strict JSON: Python's json also reads NaN / Infinity, which other publishers may send
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"not JSON: {exc.msg} at character {exc.pos}") from None
+
+
+def _json_texts(payload: bytes) -> list[tuple[str, Any]]:
+    """A JSON payload's samples, each as its text and parsed: one JSON value, or several, one a line (the
+    autopilot's batches, docs/telemetry.md). ValueError (with the reason) if it is neither, or not UTF-8."""
     try:
         text = payload.decode("utf-8")
     except UnicodeDecodeError as exc:
         raise ValueError(f"not UTF-8: {exc.reason} at byte {exc.start}") from None
     try:
-        return text, orjson.loads(text)
-    except orjson.JSONDecodeError:
-        pass  # strict JSON: Python's json also reads NaN / Infinity, which other publishers may send
-    try:
-        return text, json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"not JSON: {exc.msg} at character {exc.pos}") from None
+        return [(text, _parse_json(text))]
+    except ValueError:
+        lines = [line for line in text.splitlines() if line.strip()]
+        if len(lines) < 2:
+            raise
+    return [(line, _parse_json(line)) for line in lines]
 
 
 def decode_samples(key: str, payload: bytes) -> list[Any]:
     """A payload's samples as JSON-able data: plant/state -> a dict of PLANT_STATE_FIELDS per physics step, any
-    other key -> one sample parsed as JSON. Raises ValueError (with the reason) if the payload cannot be decoded."""
+    other key -> its JSON samples (one, or one a line). Raises ValueError (with the reason) if the payload cannot
+    be decoded."""
     if key.endswith("/plant/state"):
         return decode_plant_states(payload)
-    return [_json_text(payload)[1]]
+    return [value for _, value in _json_texts(payload)]
 
 
 def encode_records(key: str, payload: bytes) -> tuple[list[str], bool]:
@@ -79,10 +92,9 @@ def encode_records(key: str, payload: bytes) -> tuple[list[str], bool]:
                 return [head + orjson.dumps(dict(zip(PLANT_STATE_FIELDS, row))).decode() + "}"
                         for row in rows.tolist()], True  # fmt: skip
             return [json.dumps({"key": key, "payload": value}) for value in decode_samples(key, payload)], True
-        text, value = _json_text(payload)
-        if "\n" in text or "\r" in text:  # one record a line
-            return [json.dumps({"key": key, "payload": value})], True
-        return [f'{{"key": {json.dumps(key)}, "payload": {text}}}'], True
+        head = f'{{"key": {json.dumps(key)}, "payload": '
+        return [json.dumps({"key": key, "payload": value}) if "\n" in text or "\r" in text  # one record a line
+                else head + text + "}" for text, value in _json_texts(payload)], True  # fmt: skip
     except (ValueError, RecursionError) as exc:
         return [json.dumps({"key": key, "error": str(exc), "bytes": len(payload)})], False
 

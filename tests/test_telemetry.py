@@ -2,28 +2,39 @@
 
 from __future__ import annotations
 
-import json
 import time
 
+from collections import Counter
+
+import numpy as np
 import zenoh
 
+from ground_tools.telemetry_record import decode_samples
 from tiltrotor_sitl import Controller, Vehicle
-from transport.telemetry import control_key, decode_plant_states, mpc_key, plant_state_key
+from transport.telemetry import control_key, mpc_key, plant_state_key
 from transport.zenoh_bus import session_config
+
+payloads: Counter[str] = Counter()
 
 
 def fly_with_subscriber(controller: Controller, duration: str, *keys: str) -> dict[str, list]:
-    """Plant + autopilot (lockstep, accel profile) with zenoh on loopback; what a subscriber got per key. It
-    connects as the processes start (they take a second or more to begin stepping)."""
+    """Plant + autopilot (lockstep, accel profile) with zenoh on loopback; the samples a subscriber got per key
+    (and their payloads counted in `payloads`). It connects as the processes start (they take a second or more to
+    begin stepping)."""
     received: dict[str, list] = {key: [] for key in keys}
+    payloads.clear()
+
+    def on_sample(key: str, sample: zenoh.Sample) -> None:
+        received[key].extend(decode_samples(key, bytes(sample.payload)))
+        payloads[key] += 1
+
     with Vehicle(controller=controller, spawn_alt=100.0, speed=None, duration_s=float(duration), wait_ready=False,
                  autopilot_args=("--profile", "accel")) as vehicle:
         endpoints = [vehicle.ports.zenoh_plant, vehicle.ports.zenoh_autopilot]
         session = zenoh.open(session_config(listen=[], connect=endpoints))
         try:
             for key in keys:
-                decode = decode_plant_states if key == plant_state_key(1) else lambda payload: [json.loads(payload)]
-                session.declare_subscriber(key, lambda s, k=key, d=decode: received[k].extend(d(bytes(s.payload))))
+                session.declare_subscriber(key, lambda sample, k=key: on_sample(k, sample))
             vehicle.wait_finished(timeout_s=300)  # (an autopilot that exits with an error fails the test here)
             time.sleep(0.5)
         finally:
@@ -41,6 +52,11 @@ def test_subscriber_receives_plant_truth_and_autopilot_control(tmp_path):
     # how many depends on the machine's load, so only the end of the flight is sure to be seen.
     assert "FW" in modes
     assert all(len(c["u"]) == 8 and len(c["tilt_cmd"]) == 4 for c in controls)
+    # In lockstep the autopilot gathers its samples, up to 10 a payload, and none is lost: from the first one
+    # received to the end of the flight (the last gathered ones put as it ends) every 10 ms tick is there.
+    assert payloads[control_key(1)] < len(controls) / 5
+    times = np.array([c["t"] for c in controls])
+    assert np.allclose(np.diff(times), 0.01, atol=1e-6) and times[-1] > 19.9
 
 
 def test_subscriber_receives_the_mpc_solutions(tmp_path):

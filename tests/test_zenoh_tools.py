@@ -16,6 +16,9 @@ from collections import deque
 import numpy as np
 import pytest
 
+from aircraft.airframe import load_airframe
+from autopilot.control_telemetry import BATCH_SAMPLES, ControlTelemetry
+from autopilot.controllers import build_flight_controller
 from ground_tools import cli
 from ground_tools.free_ports import free_zenoh_endpoint
 from ground_tools.telemetry_record import (
@@ -81,6 +84,51 @@ def test_decode_samples_and_records():
     view = TelemetryView()
     view.add(control_key(1), nan_control)
     assert not view.errors and math.isnan(view.last_control["vn_sp"])
+
+
+class RecordingPublisher:
+    """A zenoh publisher's stand-in: keeps what is put."""
+
+    def __init__(self, key: str) -> None:
+        self.key, self.payloads = key, []
+
+    def put(self, payload: bytes) -> None:
+        self.payloads.append(payload)
+
+
+class RecordingSession:
+    def __init__(self) -> None:
+        self.publishers: dict[str, RecordingPublisher] = {}
+
+    def declare_publisher(self, key: str) -> RecordingPublisher:
+        return self.publishers.setdefault(key, RecordingPublisher(key))
+
+
+def test_autopilot_samples_are_gathered_in_lockstep_and_put_at_once_otherwise():
+    session = RecordingSession()
+    telemetry = ControlTelemetry(session, 1)
+    controller = build_flight_controller(load_airframe(), "pid")
+    control = session.publishers[control_key(1)]
+    for k in range(BATCH_SAMPLES - 1):
+        telemetry.publish(0.01 * k, controller, gather=True)
+    assert control.payloads == []
+    telemetry.publish(0.09, controller, gather=True)  # the tenth: the batch goes out
+    telemetry.publish(0.10, controller, gather=True)
+    telemetry.publish(0.11, controller, gather=False)  # paced to the wall clock: at once, with what waited
+    telemetry.publish(0.12, controller, gather=True)
+    telemetry.flush()
+    telemetry.flush()  # nothing left: no empty payload
+    assert [payload.count(b"\n") + 1 for payload in control.payloads] == [10, 2, 1]
+    samples = [value for payload in control.payloads for value in decode_samples(control_key(1), payload)]
+    assert [round(sample["t"], 2) for sample in samples] == [round(0.01 * k, 2) for k in range(13)]
+    lines, ok = encode_records(control_key(1), control.payloads[1])
+    assert ok and [json.loads(line)["payload"]["t"] for line in lines] == [0.10, 0.11]
+    view = TelemetryView(window_s=10.0)
+    view.add(control_key(1), control.payloads[0])
+    assert view.samples[control_key(1)] == 10 and not view.errors and view.last_control["t"] == 0.09
+    assert session.publishers[mpc_key(1)].payloads == []  # the PID solves nothing
+    lines, ok = encode_records(control_key(1), control.payloads[1] + b"\n{nope")  # one bad line: an error record
+    assert not ok and json.loads(lines[0])["error"].startswith("not JSON")
 
 
 def test_a_batched_plant_payload_is_a_record_a_step():

@@ -115,6 +115,12 @@ class PlantLinkClient:
                 self._spin_s = SPIN_WINDOW_S if time.monotonic() - started < SPIN_WINDOW_S / 2 else 0.0
                 return sample
 
+    @property
+    def states_come_quickly(self) -> bool:
+        """Whether the plant's states arrive in quick succession (lockstep faster than real time), not paced to
+        the wall clock: the last one came within half the spin window of the wait for it."""
+        return self._spin_s > 0.0
+
     def send_pwm(self, time_usec: int, pwm: list[int]) -> None:
         """SERVO_OUTPUT_RAW for step time_usec with 12 channels (port 0)."""
         self.send_raw(self.link.pack_fields(SERVO_OUTPUT_RAW, time_usec % USEC_WRAP, 0, *pwm))

@@ -9,6 +9,7 @@ u (8), the wrench set-point and the allocation's residual (see `encode_control`)
 `vtol/<sysid>/autopilot/mpc`: after each MPC solve (100 Hz, MPC flying), JSON: `t`, `ok`, `status`, `solve_time_ms`,
 `qp_iterations`, `cost`, `predicted_velocity` (N+1 x 3, NED m/s), `predicted_tilt` (N+1 x 4, rad), `thrust`
 (4, N, first stage), `attitude_sp` (3, rad, first stage).
+A payload of the two autopilot keys holds one or more samples, one JSON object a line (`join_samples`).
 """
 
 from __future__ import annotations
@@ -109,6 +110,11 @@ def decode_plant_states(payload: bytes) -> list[dict[str, float]]:
 # The JSON payloads are written by orjson: at 100 Hz the MPC's prediction (about 190 numbers) took json.dumps 93 us a
 # sample and orjson 6 us, on the cores the lockstep pair flies on (docs/performance.md). Compact separators; a
 # non-finite number is written as null (JSON has no NaN).
+
+
+def join_samples(samples: list[bytes]) -> bytes:
+    """One payload of several JSON samples, oldest first, one a line (orjson never writes a newline)."""
+    return b"\n".join(samples)
 
 
 def encode_event(t: float, event: str, text: str, **fields: int | float | str) -> bytes:
