@@ -24,25 +24,26 @@ class ControlTelemetry:
         self._control = session.declare_publisher(control_key(system_id))
         self._mpc = session.declare_publisher(mpc_key(system_id))
         self._published_solution: Any = None
-        self._pending: dict[Any, list[bytes]] = {self._control: [], self._mpc: []}
+        self._controls: list[bytes] = []  # encoded, not yet put
+        self._solutions: list[bytes] = []
 
     def publish(self, t: float, controller: FlightController, gather: bool = False) -> None:
         """This tick's control sample, and the MPC's solution if it is new; with `gather`, kept until
         BATCH_SAMPLES are waiting (or `flush()`), else put at once with anything waiting."""
         c = controller
-        control = self._pending[self._control]
-        control.append(encode_control(t, c.mode, c.velocity_setpoint, c.velocity_command.euler_sp, c.command[TILTS],
-                                      allocated_of(c.command), c.wrench_sp, c.residual))  # fmt: skip
+        sample = encode_control(t, c.mode, c.velocity_setpoint, c.velocity_command.euler_sp, c.command[TILTS],
+                                allocated_of(c.command), c.wrench_sp, c.residual)  # fmt: skip
+        self._controls.append(sample)
         solution = c.last_mpc_solution
         if solution is not None and solution is not self._published_solution:
             self._published_solution = solution
-            self._pending[self._mpc].append(encode_mpc_solution(t, solution_summary(solution)))
-        if not gather or len(control) >= BATCH_SAMPLES:
+            self._solutions.append(encode_mpc_solution(t, solution_summary(solution)))
+        if not gather or len(self._controls) >= BATCH_SAMPLES:
             self.flush()
 
     def flush(self) -> None:
         """Put every waiting sample (one payload a key)."""
-        for publisher, samples in self._pending.items():
+        for publisher, samples in ((self._control, self._controls), (self._mpc, self._solutions)):
             if samples:
                 publisher.put(join_samples(samples))
                 samples.clear()

@@ -56,9 +56,17 @@ def pool(ephemeral: tuple[int, int]) -> range:
     return best if len(best) >= MIN_POOL else range(POOL_FLOOR, POOL_CEILING + 1)
 
 
-def lease_file() -> Path:
-    """Where the leases are kept: one file per user in the temporary directory."""
-    return Path(tempfile.gettempdir()) / f"tiltrotor-sitl-ports-{os.getuid()}.leases"
+def lease_folder() -> Path:
+    """Where the leases are kept: /tmp/tiltrotor-sitl-UID (made private to this user), the same for every program of
+    the user whatever its TMPDIR; the temporary directory where there is no /tmp. OSError if it belongs to someone
+    else."""
+    base = Path("/tmp") if Path("/tmp").is_dir() else Path(tempfile.gettempdir())
+    folder = base / f"tiltrotor-sitl-{os.getuid()}"
+    folder.mkdir(mode=0o700, exist_ok=True)
+    owner = folder.stat().st_uid
+    if owner != os.getuid():
+        raise OSError(f"{folder} belongs to user {owner}, not to this user ({os.getuid()}): cannot lease ports there")
+    return folder
 
 
 def _read_leases(text: str, now: float) -> dict[tuple[str, int], float]:
@@ -77,7 +85,8 @@ def _read_leases(text: str, now: float) -> dict[tuple[str, int], float]:
     return leases
 
 
-def _bindable(kind: socket.SocketKind, port: int) -> bool:
+def bindable(kind: socket.SocketKind, port: int) -> bool:
+    """Whether a socket of `kind` could bind loopback `port` right now (nobody holds it)."""
     with socket.socket(socket.AF_INET, kind) as probe:
         try:
             probe.bind((LOOPBACK, port))
@@ -86,38 +95,44 @@ def _bindable(kind: socket.SocketKind, port: int) -> bool:
     return True
 
 
-def _protocol(kind: socket.SocketKind) -> str:
+def protocol(kind: socket.SocketKind) -> str:
+    """"udp" or "tcp"."""
     return "udp" if kind == socket.SOCK_DGRAM else "tcp"
 
 
-def lease_ports(kinds: Iterable[socket.SocketKind], path: Path | None = None, candidates: range | None = None,
+def lease_ports(kinds: Iterable[socket.SocketKind], folder: Path | None = None, candidates: range | None = None,
                 lease_s: float = LEASE_S) -> list[int]:
     """One free loopback port for each socket kind in `kinds` (SOCK_DGRAM or SOCK_STREAM), all different, leased
-    for `lease_s` seconds in the lease file `path` (default: `lease_file()`), drawn from `candidates` (default: the
-    pool outside the ephemeral range). OSError if the lease file cannot be used or no free port is found."""
-    path = lease_file() if path is None else path
+    for `lease_s` seconds in the lease file of `folder` (default: `lease_folder()`), drawn from `candidates`
+    (default: the pool outside the ephemeral range). OSError if the lease file cannot be used or no free port is
+    found."""
+    folder = lease_folder() if folder is None else folder
     candidates = pool(ephemeral_range()) if candidates is None else candidates
+    leases_path = folder / "ports.leases"
     chosen: list[int] = []
-    with open(path, "a+", encoding="ascii", errors="replace") as file:
-        fcntl.flock(file, fcntl.LOCK_EX)  # released when the file closes
-        file.seek(0)
+    with open(folder / "ports.lock", "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes
         now = time.time()
-        leases = _read_leases(file.read(), now)
+        try:
+            leases = _read_leases(leases_path.read_text(encoding="ascii", errors="replace"), now)
+        except FileNotFoundError:
+            leases = {}
         taken = {port for (_, port) in leases}
         for kind in kinds:
             for port in random.sample(candidates, min(TRIES, len(candidates))):
-                if port not in taken and _bindable(kind, port):
+                if port not in taken and bindable(kind, port):
                     break
             else:
-                raise OSError(f"no free {_protocol(kind).upper()} port on {LOOPBACK} in {candidates.start}.."
+                raise OSError(f"no free {protocol(kind).upper()} port on {LOOPBACK} in {candidates.start}.."
                               f"{candidates.stop - 1}: all tried were leased or bound")  # fmt: skip
             taken.add(port)
             chosen.append(port)
-            leases[(_protocol(kind), port)] = now + lease_s
-        file.seek(0)
-        file.truncate()
-        file.write("".join(f"{protocol} {port} {expiry!r}\n" for (protocol, port), expiry in leases.items()))
-        file.flush()
+            leases[(protocol(kind), port)] = now + lease_s
+        # written beside and renamed over, so a full disk or a kill never leaves the leases cut
+        fresh = folder / "ports.leases.new"
+        fresh.write_text("".join(f"{name} {port} {expiry!r}\n" for (name, port), expiry in leases.items()),
+                         encoding="ascii")  # fmt: skip
+        os.replace(fresh, leases_path)
     return chosen
 
 

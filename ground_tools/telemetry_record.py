@@ -3,7 +3,7 @@
 One JSON object per line, in arrival order (gzip-compressed when the file name ends in .gz):
 
     {"key": "vtol/1/plant/state", "payload": {"t": 0.0025, "north": 0.0, ...}}    plant state, decoded (a line a step)
-    {"key": "vtol/1/autopilot/control", "payload": {"t": 0.01, "mode": "MC", ...}} JSON payloads, parsed (a line a sample)
+    {"key": "vtol/1/autopilot/control", "payload": {"t": 0.01, "mode": "MC", ...}} a line a JSON sample
     {"key": "vtol/1/plant/state", "error": "plant state payload has 24 bytes, expected a multiple of 344", "bytes": 24}
 
 A sample that cannot be decoded is written as an error record (never dropped, never fatal) and counted in
@@ -22,6 +22,7 @@ import threading
 import time
 from collections import Counter
 from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -53,50 +54,92 @@ def _parse_json(text: str) -> Any:
         return json.loads(text)
     except json.JSONDecodeError as exc:
         raise ValueError(f"not JSON: {exc.msg} at character {exc.pos}") from None
+    except RecursionError:
+        raise ValueError("not JSON that can be read: nested too deeply") from None
 
 
-def _json_texts(payload: bytes) -> list[tuple[str, Any]]:
-    """A JSON payload's samples, each as its text and parsed: one JSON value, or several, one a line (the
-    autopilot's batches, docs/telemetry.md). ValueError (with the reason) if it is neither, or not UTF-8."""
+@dataclass(frozen=True)
+class JsonSample:
+    """One sample of a JSON payload: its text and value, or why it is not JSON (`error`); `size` in bytes."""
+
+    text: str
+    size: int
+    value: Any = None
+    error: str | None = None
+
+
+def _json_sample(text: str) -> JsonSample:
+    try:
+        return JsonSample(text, len(text.encode()), _parse_json(text))
+    except ValueError as exc:
+        return JsonSample(text, len(text.encode()), error=str(exc))
+
+
+def json_samples(payload: bytes) -> list[JsonSample]:
+    """A JSON payload's samples: one JSON value, or several, one a line (the autopilot's batches,
+    docs/telemetry.md). A line that is not JSON is a sample with its error, and the lines around it are kept; a
+    payload that is not UTF-8 is one sample with that error."""
     try:
         text = payload.decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise ValueError(f"not UTF-8: {exc.reason} at byte {exc.start}") from None
+        return [JsonSample("", len(payload), error=f"not UTF-8: {exc.reason} at byte {exc.start}")]
     try:
-        return [(text, _parse_json(text))]
-    except ValueError:
-        lines = [line for line in text.splitlines() if line.strip()]
-        if len(lines) < 2:
-            raise
-    return [(line, _parse_json(line)) for line in lines]
+        return [JsonSample(text, len(payload), orjson.loads(text))]
+    except orjson.JSONDecodeError:
+        pass
+    lines = [line for line in text.split("\n") if line.strip()]
+    if len(lines) > 1:
+        samples = [_json_sample(line) for line in lines]
+        if any(sample.error is None for sample in samples):
+            return samples
+    return [_json_sample(text)]  # one value over several lines, one with NaN (Python's json reads it), or one error
+
+
+def decoded_samples(key: str, payload: bytes) -> tuple[list[Any], list[str]]:
+    """A payload's samples as JSON-able data, and why the others did not decode: plant/state -> a dict of
+    PLANT_STATE_FIELDS per physics step (a payload of the wrong size is one error), any other key -> its JSON
+    samples (`json_samples`)."""
+    if key.endswith("/plant/state"):
+        try:
+            return decode_plant_states(payload), []
+        except ValueError as exc:
+            return [], [str(exc)]
+    samples = json_samples(payload)
+    return [s.value for s in samples if s.error is None], [s.error for s in samples if s.error is not None]
 
 
 def decode_samples(key: str, payload: bytes) -> list[Any]:
-    """A payload's samples as JSON-able data: plant/state -> a dict of PLANT_STATE_FIELDS per physics step, any
-    other key -> its JSON samples (one, or one a line). Raises ValueError (with the reason) if the payload cannot
-    be decoded."""
-    if key.endswith("/plant/state"):
-        return decode_plant_states(payload)
-    return [value for _, value in _json_texts(payload)]
+    """A payload's samples (`decoded_samples`); ValueError (with the reason) if any of them does not decode."""
+    values, errors = decoded_samples(key, payload)
+    if errors:
+        raise ValueError(errors[0])
+    return values
+
+
+def _json_record(key: str, head: str, sample: JsonSample) -> str:
+    if sample.error is not None:
+        return json.dumps({"key": key, "error": sample.error, "bytes": sample.size})
+    if "\n" in sample.text or "\r" in sample.text:  # one record a line
+        return json.dumps({"key": key, "payload": sample.value})
+    return head + sample.text + "}"
 
 
 def encode_records(key: str, payload: bytes) -> tuple[list[str], bool]:
-    """A payload's recording lines (one per sample, without the newline) and whether it decoded. Each line is the JSON
-    of {"key": key, "payload": sample}, built with orjson or from the payload's own text where that is cheaper: a
-    recorded flight's samples are encoded while it flies, on the cores it flies on."""
+    """A payload's recording lines (one per sample, without the newline; an error record for each sample that does
+    not decode) and whether all of it decoded. Each line is the JSON of {"key": key, "payload": sample}, built with
+    orjson or from the payload's own text where that is cheaper: a recorded flight's samples are encoded while it
+    flies, on the cores it flies on."""
+    head = f'{{"key": {json.dumps(key)}, "payload": '
+    if not key.endswith("/plant/state"):
+        samples = json_samples(payload)
+        return [_json_record(key, head, sample) for sample in samples], all(s.error is None for s in samples)
     try:
-        if key.endswith("/plant/state"):
-            rows = plant_state_rows(payload)
-            if np.isfinite(rows).all():  # (orjson would write a non-finite number as null)
-                head = f'{{"key": {json.dumps(key)}, "payload": '
-                return [head + orjson.dumps(dict(zip(PLANT_STATE_FIELDS, row))).decode() + "}"
-                        for row in rows.tolist()], True  # fmt: skip
-            return [json.dumps({"key": key, "payload": value}) for value in decode_samples(key, payload)], True
-        head = f'{{"key": {json.dumps(key)}, "payload": '
-        return [json.dumps({"key": key, "payload": value}) if "\n" in text or "\r" in text  # one record a line
-                else head + text + "}" for text, value in _json_texts(payload)], True  # fmt: skip
-    except (ValueError, RecursionError) as exc:
+        rows = plant_state_rows(payload)
+    except ValueError as exc:
         return [json.dumps({"key": key, "error": str(exc), "bytes": len(payload)})], False
+    if np.isfinite(rows).all():  # (orjson would write a non-finite number as null)
+        return [head + orjson.dumps(dict(zip(PLANT_STATE_FIELDS, row))).decode() + "}" for row in rows.tolist()], True
+    return [json.dumps({"key": key, "payload": dict(zip(PLANT_STATE_FIELDS, row))}) for row in rows.tolist()], True
 
 
 def _open_text(path: Path, mode: str) -> Any:

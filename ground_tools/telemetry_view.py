@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from ground_tools.telemetry_record import decode_samples
+from ground_tools.telemetry_record import decoded_samples
 
 WINDOW_S = 30.0  # simulation seconds kept in the ring buffers
 PLANT_MIN_DT_S = 0.02  # plant rows kept at most every 20 ms of simulation time (the plant publishes at 400 Hz)
@@ -104,17 +104,18 @@ class TelemetryView:
         self.last_error: str = ""
 
     def add(self, key: str, payload: bytes) -> None:
-        """Decode a payload and file its samples; one that does not decode is counted in `errors` (and as one
-        sample), never raised."""
-        values: list[Any] = []
-        try:
-            values = decode_samples(key, payload)
-            for value in values:
+        """Decode a payload and file its samples; each one that does not decode or fit is counted in `errors` (and
+        as a sample), never raised."""
+        values, errors = decoded_samples(key, payload)
+        self.samples[key] += len(values) + len(errors)
+        for value in values:
+            try:
                 self.add_decoded(key, value)
-        except (ValueError, KeyError, IndexError, TypeError) as exc:
-            self.errors[key] += 1
-            self.last_error = f"{key}: {exc!r}"
-        self.samples[key] += max(len(values), 1)
+            except (ValueError, KeyError, IndexError, TypeError) as exc:
+                errors.append(repr(exc))
+        if errors:
+            self.errors[key] += len(errors)
+            self.last_error = f"{key}: {errors[-1]}"
 
     def add_decoded(self, key: str, value: Any) -> None:
         if key.endswith("/plant/state"):

@@ -20,16 +20,17 @@ import pytest
 from autopilot.stamped_setpoints import StampedSetpoints
 from autopilot.yaw_setpoint import YawSetpoint
 from ground_tools.lockstep_client import PERIOD_MS, START_MS, grid_stamp, setpoint_for, tilt_commands_deg, yaw_turns
+from ground_tools.free_ports import bindable
 from ground_tools.processes import AutopilotCommand
 from ground_tools.scenario_report import acceptance, velocity_rmse, write_report
 from ground_tools.scenario_run import WALL_CLOCK_KEYS
+from ground_tools.telemetry_record import decode_samples
 from scenarios.experiments import BANK_THEORY_DEG, SCENARIOS, Telemetry, servo_reaches, yaw_reaches
 from scenarios.profiles import PROFILES, accel_decel_braking_at
 from tiltrotor_sitl import Vehicle
 from transport.flight_log import ALLOCATED, T, read_flight_log
 from transport.mavlink import Link, mavlink
 from transport.ports import Ports
-from transport.telemetry import PLANT_STATE_BYTES
 
 pytestmark = pytest.mark.timeout(600)
 
@@ -311,16 +312,12 @@ def _free_instance() -> int:
     link sends and which another test may be listening on (the scenario's ground station uses the API link)."""
     for instance in range(300, 999, 7):
         ports = Ports(instance)
-        try:
-            for port, kind in ((ports.plant, socket.SOCK_DGRAM), (ports.gcs_bind, socket.SOCK_DGRAM),
-                               (ports.api_bind, socket.SOCK_DGRAM), (ports.api_remote, socket.SOCK_DGRAM),
-                               (int(ports.zenoh_plant.rsplit(":", 1)[1]), socket.SOCK_STREAM),
-                               (int(ports.zenoh_autopilot.rsplit(":", 1)[1]), socket.SOCK_STREAM)):  # fmt: skip
-                with socket.socket(socket.AF_INET, kind) as s:
-                    s.bind(("127.0.0.1", port))
-        except OSError:
-            continue
-        return instance
+        wanted = ((ports.plant, socket.SOCK_DGRAM), (ports.gcs_bind, socket.SOCK_DGRAM),
+                  (ports.api_bind, socket.SOCK_DGRAM), (ports.api_remote, socket.SOCK_DGRAM),
+                  (int(ports.zenoh_plant.rsplit(":", 1)[1]), socket.SOCK_STREAM),
+                  (int(ports.zenoh_autopilot.rsplit(":", 1)[1]), socket.SOCK_STREAM))  # fmt: skip
+        if all(bindable(kind, port) for port, kind in wanted):
+            return instance
     pytest.skip("no free instance")
 
 
@@ -337,8 +334,7 @@ def test_a_zenoh_subscriber_on_loopback_sees_plant_truth_and_mpc_solutions_durin
     def on_sample(sample) -> None:
         with lock:
             key = str(sample.key_expr)
-            samples = len(sample.payload.to_bytes()) // PLANT_STATE_BYTES if key.endswith("/plant/state") else 1
-            received[key] = received.get(key, 0) + samples
+            received[key] = received.get(key, 0) + len(decode_samples(key, sample.payload.to_bytes()))
 
     config = session_config([], [ports.zenoh_plant, ports.zenoh_autopilot])
     # Retry the not-yet-open endpoints every 50-200 ms (zenoh's default backs off to seconds, which on a loaded

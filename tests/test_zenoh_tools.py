@@ -127,8 +127,20 @@ def test_autopilot_samples_are_gathered_in_lockstep_and_put_at_once_otherwise():
     view.add(control_key(1), control.payloads[0])
     assert view.samples[control_key(1)] == 10 and not view.errors and view.last_control["t"] == 0.09
     assert session.publishers[mpc_key(1)].payloads == []  # the PID solves nothing
-    lines, ok = encode_records(control_key(1), control.payloads[1] + b"\n{nope")  # one bad line: an error record
-    assert not ok and json.loads(lines[0])["error"].startswith("not JSON")
+    # one bad line costs only itself: an error record between the good ones, an error in the view's count
+    broken = control.payloads[1].replace(b"\n", b"\n{nope\n")
+    lines, ok = encode_records(control_key(1), broken)
+    records = [json.loads(line) for line in lines]
+    assert not ok and [r["payload"]["t"] for r in records if "payload" in r] == [0.10, 0.11]
+    assert records[1] == {"key": control_key(1), "error": records[1]["error"], "bytes": 5}
+    assert records[1]["error"].startswith("not JSON")
+    view.add(control_key(1), broken)
+    assert view.samples[control_key(1)] == 13 and view.errors[control_key(1)] == 1 and view.last_control["t"] == 0.11
+    with pytest.raises(ValueError, match="not JSON"):
+        decode_samples(control_key(1), broken)
+    # samples are split at newlines only, not at the other line separators a JSON string may hold raw
+    samples = decode_samples(control_key(1), b'{"t": 1, "text": "a\xe2\x80\xa8b\xc2\x85c"}\n{"t": 2}')
+    assert samples == [{"t": 1, "text": "a\u2028b\x85c"}, {"t": 2}]
 
 
 def test_a_batched_plant_payload_is_a_record_a_step():

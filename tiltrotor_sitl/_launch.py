@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Literal
 
 from autopilot.parameters import ParameterRejected, ParameterStore
-from ground_tools.free_ports import free_udp_port
+from ground_tools.free_ports import bindable, free_udp_port, protocol
 from ground_tools.processes import (AutopilotCommand, LinkPorts, SimCommand, VehiclePorts, Zenoh,
                                     deterministic_argv, fleet_home)  # fmt: skip
 from tiltrotor_sitl import _children
@@ -162,14 +162,10 @@ def _check_free(options: Options, ports: VehiclePorts, sysid: int) -> None:
     checks = [(name, port, socket.SOCK_DGRAM) for name, port in udp]
     checks += [(name, int(endpoint.rsplit(":", 1)[1]), socket.SOCK_STREAM) for name, endpoint in tcp]
     for name, port, kind in checks:
-        with socket.socket(socket.AF_INET, kind) as probe:
-            try:
-                probe.bind((LOOPBACK, port))
-            except OSError as exc:
-                protocol = "UDP" if kind == socket.SOCK_DGRAM else "TCP"
-                raise VehicleError(f"vehicle {sysid}: {protocol} port {LOOPBACK}:{port} ({name}) is already in use "
-                                   f"({exc.strerror}); another vehicle on this instance? use free ports "
-                                   f"(instance=None) or another instance") from None  # fmt: skip
+        if not bindable(kind, port):
+            raise VehicleError(f"vehicle {sysid}: {protocol(kind).upper()} port {LOOPBACK}:{port} ({name}) is already "
+                               f"in use; another vehicle on this instance? use free ports (instance=None) or another "
+                               f"instance")  # fmt: skip
 
 
 def _write_params(path: Path, params: dict[str, float]) -> Path:
