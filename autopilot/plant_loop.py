@@ -237,72 +237,75 @@ class PlantLoop:
 
     # ---- the loop ------------------------------------------------------------------------------------------------
     def run(self) -> LoopCounters:
-        counters = self.counters
         start_wall = time.perf_counter()
-        last_heard = time.monotonic()
-        pwm: list[int] | None = None
-        self.client.hello()
         try:
-            while not self.should_stop():
-                sample = self.client.receive_step(0.25)
-                if sample is None:
-                    if self.outputs.telemetry is not None:
-                        self.outputs.telemetry.flush()  # nothing gathered waits on a plant that has stopped
-                    if time.monotonic() - last_heard > SILENCE_NOTICE_S:
-                        counters.plant_silences += 1
-                        self.note("the plant is silent; waiting for it")
-                        last_heard = time.monotonic()
-                    self.client.hello()
-                    continue
-                busy_from = time.perf_counter()
-                last_heard = time.monotonic()
-                self._plant_messages()
-                if not update_from_hil_state(self.state, sample.state, self.geodetic, self.airframe.gravity):
-                    counters.invalid_states += 1
-                    continue  # no answer: the plant holds the last command (and counts it)
-                t_usec = self.state.time_usec
-                if self._start_usec is not None and t_usec < self._last_usec:
-                    self._restart(t_usec)
-                self._last_usec = t_usec
-                if self._start_usec is None:
-                    self._start_usec = t_usec
-                    if not self.commander.started:
-                        self.commander.start(self.state)
-                self.commander.observe(self.state)
-                t = (t_usec - self._start_usec) / 1e6
-                if self.offboard_lockstep and self.services is not None:
-                    self.services.hold(t_usec, lambda: self.commander.setpoints_cover(t_usec), self.should_stop)
-                self.injection.inject_scheduled(t, t_usec)
-                for failure in self.injection.tick(t_usec):
-                    self._learn(failure)
-                if self.params.version != self._params_seen:
-                    self._parameters_changed()
-                fixed = self._control(t_usec, t)
-                if fixed is None:
-                    stepped = self.controller.step(self.state)
-                    if stepped or pwm is None or pwm is self._idle_pwm or pwm is self._disarmed_pwm:
-                        pwm = command_to_pwm(self.airframe, self.controller.command)
-                else:
-                    pwm = fixed
-                self.client.send_pwm(sample.time_usec, pwm)
-                counters.steps += 1
-                if self.services is not None:
-                    self.services.receive(t_usec)
-                    if self._status_due(t_usec):
-                        self.services.publish(self._status(t_usec, sample, pwm))
-                    else:
-                        self.services.flush()
-                if self.outputs.log is not None:
-                    self.outputs.log.maybe_write(t, t_usec, self.state, self.controller)
-                counters.busy_s += time.perf_counter() - busy_from
-                # Half a plant step of tolerance: the plant rounds a duration to whole steps (2.5 ms) too.
-                if self.duration_usec is not None and t_usec - self._start_usec >= self.duration_usec - 1250:
-                    break
+            self._fly(self.counters)
         finally:
             if self.outputs.telemetry is not None:
                 self.outputs.telemetry.flush()  # what was gathered goes out however the loop ends
-        counters.wall_s = time.perf_counter() - start_wall
-        return counters
+        self.counters.wall_s = time.perf_counter() - start_wall
+        return self.counters
+
+    def _fly(self, counters: LoopCounters) -> None:
+        """Answer the plant's states until a stop is asked for or the duration is flown."""
+        last_heard = time.monotonic()
+        pwm: list[int] | None = None
+        self.client.hello()
+        while not self.should_stop():
+            sample = self.client.receive_step(0.25)
+            if sample is None:
+                if self.outputs.telemetry is not None:
+                    self.outputs.telemetry.flush()  # nothing gathered waits on a plant that has stopped
+                if time.monotonic() - last_heard > SILENCE_NOTICE_S:
+                    counters.plant_silences += 1
+                    self.note("the plant is silent; waiting for it")
+                    last_heard = time.monotonic()
+                self.client.hello()
+                continue
+            busy_from = time.perf_counter()
+            last_heard = time.monotonic()
+            self._plant_messages()
+            if not update_from_hil_state(self.state, sample.state, self.geodetic, self.airframe.gravity):
+                counters.invalid_states += 1
+                continue  # no answer: the plant holds the last command (and counts it)
+            t_usec = self.state.time_usec
+            if self._start_usec is not None and t_usec < self._last_usec:
+                self._restart(t_usec)
+            self._last_usec = t_usec
+            if self._start_usec is None:
+                self._start_usec = t_usec
+                if not self.commander.started:
+                    self.commander.start(self.state)
+            self.commander.observe(self.state)
+            t = (t_usec - self._start_usec) / 1e6
+            if self.offboard_lockstep and self.services is not None:
+                self.services.hold(t_usec, lambda: self.commander.setpoints_cover(t_usec), self.should_stop)
+            self.injection.inject_scheduled(t, t_usec)
+            for failure in self.injection.tick(t_usec):
+                self._learn(failure)
+            if self.params.version != self._params_seen:
+                self._parameters_changed()
+            fixed = self._control(t_usec, t)
+            if fixed is None:
+                stepped = self.controller.step(self.state)
+                if stepped or pwm is None or pwm is self._idle_pwm or pwm is self._disarmed_pwm:
+                    pwm = command_to_pwm(self.airframe, self.controller.command)
+            else:
+                pwm = fixed
+            self.client.send_pwm(sample.time_usec, pwm)
+            counters.steps += 1
+            if self.services is not None:
+                self.services.receive(t_usec)
+                if self._status_due(t_usec):
+                    self.services.publish(self._status(t_usec, sample, pwm))
+                else:
+                    self.services.flush()
+            if self.outputs.log is not None:
+                self.outputs.log.maybe_write(t, t_usec, self.state, self.controller)
+            counters.busy_s += time.perf_counter() - busy_from
+            # Half a plant step of tolerance: the plant rounds a duration to whole steps (2.5 ms) too.
+            if self.duration_usec is not None and t_usec - self._start_usec >= self.duration_usec - 1250:
+                break
 
     def summary(self) -> dict[str, Any]:
         c = self.counters
