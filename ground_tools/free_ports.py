@@ -21,7 +21,7 @@ import time
 from collections.abc import Iterable
 from pathlib import Path
 
-from transport.ports import LOOPBACK
+from transport.ports import LOOPBACK, zenoh_endpoint
 
 LEASE_S = 60.0  # far longer than a process takes to start and bind
 POOL_FLOOR = 20000  # above every default port of every instance (transport/ports.py: at most 19569)
@@ -85,14 +85,19 @@ def _read_leases(text: str, now: float) -> dict[tuple[str, int], float]:
     return leases
 
 
-def bindable(kind: socket.SocketKind, port: int) -> bool:
-    """Whether a socket of `kind` could bind loopback `port` right now (nobody holds it)."""
+def bind_error(kind: socket.SocketKind, port: int) -> OSError | None:
+    """Why a socket of `kind` could not bind loopback `port` right now, or None if it could (nobody holds it)."""
     with socket.socket(socket.AF_INET, kind) as probe:
         try:
             probe.bind((LOOPBACK, port))
-        except OSError:
-            return False
-    return True
+        except OSError as error:
+            return error
+    return None
+
+
+def bindable(kind: socket.SocketKind, port: int) -> bool:
+    """Whether a socket of `kind` could bind loopback `port` right now (nobody holds it)."""
+    return bind_error(kind, port) is None
 
 
 def protocol(kind: socket.SocketKind) -> str:
@@ -148,4 +153,4 @@ def free_tcp_port() -> int:
 
 def free_zenoh_endpoint() -> str:
     """A zenoh endpoint on a free loopback TCP port."""
-    return f"tcp/{LOOPBACK}:{free_tcp_port()}"
+    return zenoh_endpoint(free_tcp_port())

@@ -25,7 +25,7 @@ from typing import Literal
 
 from ground_tools.free_ports import lease_ports
 from transport.geodesy import Home, LocalGeodetic, home_from
-from transport.ports import LOOPBACK, Ports
+from transport.ports import LOOPBACK, Ports, zenoh_endpoint
 
 FLEET_SPACING_M = 5.0  # vehicles of a fleet stand this far apart, in a row to the east
 SIM_MODULE = "sim_bridge"
@@ -169,7 +169,7 @@ class VehiclePorts:
     def free(cls) -> VehiclePorts:
         """Free ports, so a vehicle can run beside `vtol up` or another vehicle."""
         plant, *links, zenoh_plant, zenoh_autopilot = lease_ports([socket.SOCK_DGRAM] * 5 + [socket.SOCK_STREAM] * 2)
-        return cls(plant, LinkPorts(*links), f"tcp/{LOOPBACK}:{zenoh_plant}", f"tcp/{LOOPBACK}:{zenoh_autopilot}")
+        return cls(plant, LinkPorts(*links), zenoh_endpoint(zenoh_plant), zenoh_endpoint(zenoh_autopilot))
 
 
 # ---- the command lines -----------------------------------------------------------------------------------------

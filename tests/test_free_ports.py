@@ -13,7 +13,7 @@ import pytest
 
 from ground_tools.free_ports import bindable, ephemeral_range, lease_folder, lease_ports, pool
 from ground_tools.processes import VehiclePorts
-from transport.ports import LOOPBACK
+from transport.ports import LOOPBACK, endpoint_port
 
 UDP, TCP = socket.SOCK_DGRAM, socket.SOCK_STREAM
 
@@ -28,7 +28,7 @@ def test_the_pool_lies_outside_the_ephemeral_range() -> None:
         assert ephemeral_range(broken) == (32768, 60999)
     low, high = ephemeral_range()
     ports = VehiclePorts.free()
-    numbers = [ports.plant, *vars(ports.links).values(), *(int(e.rsplit(":", 1)[1]) for e in
+    numbers = [ports.plant, *vars(ports.links).values(), *(endpoint_port(e) for e in
                (ports.zenoh_plant, ports.zenoh_autopilot))]  # fmt: skip
     assert len(set(numbers)) == 7 and not any(low <= port <= high for port in numbers), numbers
 

@@ -30,7 +30,7 @@ from scenarios.profiles import PROFILES, accel_decel_braking_at
 from tiltrotor_sitl import Vehicle
 from transport.flight_log import ALLOCATED, T, read_flight_log
 from transport.mavlink import Link, mavlink
-from transport.ports import Ports
+from transport.ports import Ports, endpoint_port
 
 pytestmark = pytest.mark.timeout(600)
 
@@ -314,8 +314,8 @@ def _free_instance() -> int:
         ports = Ports(instance)
         wanted = ((ports.plant, socket.SOCK_DGRAM), (ports.gcs_bind, socket.SOCK_DGRAM),
                   (ports.api_bind, socket.SOCK_DGRAM), (ports.api_remote, socket.SOCK_DGRAM),
-                  (int(ports.zenoh_plant.rsplit(":", 1)[1]), socket.SOCK_STREAM),
-                  (int(ports.zenoh_autopilot.rsplit(":", 1)[1]), socket.SOCK_STREAM))  # fmt: skip
+                  (endpoint_port(ports.zenoh_plant), socket.SOCK_STREAM),
+                  (endpoint_port(ports.zenoh_autopilot), socket.SOCK_STREAM))  # fmt: skip
         if all(bindable(kind, port) for port, kind in wanted):
             return instance
     pytest.skip("no free instance")

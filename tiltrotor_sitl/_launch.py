@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Literal
 
 from autopilot.parameters import ParameterRejected, ParameterStore
-from ground_tools.free_ports import bindable, free_udp_port, protocol
+from ground_tools.free_ports import bind_error, free_udp_port, protocol
 from ground_tools.processes import (AutopilotCommand, LinkPorts, SimCommand, VehiclePorts, Zenoh,
                                     deterministic_argv, fleet_home)  # fmt: skip
 from tiltrotor_sitl import _children
@@ -23,7 +23,7 @@ from tiltrotor_sitl._children import Child
 from tiltrotor_sitl._readiness import ReadinessWatch
 from tiltrotor_sitl.truth import TruthFeed
 from transport.geodesy import Home, home_from
-from transport.ports import LOOPBACK, Ports
+from transport.ports import LOOPBACK, Ports, endpoint_port
 
 Controller = Literal["mpc", "pid"]
 PLANT_LISTENING = "listening on udp"  # what vtol-sim says on stderr once its port is bound (sim_bridge/cli.py)
@@ -160,12 +160,13 @@ def _check_free(options: Options, ports: VehiclePorts, sysid: int) -> None:
         udp += [("the GCS link", ports.links.gcs_bind), ("the API link", ports.links.api_bind)]
         tcp.append(("the autopilot's zenoh", ports.zenoh_autopilot))
     checks = [(name, port, socket.SOCK_DGRAM) for name, port in udp]
-    checks += [(name, int(endpoint.rsplit(":", 1)[1]), socket.SOCK_STREAM) for name, endpoint in tcp]
+    checks += [(name, endpoint_port(endpoint), socket.SOCK_STREAM) for name, endpoint in tcp]
     for name, port, kind in checks:
-        if not bindable(kind, port):
-            raise VehicleError(f"vehicle {sysid}: {protocol(kind).upper()} port {LOOPBACK}:{port} ({name}) is already "
-                               f"in use; another vehicle on this instance? use free ports (instance=None) or another "
-                               f"instance")  # fmt: skip
+        error = bind_error(kind, port)
+        if error is not None:
+            raise VehicleError(f"vehicle {sysid}: cannot bind {protocol(kind).upper()} port {LOOPBACK}:{port} ({name}): "
+                               f"{error.strerror}; another vehicle on this instance? use free ports (instance=None) or "
+                               f"another instance")  # fmt: skip
 
 
 def _write_params(path: Path, params: dict[str, float]) -> Path:

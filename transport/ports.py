@@ -16,6 +16,16 @@ API_REMOTE_SHARED_FROM = 10  # 14540 + 10 would be the GCS remote port 14550
 ZENOH_SHARED_FROM = 100  # 7447 + 100 would be instance 0's autopilot endpoint
 
 
+def zenoh_endpoint(port: int) -> str:
+    """The zenoh endpoint of loopback TCP `port`: "tcp/127.0.0.1:PORT"."""
+    return f"tcp/{LOOPBACK}:{port}"
+
+
+def endpoint_port(endpoint: str) -> int:
+    """The port of a zenoh endpoint "tcp/HOST:PORT" (ValueError if it has none)."""
+    return int(endpoint.rsplit(":", 1)[1])
+
+
 @dataclass(frozen=True)
 class Ports:
     """Every port of one vehicle instance."""
@@ -58,9 +68,9 @@ class Ports:
     @property
     def zenoh_plant(self) -> str:
         """zenoh endpoint the plant listens on: 7447 + I for I < 100, 7547 + I from 100 on."""
-        return f"tcp/{LOOPBACK}:{(7447 if self.instance < ZENOH_SHARED_FROM else 7547) + self.instance}"
+        return zenoh_endpoint((7447 if self.instance < ZENOH_SHARED_FROM else 7547) + self.instance)
 
     @property
     def zenoh_autopilot(self) -> str:
         """zenoh endpoint the autopilot listens on: 7547 + I for I < 100, 8447 + I from 100 on."""
-        return f"tcp/{LOOPBACK}:{(7547 if self.instance < ZENOH_SHARED_FROM else 8447) + self.instance}"
+        return zenoh_endpoint((7547 if self.instance < ZENOH_SHARED_FROM else 8447) + self.instance)

@@ -237,31 +237,27 @@ class CommandService:
                     "above it")  # fmt: skip
         return down
 
-    def _current_position(self) -> tuple[float, float, float]:
-        status = self.view.status
-        position = status.estimate.position_ned if status is not None else (0.0, 0.0, 0.0)
-        return float(position[0]), float(position[1]), float(position[2])
-
     def _reposition(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
         """MAV_CMD_DO_REPOSITION (MAVSDK goto_location): param1 speed (-1/NaN default), param4 yaw (rad, as PX4 and
         MAVSDK take it; NaN: the controllers' own rule), params 5-7 lat, lon, alt (NaN lat/lon: here; NaN alt: the
         current altitude)."""
-        if self.view.status is None:
+        status = self.view.status
+        if status is None:
             return NO_STATE_YET
         if math.isinf(p[3]):
             return M.MAV_RESULT_DENIED, "Reposition denied: param4 (yaw) infinite"
-        here = self._current_position()
+        here = status.estimate.position_ned
         target: tuple[float, float, float | None] | str
         if math.isnan(p[4]) or math.isnan(p[5]):
             down = self._down(p[6], frame)
-            target = down if isinstance(down, str) else (here[0], here[1], down)
+            target = down if isinstance(down, str) else (float(here[0]), float(here[1]), down)
         else:
             target = self._position(p, frame)
         if isinstance(target, str):
             return M.MAV_RESULT_DENIED, f"Reposition denied: {target}"
         north, east, down = target
         speed = p[0] if math.isfinite(p[0]) and p[0] > 0 else None
-        position = np.array([north, east, here[2] if down is None else down])
+        position = np.array([north, east, float(here[2]) if down is None else down])
         return self.flight_stack.handle(Reposition(position, speed, None if math.isnan(p[3]) else p[3]))
 
     def _change_speed(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
