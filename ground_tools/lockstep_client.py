@@ -97,7 +97,7 @@ class LockstepClient:
         tlog: BinaryIO | None = None,
         target_system: int = 1,
         on_progress: Callable[[int], None] = lambda time_boot_ms: None,
-        on_first_hold: Callable[[], None] = lambda: None,
+        on_first_hold: Callable[[int], None] = lambda time_boot_ms: None,
     ) -> None:
         self.sock = sock
         self.scenario = scenario
@@ -173,7 +173,7 @@ class LockstepClient:
         out: list[Any] = []
         mav = self.link.mav
         if self.events.holds_answered == 0:
-            self.on_first_hold()
+            self.on_first_hold(now_ms)
             for msgid, rate in STREAM_RATES_HZ.items():
                 out.append(mav.command_long_encode(self.target, 1, M.MAV_CMD_SET_MESSAGE_INTERVAL, 0, msgid,
                                                    1e6 / rate, 0, 0, 0, 0, 0))  # fmt: skip

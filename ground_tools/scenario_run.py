@@ -118,12 +118,15 @@ def run_scenario(
                                      env=deterministic_environment(), preexec_fn=die_with_parent())  # fmt: skip
         processes.append(autopilot)
 
-        def start_recording() -> None:
+        def start_recording(hold_ms: int) -> None:
+            """At the first hold: the held step's state (time_boot_ms rounds the plant's time down to 1 ms, its
+            steps are 2.5 ms apart) is left out, so every run's recording starts at the step after it."""
             nonlocal recorder
             if record:
                 from ground_tools.telemetry_record import TelemetryRecorder
 
-                recorder = TelemetryRecorder([ports.zenoh_plant, ports.zenoh_autopilot], run_dir / "telemetry.jsonl.gz")
+                recorder = TelemetryRecorder([ports.zenoh_plant, ports.zenoh_autopilot], run_dir / "telemetry.jsonl.gz",
+                                             plant_states_from_s=(hold_ms + 1) / 1000.0)  # fmt: skip
                 recorder.start()
                 if not recorder.wait_for_peers(2, ZENOH_CONNECT_TIMEOUT_S):
                     print("vtol: warning: the zenoh recorder did not connect to both processes; the recording may "

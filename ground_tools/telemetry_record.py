@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import gzip
 import json
+import math
 import re
 import sys
 import threading
@@ -124,11 +125,11 @@ def _json_record(key: str, head: str, sample: JsonSample) -> str:
     return head + sample.text + "}"
 
 
-def encode_records(key: str, payload: bytes) -> tuple[list[str], bool]:
+def encode_records(key: str, payload: bytes, plant_states_from_s: float = -math.inf) -> tuple[list[str], bool]:
     """A payload's recording lines (one per sample, without the newline; an error record for each sample that does
     not decode) and whether all of it decoded. Each line is the JSON of {"key": key, "payload": sample}, built with
     orjson or from the payload's own text where that is cheaper: a recorded flight's samples are encoded while it
-    flies, on the cores it flies on."""
+    flies, on the cores it flies on. Plant states before `plant_states_from_s` (simulation s) are left out."""
     head = f'{{"key": {json.dumps(key)}, "payload": '
     if not key.endswith("/plant/state"):
         samples = json_samples(payload)
@@ -137,6 +138,7 @@ def encode_records(key: str, payload: bytes) -> tuple[list[str], bool]:
         rows = plant_state_rows(payload)
     except ValueError as exc:
         return [json.dumps({"key": key, "error": str(exc), "bytes": len(payload)})], False
+    rows = rows[rows[:, 0] >= plant_states_from_s]
     if np.isfinite(rows).all():  # (orjson would write a non-finite number as null)
         return [head + orjson.dumps(dict(zip(PLANT_STATE_FIELDS, row))).decode() + "}" for row in rows.tolist()], True
     return [json.dumps({"key": key, "payload": dict(zip(PLANT_STATE_FIELDS, row))}) for row in rows.tolist()], True
@@ -170,12 +172,19 @@ class TelemetryRecorder:
     peer session that connects to `endpoints`, and write every sample to `path` (JSON lines).
 
     `counts` (records per key, errors included) and `errors` (undecodable samples per key) grow while
-    recording; `stop()` returns `counts`. Usable as a context manager."""
+    recording; `stop()` returns `counts`. Usable as a context manager.
 
-    def __init__(self, endpoints: list[str], path: Path, sysid: int | None = 1) -> None:
+    `plant_states_from_s` (simulation s): plant states before it are not recorded. A lockstep recording that
+    subscribes while the simulation is held sets it to just after the held step: that step's state was put when
+    the hold began, racing the subscription, so without it a recording would start at that step in some runs and
+    at the next one in others (docs/telemetry.md)."""
+
+    def __init__(self, endpoints: list[str], path: Path, sysid: int | None = 1,
+                 plant_states_from_s: float = -math.inf) -> None:  # fmt: skip
         self.endpoints = list(endpoints)
         self.path = Path(path)
         self.sysid = sysid
+        self.plant_states_from_s = plant_states_from_s
         self.counts: Counter[str] = Counter()
         self.errors: Counter[str] = Counter()
         self._stopping = threading.Event()
@@ -225,7 +234,7 @@ class TelemetryRecorder:
         """Write every sample waiting in the channel."""
         while (sample := self._subscriber.try_recv()) is not None:
             key = str(sample.key_expr)
-            lines, ok = encode_records(key, sample.payload.to_bytes())
+            lines, ok = encode_records(key, sample.payload.to_bytes(), self.plant_states_from_s)
             self.counts[key] += len(lines)
             if not ok:
                 self.errors[key] += 1

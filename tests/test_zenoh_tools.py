@@ -158,6 +158,11 @@ def test_a_batched_plant_payload_is_a_record_a_step():
     assert records[2]["rudder"] == 26.0 and records[2]["on_ground"] == 0.0
     assert [r["airspeed"] for r in records] == [20.0, 21.0, 22.0] and records[1]["accel_z"] == -9.81
     assert records[0]["cmd_thrust1"] == 100.0 and records[0]["cmd_rudder"] == 111.0
+    # a lockstep recording leaves out the states before the step after its first hold
+    lines, ok = encode_records(plant_state_key(1), payload, plant_states_from_s=0.001)
+    assert ok and [json.loads(line)["payload"]["t"] for line in lines] == [0.0025, 0.005]
+    assert encode_records(plant_state_key(1), payload, plant_states_from_s=1.0) == ([], True)
+    assert encode_records(plant_state_key(1), b"short", plant_states_from_s=1.0)[1] is False  # still an error record
     assert decode_plant_states(encode_plant_state(0.5, state, np.zeros(3), 1.0, 1.0, command))[0]["on_ground"] == 1.0
     view = TelemetryView(window_s=10.0)
     view.add(plant_state_key(1), payload)
