@@ -17,6 +17,10 @@ A target's yaw (rad; None: the velocity controllers' own rule) is its yaw set-po
 multicopter is done only once the heading is within MIS_YAW_ERR of it (PX4's waypoint yaw check; not waited for
 with a yaw timeout, MIS_YAW_TMT > 0); a HoldAt without
 one holds the yaw of the last target that had one.
+
+A region of interest (`point_at`, a mission's DO_SET_ROI_* items) replaces the targets' yaw outside the fixed-wing
+phase: the nose points at it, or at the target being flown to (ROI_WPNEXT) plus an offset, and keeps its last
+heading within NAV_ACC_RAD of that point (PX4's MissionBase::heading_sp_update). Orbits keep their own yaw.
 """
 
 from __future__ import annotations
@@ -110,6 +114,24 @@ def orbit_yaw(circle: Circle, position: np.ndarray) -> YawSetpoint | None:
 Target = Climb | FlyTo | HoldAt | LandAt | Circle
 
 
+@dataclass(frozen=True)
+class RegionOfInterest:
+    """Where the nose points: `xy` (NE, m), or the target being flown to when None (ROI_WPNEXT), turned by
+    `yaw_offset` (rad)."""
+
+    xy: np.ndarray | None
+    yaw_offset: float = 0.0
+
+
+def target_xy(target: Climb | FlyTo | HoldAt | LandAt) -> np.ndarray:
+    """The horizontal point (NE) a target flies to or over."""
+    match target:
+        case FlyTo(position=position) | HoldAt(position=position):
+            return position[0:2]
+        case Climb(xy=xy) | LandAt(xy=xy):
+            return xy
+
+
 class AutoFlight:
     """The route being flown and the ramped velocity set-point."""
 
@@ -123,6 +145,8 @@ class AutoFlight:
         self.mission_speed: float | None = None  # DO_CHANGE_SPEED (None: the default cruise speeds)
         self.forward_flight: bool | None = None  # the phase DO_VTOL_TRANSITION asked for (None: by leg length)
         self.last_yaw: float | None = None  # the yaw of the last target that had one (HoldAt holds it)
+        self.roi: RegionOfInterest | None = None
+        self._roi_yaw: float | None = None  # the last heading to the region of interest
         self._target_since_usec = 0
 
     # ---- routes ------------------------------------------------------------------------------------------------
@@ -131,7 +155,13 @@ class AutoFlight:
         self.velocity = state.velocity_ned.copy()
         self.forward_flight = None
         self.last_yaw = None
+        self.point_at(None)
         self.follow(state, route)
+
+    def point_at(self, roi: RegionOfInterest | None) -> None:
+        """The region of interest the nose points at from now on (None: the targets' own yaw)."""
+        self.roi = roi
+        self._roi_yaw = None
 
     def follow(self, state: VehicleState, route: list[Target]) -> None:
         """Another route, continuing the set-point; its first leg starts where the last target was."""
@@ -158,9 +188,22 @@ class AutoFlight:
         target = self.target
         if isinstance(target, Circle):
             return orbit_yaw(target, state.position_ned)
-        if target is None or target.yaw is None:
+        yaw = None if target is None else self._target_yaw(state, target)
+        if yaw is None:
             return YawSetpoint(self.last_yaw) if isinstance(target, HoldAt) and self.last_yaw is not None else None
-        return YawSetpoint(target.yaw)
+        return YawSetpoint(yaw)
+
+    def _target_yaw(self, state: VehicleState, target: Climb | FlyTo | HoldAt | LandAt) -> float | None:
+        """The target's yaw, or the heading to the region of interest where one is set (its last heading within
+        NAV_ACC_RAD of it; the target's yaw until it has one)."""
+        roi = self.roi
+        if roi is None or self.forward_flight:
+            return target.yaw
+        point = target_xy(target) if roi.xy is None else roi.xy
+        north, east = (point - state.position_ned[0:2]).tolist()
+        if math.hypot(north, east) > self.params["NAV_ACC_RAD"]:
+            self._roi_yaw = wrap(math.atan2(east, north) + roi.yaw_offset)
+        return target.yaw if self._roi_yaw is None else self._roi_yaw
 
     def _yaw_reached(self, state: VehicleState, yaw: float | None) -> bool:
         """No yaw, or the heading within MIS_YAW_ERR of it; in a mission's fixed-wing phase the nose follows the
@@ -215,11 +258,11 @@ class AutoFlight:
                 if float(position[2]) <= down + CLIMB_DONE:
                     return None
                 return np.array([*self._to_point(state, xy), self._vertical(state, down, rate)])
-            case FlyTo(position=end, acceptance=acceptance, speed=speed, yaw=yaw):
+            case FlyTo(position=end, acceptance=acceptance, speed=speed):
                 start = self.leg_start
                 offset = end - position
                 if (float(np.hypot(offset[0], offset[1])) <= acceptance and abs(float(offset[2])) <= ALTITUDE_ACCEPTANCE
-                        and self._yaw_reached(state, yaw)):
+                        and self._yaw_reached(state, self._target_yaw(state, target))):
                     return None
                 length = float(np.hypot(*(end[0:2] - start[0:2])))
                 cruise = speed if speed is not None else leg_cruise_speed(

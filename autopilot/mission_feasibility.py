@@ -1,5 +1,5 @@
 """The mission against the geofence, as PX4's MissionFeasibilityChecker checks it (checkGeofence): every item with
-a position must be inside the stored fence and within GF_MAX_HOR_DIST / GF_MAX_VER_DIST of home. PX4 accepts the
+a position to fly to must be inside the stored fence and within GF_MAX_HOR_DIST / GF_MAX_VER_DIST of home. PX4 accepts the
 upload (MISSION_ACK ACCEPTED) and keeps the mission as sent, says "Geofence violation for waypoint N" (N counted
 from 1), and refuses to start it: MAV_CMD_MISSION_START is DENIED ("Mission start denied! No valid mission"), a
 switch to Mission TEMPORARILY_REJECTED ("Switching to Mission is currently not available").
@@ -15,7 +15,7 @@ from collections.abc import Callable
 import numpy as np
 
 from autopilot.mission_flight import MissionFlight
-from autopilot.mission_items import MISSION, POSITIONAL, MissionItem
+from autopilot.mission_items import NAVIGATION, MissionItem
 from transport.mavlink import mavlink
 
 
@@ -23,7 +23,7 @@ def geofence_violation(items: tuple[MissionItem, ...], position_of: Callable[[Mi
                        outside: Callable[[np.ndarray], str | None]) -> str | None:  # fmt: skip
     """PX4's text for the first item outside the fence (`outside`: why a NED position is), or None."""
     for seq, item in enumerate(items):
-        if item.command not in POSITIONAL[MISSION]:
+        if item.command not in NAVIGATION:  # a region of interest's position is not flown to (as PX4)
             continue
         position = position_of(item)
         if position is not None and outside(position) is not None:

@@ -17,6 +17,19 @@ progress reported to the mission store (MISSION_CURRENT, MISSION_ITEM_REACHED).
                                   it cancels a DO_CHANGE_SPEED; a land or return item in the FW phase is
                                   flown as Return flies (braked into), as PX4 back-transitions for it
     DO_SET_HOME                   accepted and passed
+    DO_SET_ROI_LOCATION, DO_SET_ROI (LOCATION)
+                                  the nose points at the item's latitude/longitude on the following legs
+                                  (multicopter; within NAV_ACC_RAD of it, the last heading is kept)
+    DO_SET_ROI_WPNEXT_OFFSET, DO_SET_ROI (WPNEXT)
+                                  the nose points at the item being flown to, plus param7 degrees (the offset item)
+    DO_SET_ROI_NONE, DO_SET_ROI (NONE, WPINDEX)
+                                  back to the items' own yaw (PX4's heading update ignores WPINDEX)
+    payload items (camera, gimbal, video, actuator; mission_items.PAYLOAD)
+                                  passed at once: this airframe carries no payload (PX4 forwards them to its
+                                  payload modules and goes on at once)
+
+The region of interest is the vehicle's, as PX4's navigator keeps it: it holds across missions until another ROI
+item changes it, and only Mission flies by it (Return, Go-to and Hold keep their own yaw rules).
 
 A mission with a DO_VTOL_TRANSITION item flies as PX4 flies it: in multicopter until the item to fixed wing,
 back to multicopter at the item to MC (so the PID back-transitions before its landing). A mission without one
@@ -39,8 +52,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from autopilot.auto_flight import AutoFlight, Climb, FlyTo, HoldAt, LandAt, Target
-from autopilot.mission_items import MissionItem
+from autopilot.auto_flight import AutoFlight, Climb, FlyTo, HoldAt, LandAt, RegionOfInterest, Target
+from autopilot.mission_items import ROI_AT_POSITION, ROI_WITHOUT_POSITION, MissionItem
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
 from autopilot.return_route import LANDING_APPROACH_RADIUS, plan_return
@@ -61,6 +74,17 @@ def item_yaw(item: MissionItem) -> float | None:
     if item.command not in YAW_ITEMS or not math.isfinite(item.param4):
         return None
     return math.radians(item.param4)
+
+
+def region_of_interest(item: MissionItem, ned_of: Callable[[MissionItem], np.ndarray]) -> RegionOfInterest | None:
+    """The region of interest a DO_SET_ROI_* item sets (None: none), `ned_of` giving a positional item's place."""
+    if item.command == M.MAV_CMD_DO_SET_ROI_LOCATION or (item.positional and item.param1 == M.MAV_ROI_LOCATION):
+        return RegionOfInterest(ned_of(item)[0:2])
+    if item.command == M.MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET:
+        return RegionOfInterest(None, math.radians(item.z))  # param7: the yaw offset (deg)
+    if item.command == M.MAV_CMD_DO_SET_ROI and not item.positional and item.param1 == M.MAV_ROI_WPNEXT:
+        return RegionOfInterest(None)
+    return None
 
 
 def takeoff_down(item_down: float, ground_down: float, takeoff_alt: float) -> float:
@@ -85,6 +109,7 @@ class MissionFlight:
         self._jumps: dict[int, int] = {}  # DO_JUMP item -> jumps done
         self._version = -1
         self._takeoff_first = False  # started on the ground: climb before the first navigation item
+        self.roi: RegionOfInterest | None = None  # the last DO_SET_ROI_* item's
 
     @property
     def items(self) -> tuple[MissionItem, ...]:
@@ -101,6 +126,7 @@ class MissionFlight:
         self._takeoff_first = self.landed_now()
         self.auto.mission_speed = None
         self.auto.start(state, [])
+        self.auto.point_at(self.roi)
         transitions = any(item.command == M.MAV_CMD_DO_VTOL_TRANSITION for item in self.items)
         self.auto.forward_flight = False if transitions else None
         self._begin(state, seq)
@@ -151,6 +177,9 @@ class MissionFlight:
                 continue
             if item.command == M.MAV_CMD_DO_CHANGE_SPEED:
                 self.auto.mission_speed = item.param2 if item.param2 > 0 else None
+            if item.command in ROI_AT_POSITION | ROI_WITHOUT_POSITION:
+                self.roi = region_of_interest(item, self._place)
+                self.auto.point_at(self.roi)
             if item.command == M.MAV_CMD_DO_VTOL_TRANSITION and int(item.param1) in (VTOL_FW, VTOL_MC):
                 self.auto.forward_flight = int(item.param1) == VTOL_FW
                 self.auto.mission_speed = None  # as PX4's navigator, a new phase flies its own default cruise
@@ -183,15 +212,20 @@ class MissionFlight:
         """The item's NED position; None when it flies where the vehicle is then (latitude and longitude 0)."""
         return None if item.x == 0 and item.y == 0 else self._position(np.zeros(3), item)
 
-    def _position(self, here: np.ndarray, item: MissionItem) -> np.ndarray:
-        """The item's NED position (lat/lon 0: `here`, the vehicle's; altitude relative to home or AMSL)."""
+    def _place(self, item: MissionItem) -> np.ndarray:
+        """A positional item's NED position from its latitude, longitude and altitude (relative to home or AMSL)."""
         origin = self.homes.origin
+        north, east, _ = ned_from_geodetic(origin, item.latitude_deg, item.longitude_deg, origin.alt)
+        return np.array([north, east, self._down(item)])
+
+    def _down(self, item: MissionItem) -> float:
+        return self.homes.position.down - item.z if item.relative_altitude else self.homes.origin.alt - item.z
+
+    def _position(self, here: np.ndarray, item: MissionItem) -> np.ndarray:
+        """The item's NED position; latitude and longitude 0: over `here`, the vehicle's."""
         if item.x == 0 and item.y == 0:
-            north, east = float(here[0]), float(here[1])
-        else:
-            north, east, _ = ned_from_geodetic(origin, item.latitude_deg, item.longitude_deg, origin.alt)
-        down = self.homes.position.down - item.z if item.relative_altitude else origin.alt - item.z
-        return np.array([north, east, down])
+            return np.array([float(here[0]), float(here[1]), self._down(item)])
+        return self._place(item)
 
     def _targets(self, state: VehicleState, item: MissionItem) -> list[Target]:
         p = self.params
@@ -214,4 +248,4 @@ class MissionFlight:
             return [HoldAt(state.position_ned.copy(), max(item.param1, 0.0))]
         if command == M.MAV_CMD_NAV_RETURN_TO_LAUNCH:
             return plan_return(p, state, self.rally_points(), self.homes.position.ned).route
-        return []  # DO_CHANGE_SPEED, DO_VTOL_TRANSITION (done above), DO_SET_HOME: nothing to fly
+        return []  # DO_CHANGE_SPEED, DO_VTOL_TRANSITION, DO_SET_ROI_* (done above), DO_SET_HOME, payload: nothing to fly

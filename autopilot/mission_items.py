@@ -8,7 +8,8 @@ param5/param6 in MAV_FRAME_MISSION) and z (altitude in m, or param7). A legacy M
 converted to the same form on arrival (`from_float_coordinates`).
 
 What is supported (docs/mavlink.md, "Missions"): per mission type, the commands below; positional commands in the
-global frames (GLOBAL, GLOBAL_RELATIVE_ALT and their _INT forms), the others in MAV_FRAME_MISSION, as PX4 parses them.
+global frames (GLOBAL, GLOBAL_RELATIVE_ALT and their _INT forms), the others in MAV_FRAME_MISSION, as PX4 parses them
+(its mavlink_mission.cpp).
 """
 
 from __future__ import annotations
@@ -35,16 +36,38 @@ FLOAT_FRAME_OF = {M.MAV_FRAME_GLOBAL_INT: M.MAV_FRAME_GLOBAL,
 FENCE_POLYGONS = frozenset({M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION, M.MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION})
 FENCE_CIRCLES = frozenset({M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, M.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION})
 
+# The mission items with a position the vehicle flies to (PX4's MissionBlock::item_contains_position).
+NAVIGATION = frozenset({M.MAV_CMD_NAV_WAYPOINT, M.MAV_CMD_NAV_TAKEOFF, M.MAV_CMD_NAV_VTOL_TAKEOFF, M.MAV_CMD_NAV_LAND,
+                        M.MAV_CMD_NAV_VTOL_LAND, M.MAV_CMD_NAV_LOITER_TIME, M.MAV_CMD_NAV_LOITER_UNLIM})  # fmt: skip
+# Payload items: PX4 hands them to its camera, gimbal and actuator modules and goes on to the next item at once
+# (MissionBlock's "action commands that complete instantaneously"). This airframe carries no payload, so they are
+# stored, downloaded as sent and passed when flown (docs/mavlink.md, "Missions"); a plan with camera items
+# (QGroundControl's surveys, a gimbal pointed down) flies as its waypoints say.
+PAYLOAD = frozenset({
+    M.MAV_CMD_DO_LAND_START, M.MAV_CMD_DO_TRIGGER_CONTROL, M.MAV_CMD_DO_DIGICAM_CONTROL, M.MAV_CMD_IMAGE_START_CAPTURE,
+    M.MAV_CMD_IMAGE_STOP_CAPTURE, M.MAV_CMD_VIDEO_START_CAPTURE, M.MAV_CMD_VIDEO_STOP_CAPTURE,
+    M.MAV_CMD_DO_CONTROL_VIDEO, M.MAV_CMD_DO_MOUNT_CONFIGURE, M.MAV_CMD_DO_MOUNT_CONTROL,
+    M.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, M.MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE, M.MAV_CMD_DO_SET_CAM_TRIGG_DIST,
+    M.MAV_CMD_OBLIQUE_SURVEY, M.MAV_CMD_DO_SET_CAM_TRIGG_INTERVAL, M.MAV_CMD_SET_CAMERA_MODE, M.MAV_CMD_SET_CAMERA_ZOOM,
+    M.MAV_CMD_SET_CAMERA_FOCUS, M.MAV_CMD_SET_CAMERA_SOURCE, M.MAV_CMD_DO_SET_ACTUATOR,
+})  # fmt: skip
+# The region of interest (PX4's vehicle_roi), which turns the nose on a mission's legs (mission_flight.py). DO_SET_ROI
+# takes MAV_ROI_LOCATION or MAV_ROI_NONE with a position, MAV_ROI_NONE, _WPNEXT or _WPINDEX without (as PX4 parses it).
+ROI_AT_POSITION = frozenset({M.MAV_CMD_DO_SET_ROI_LOCATION, M.MAV_CMD_DO_SET_ROI})
+ROI_WITHOUT_POSITION = frozenset({M.MAV_CMD_DO_SET_ROI_NONE, M.MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET, M.MAV_CMD_DO_SET_ROI})
+ROI_MODES_AT_POSITION = (M.MAV_ROI_LOCATION, M.MAV_ROI_NONE)
+ROI_MODES_WITHOUT_POSITION = (M.MAV_ROI_NONE, M.MAV_ROI_WPNEXT, M.MAV_ROI_WPINDEX)
+
 # Commands with a position (global frames) and without (MAV_FRAME_MISSION), per mission type.
 POSITIONAL: dict[int, frozenset[int]] = {
-    MISSION: frozenset({M.MAV_CMD_NAV_WAYPOINT, M.MAV_CMD_NAV_TAKEOFF, M.MAV_CMD_NAV_VTOL_TAKEOFF, M.MAV_CMD_NAV_LAND,
-                        M.MAV_CMD_NAV_VTOL_LAND, M.MAV_CMD_NAV_LOITER_TIME, M.MAV_CMD_NAV_LOITER_UNLIM}),
+    MISSION: NAVIGATION | ROI_AT_POSITION,
     FENCE: FENCE_POLYGONS | FENCE_CIRCLES,
     RALLY: frozenset({M.MAV_CMD_NAV_RALLY_POINT}),
 }  # fmt: skip
 NON_POSITIONAL: dict[int, frozenset[int]] = {
     MISSION: frozenset({M.MAV_CMD_NAV_RETURN_TO_LAUNCH, M.MAV_CMD_NAV_DELAY, M.MAV_CMD_DO_VTOL_TRANSITION,
-                        M.MAV_CMD_DO_CHANGE_SPEED, M.MAV_CMD_DO_JUMP, M.MAV_CMD_DO_SET_HOME}),
+                        M.MAV_CMD_DO_CHANGE_SPEED, M.MAV_CMD_DO_JUMP, M.MAV_CMD_DO_SET_HOME})
+             | PAYLOAD | ROI_WITHOUT_POSITION,
     FENCE: frozenset(),
     RALLY: frozenset(),
 }  # fmt: skip
@@ -159,6 +182,10 @@ def _check_command_params(item: MissionItem) -> int:
         return M.MAV_MISSION_INVALID_PARAM1
     if item.command in (M.MAV_CMD_NAV_DELAY, M.MAV_CMD_NAV_LOITER_TIME) and math.isnan(item.param1):
         return M.MAV_MISSION_INVALID_PARAM1
+    if item.command == M.MAV_CMD_DO_SET_ROI:
+        modes = ROI_MODES_AT_POSITION if item.positional else ROI_MODES_WITHOUT_POSITION
+        if item.param1 not in modes:  # also NaN
+            return M.MAV_MISSION_INVALID_PARAM1  # as PX4
     return M.MAV_MISSION_ACCEPTED
 
 

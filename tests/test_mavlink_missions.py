@@ -9,9 +9,12 @@ import math
 import time
 from typing import Any
 
+import numpy as np
 import pytest
 
-from autopilot.mission_items import MissionItem, check_item
+from autopilot.mission_feasibility import geofence_violation
+from autopilot.mission_flight import region_of_interest
+from autopilot.mission_items import PAYLOAD, MissionItem, check_item
 from autopilot.mission_store import MissionFileError, MissionStore, document, parse_document
 from tests.ground_station import GroundStation
 from tests.mavlink_sitl import Sitl, start_sitl
@@ -62,6 +65,16 @@ BAD_ITEMS = [
     ("infinite param2", (REL, M.MAV_CMD_NAV_WAYPOINT, 0, math.inf, 0, 0, LAT, LON, 10.0),
      M.MAV_MISSION_INVALID_PARAM2),
     ("fence item in a mission", FENCE[0], M.MAV_MISSION_ERROR),
+    ("camera item in a global frame", (REL, M.MAV_CMD_IMAGE_START_CAPTURE, 0, 1, 0, 0, LAT, LON, 0.0),
+     M.MAV_MISSION_UNSUPPORTED),
+    ("ROI location in MISSION frame", (M.MAV_FRAME_MISSION, M.MAV_CMD_DO_SET_ROI_LOCATION, 0, 0, 0, 0, 0, 0, 0.0),
+     M.MAV_MISSION_UNSUPPORTED_FRAME),
+    ("DO_SET_ROI WPNEXT with a position", (REL, M.MAV_CMD_DO_SET_ROI, M.MAV_ROI_WPNEXT, 0, 0, 0, LAT, LON, 0.0),
+     M.MAV_MISSION_INVALID_PARAM1),
+    ("DO_SET_ROI LOCATION without one", (M.MAV_FRAME_MISSION, M.MAV_CMD_DO_SET_ROI, M.MAV_ROI_LOCATION, 0, 0, 0, 0, 0,
+                                         0.0), M.MAV_MISSION_INVALID_PARAM1),
+    ("DO_SET_ROI NaN mode", (M.MAV_FRAME_MISSION, M.MAV_CMD_DO_SET_ROI, math.nan, 0, 0, 0, 0, 0, 0.0),
+     M.MAV_MISSION_INVALID_PARAM1),
 ]  # fmt: skip
 
 
@@ -78,6 +91,42 @@ def test_supported_items_pass_and_fence_polygons_need_three_vertices():
     assert check_item(M.MAV_MISSION_TYPE_RALLY, item(SURVEY[1])) == M.MAV_MISSION_ERROR
     zero = item((REL, M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, 0, 0, 0, 0, 0, 0, 0.0))  # MAVSDK's geofence example
     assert check_item(M.MAV_MISSION_TYPE_FENCE, zero) == M.MAV_MISSION_ACCEPTED
+    # PX4's payload and region-of-interest items (QGroundControl's camera sections)
+    payload = [(M.MAV_FRAME_MISSION, command, 0, 0, 0, 0, 0, 0, 0.0) for command in sorted(PAYLOAD)]
+    roi = [(REL, M.MAV_CMD_DO_SET_ROI_LOCATION, 0, 0, 0, 0, LAT, LON, 0.0),
+           (REL, M.MAV_CMD_DO_SET_ROI, M.MAV_ROI_LOCATION, 0, 0, 0, LAT, LON, 0.0),
+           (M.MAV_FRAME_MISSION, M.MAV_CMD_DO_SET_ROI, M.MAV_ROI_WPNEXT, 0, 0, 0, 0, 0, 0.0),
+           (M.MAV_FRAME_MISSION, M.MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET, 0, 0, 0, 0, 0, 0, 30.0),
+           (M.MAV_FRAME_MISSION, M.MAV_CMD_DO_SET_ROI_NONE, 0, 0, 0, 0, 0, 0, 0.0)]  # fmt: skip
+    assert len(payload) == 20
+    assert all(check_item(M.MAV_MISSION_TYPE_MISSION, item(row)) == M.MAV_MISSION_ACCEPTED for row in payload + roi)
+
+
+def test_a_region_of_interest_is_the_point_or_the_next_item_and_not_a_waypoint_for_the_geofence():
+    here = np.array([5.0, 6.0, -20.0])
+    at = region_of_interest(item((REL, M.MAV_CMD_DO_SET_ROI_LOCATION, 0, 0, 0, 0, LAT, LON, 0.0)), lambda _: here)
+    assert at is not None and at.xy.tolist() == [5.0, 6.0]
+    offset = region_of_interest(item((M.MAV_FRAME_MISSION, M.MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET, 0, 0, 0, 0, 0, 0,
+                                      30.0)), lambda _: here)  # fmt: skip
+    assert offset is not None and offset.xy is None and math.isclose(offset.yaw_offset, math.radians(30.0))
+    for row in ((M.MAV_FRAME_MISSION, M.MAV_CMD_DO_SET_ROI_NONE, 0, 0, 0, 0, 0, 0, 0.0),
+                (M.MAV_FRAME_MISSION, M.MAV_CMD_DO_SET_ROI, M.MAV_ROI_WPINDEX, 2, 0, 0, 0, 0, 0.0),
+                (REL, M.MAV_CMD_DO_SET_ROI, M.MAV_ROI_NONE, 0, 0, 0, LAT, LON, 0.0)):  # fmt: skip
+        assert region_of_interest(item(row), lambda _: here) is None
+    # a region of interest beyond the fence is no violation: only the points flown to are checked (as PX4)
+    far = LON + 1_000_000
+
+    def position_of(it: MissionItem) -> np.ndarray:
+        return np.array([10.0, 50_000.0 if it.y == far else 0.0, -10.0])
+
+    def outside(ned: np.ndarray) -> str | None:
+        return "beyond 100 m" if ned[1] > 100.0 else None
+
+    near_waypoint = item((REL, M.MAV_CMD_NAV_WAYPOINT, 0, 0, 0, 0, LAT, LON, 10.0))
+    far_roi = item((REL, M.MAV_CMD_DO_SET_ROI_LOCATION, 0, 0, 0, 0, LAT, far, 0.0))
+    far_waypoint = item((REL, M.MAV_CMD_NAV_WAYPOINT, 0, 0, 0, 0, LAT, far, 10.0))
+    assert geofence_violation((far_roi, near_waypoint), position_of, outside) is None
+    assert geofence_violation((near_waypoint, far_waypoint), position_of, outside) == "Geofence violation for waypoint 2"
     negative = item((REL, M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, -5, 0, 0, 0, LAT, LON, 0.0))
     assert check_item(M.MAV_MISSION_TYPE_FENCE, negative) == M.MAV_MISSION_INVALID_PARAM1
 

@@ -13,10 +13,10 @@ import pytest
 from autopilot.attitude import wrap
 from autopilot.auto_flight import ORBIT_FRONT_TO_CENTER, ORBIT_INITIAL_HEADING, ORBIT_TANGENT, Circle, orbit_yaw
 from autopilot.yaw_setpoint import YAW_STOPPED, StickYaw, YawSetpoint, YawShaper, multicopter_speed
-from tests.ground_station import OFFBOARD
+from tests.ground_station import HOLD, OFFBOARD
 from tests.test_mavlink_failsafes import hovering, set_param
 from tests.test_mavlink_manual_control import POSCTL
-from tests.test_mavlink_missions import Client
+from tests.test_mavlink_missions import Client, rows_of
 from tests.test_mavlink_navigation import MISSION_MODE, ORBIT_MODE, latlon_e7
 from transport.mavlink import mavlink as M
 
@@ -304,3 +304,56 @@ def test_the_yaw_stick_turns_the_hover_at_its_rate_and_centred_stops_and_holds_t
     assert abs(math.degrees(rate) - 100.0 / 3.0) < 3.0
     assert 0.0 < wrap(math.radians(held - released)) < math.radians(15.0)  # stopped, not turned back, and locked
     assert abs(wrap(math.radians(yaw_deg(gs) - held))) < math.radians(0.5)
+
+
+def as_text(rows: list[tuple]) -> list[tuple[str, ...]]:
+    """Mission rows comparable with NaN in them."""
+    return [tuple(str(float(value)) for value in row) for row in rows]
+
+
+def fly_mission(gs) -> None:
+    """Mission mode, until the stored mission is complete."""
+    assert gs.set_mode(MISSION_MODE).result == M.MAV_RESULT_ACCEPTED
+    gs.wait(lambda: gs.latest["MISSION_CURRENT"].mission_state == M.MISSION_STATE_ACTIVE, "the mission's start", 30)
+    gs.wait(lambda: gs.latest["MISSION_CURRENT"].mission_state == M.MISSION_STATE_COMPLETE, "the mission's end", 120)
+
+
+def test_a_region_of_interest_turns_the_nose_on_a_missions_legs_and_payload_items_are_passed(mpc_gs):
+    # A mission as QGroundControl plans one with a camera: the region of interest 40 m east of home, the camera and
+    # gimbal items (no payload on this airframe: stored, sent back as they came, passed), a waypoint 20 m north.
+    gs = mpc_gs
+    roi_lat, roi_lon = latlon_e7(0.0, 40.0)
+    north, east = latlon_e7(20.0, 0.0)
+    mission = M.MAV_FRAME_MISSION
+    rows = [
+        (M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, M.MAV_CMD_DO_SET_ROI_LOCATION, 0, 0, 0, 0, roi_lat, roi_lon, 0.0),
+        (mission, M.MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW, -90.0, 0.0, math.nan, math.nan, 0, 0, 0.0),
+        (mission, M.MAV_CMD_IMAGE_START_CAPTURE, 0, 2.0, 0, math.nan, 0, 0, 0.0),
+        (M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, M.MAV_CMD_NAV_WAYPOINT, 0, 2.0, 0, math.nan, north, east, ALTITUDE),
+        (mission, M.MAV_CMD_DO_SET_CAM_TRIGG_DIST, 0, 0, 1, 0, 0, 0, 0.0),
+        (mission, M.MAV_CMD_IMAGE_STOP_CAPTURE, 0, math.nan, math.nan, math.nan, 0, 0, 0.0),
+    ]  # fmt: skip
+    client = Client(gs)
+    assert client.upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
+    assert as_text(rows_of(client.download(M.MAV_MISSION_TYPE_MISSION))) == as_text(rows)
+    fly_mission(gs)
+    gs.wait_sim(4.0)  # holding at the waypoint, still pointing at the region of interest
+
+    def roi_error_deg() -> float:
+        p = gs.latest["LOCAL_POSITION_NED"]
+        return math.degrees(wrap(math.atan2(40.0 - p.y, 0.0 - p.x) - gs.latest["ATTITUDE"].yaw))
+
+    p = gs.latest["LOCAL_POSITION_NED"]
+    print(f"held at ({p.x:.2f}, {p.y:.2f}), heading {yaw_deg(gs):.2f} deg, {roi_error_deg():.2f} deg off the ROI")
+    assert math.hypot(p.x - 20.0, p.y) < 2.0 and abs(roi_error_deg()) < 3.0
+
+    # DO_SET_ROI_NONE: the items' own yaw again (a waypoint's param4), in the next mission too.
+    north, east = latlon_e7(20.0, 8.0)
+    rows = [(mission, M.MAV_CMD_DO_SET_ROI_NONE, 0, 0, 0, 0, 0, 0, 0.0),
+            (M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, M.MAV_CMD_NAV_WAYPOINT, 0, 2.0, 0, -60.0, north, east, ALTITUDE)]
+    assert client.upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
+    assert gs.set_mode(HOLD).result == M.MAV_RESULT_ACCEPTED
+    fly_mission(gs)
+    gs.wait_sim(4.0)
+    print(f"after DO_SET_ROI_NONE: heading {yaw_deg(gs):.2f} deg")
+    assert abs(yaw_deg(gs) + 60.0) < 3.0
