@@ -17,7 +17,8 @@ from autopilot.parameters import ParameterStore
 from autopilot.requests import (Arm, ChangeSpeed, ClearMission, Disarm, GcsHeartbeat, InjectFailure, Land,
                                 ManualControlInput, OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit,
                                 Reply, Reposition, Request, ReturnToLaunch, SetMissionCurrent, SetMode,
-                                SetHome, StartMission, StoreMission, Takeoff, Transition, TurnTo)  # fmt: skip
+                                SetHome, SetRegionOfInterest, StartMission, StoreMission, Takeoff, Transition,
+                                TurnTo)  # fmt: skip
 from transport.mavlink import mavlink
 
 
@@ -78,6 +79,8 @@ class FlightStack:
                 return guided.route(request, state)
             case TurnTo():
                 return guided.turn_to(request, state)
+            case SetRegionOfInterest(roi=roi):
+                return guided.point_at(roi)
             case OffboardVelocity() | OffboardPosition() | OffboardAttitude():
                 return guided.offboard_request(request)
             case ManualControlInput():

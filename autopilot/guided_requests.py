@@ -4,9 +4,9 @@ commander does."""
 
 from __future__ import annotations
 
-from autopilot.auto_flight import Circle
+from autopilot.auto_flight import Circle, RegionOfInterest
 from autopilot.commander import ACCEPTED, DENIED, TEMPORARILY_REJECTED, Commander
-from autopilot.flight_modes import HOLD, LAND, OFFBOARD, ORBIT, VTOL_FW, VTOL_MC
+from autopilot.flight_modes import HOLD, LAND, MISSION, OFFBOARD, ORBIT, VTOL_FW, VTOL_MC
 from autopilot.offboard_setpoint import SETPOINT_LIMITS
 from autopilot.attitude import wrap
 from autopilot.requests import (OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit, Reply, Reposition, SetHome,
@@ -87,6 +87,17 @@ class GuidedRequests:
         c.switch_mode(ORBIT, state, f"Orbit: radius {request.radius:g} m at {request.speed:g} m/s")
         c.orbit.start(state, Circle(center, down, request.radius, request.speed, request.clockwise,
                                     request.yaw_behaviour, float(state.euler[2])))  # fmt: skip
+        return ACCEPTED, None
+
+    def point_at(self, roi: RegionOfInterest | None) -> Reply:
+        """DO_SET_ROI_*: the vehicle's region of interest, which Mission flies by (at once if it is flying; PX4's
+        navigator keeps it in any mode and acknowledges it ACCEPTED)."""
+        c = self.commander
+        if (refusal := c.refusal()) is not None:
+            return refusal
+        c.mission_mode.mission.roi = roi
+        if c.mode == MISSION:
+            c.auto.point_at(roi)
         return ACCEPTED, None
 
     def turn_to(self, request: TurnTo, state: VehicleState) -> Reply:

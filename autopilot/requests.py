@@ -14,6 +14,7 @@ from typing import Protocol
 import numpy as np
 
 from aircraft.failures import Failure
+from autopilot.auto_flight import RegionOfInterest
 from autopilot.home_position import HomePosition
 from autopilot.mission_items import MissionItem
 from autopilot.yaw_setpoint import YawSetpoint
@@ -181,6 +182,14 @@ class Orbit:
 
 
 @dataclass(frozen=True)
+class SetRegionOfInterest:
+    """MAV_CMD_DO_SET_ROI_LOCATION / _WPNEXT_OFFSET / _NONE, DO_SET_ROI: where the nose points on a mission's legs
+    (None: the items' own yaw)."""
+
+    roi: RegionOfInterest | None
+
+
+@dataclass(frozen=True)
 class GcsHeartbeat:
     """A HEARTBEAT from a ground station (MAV_TYPE_GCS) arrived now: the data link is alive (NAV_DLL_ACT)."""
 
@@ -188,7 +197,7 @@ class GcsHeartbeat:
 Request = (Arm | Disarm | Takeoff | Land | SetMode | Transition | OffboardVelocity | OffboardPosition
            | OffboardAttitude | ManualControlInput | InjectFailure
            | StoreMission | ClearMission | SetMissionCurrent | StartMission | ReturnToLaunch | Reposition | ChangeSpeed
-           | Orbit | GcsHeartbeat | SetHome | TurnTo)  # fmt: skip
+           | Orbit | GcsHeartbeat | SetHome | TurnTo | SetRegionOfInterest)  # fmt: skip
 
 
 class RequestHandler(Protocol):

@@ -357,3 +357,22 @@ def test_a_region_of_interest_turns_the_nose_on_a_missions_legs_and_payload_item
     gs.wait_sim(4.0)
     print(f"after DO_SET_ROI_NONE: heading {yaw_deg(gs):.2f} deg")
     assert abs(yaw_deg(gs) + 60.0) < 3.0
+
+    # The command (QGroundControl's "ROI" action) sets the vehicle's region of interest, 30 m south of home: Hold
+    # keeps its heading, the next mission points at it. Bad ones are DENIED.
+    assert gs.set_mode(HOLD).result == M.MAV_RESULT_ACCEPTED
+    assert gs.command(M.MAV_CMD_DO_SET_ROI, 7).result == M.MAV_RESULT_DENIED
+    assert gs.command(M.MAV_CMD_DO_SET_ROI_LOCATION, 0, 0, 0, 0, 91.0, 8.5, 0).result == M.MAV_RESULT_DENIED
+    south_lat, south_lon = latlon_e7(-30.0, 0.0)
+    ack = gs.command(M.MAV_CMD_DO_SET_ROI_LOCATION, 0, 0, 0, 0, south_lat * 1e-7, south_lon * 1e-7, 0.0)
+    assert ack.result == M.MAV_RESULT_ACCEPTED
+    gs.wait_sim(2.0)
+    assert abs(yaw_deg(gs) + 60.0) < 3.0  # Hold keeps its own heading
+    rows = [(M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, M.MAV_CMD_NAV_WAYPOINT, 0, 2.0, 0, 30.0, north, east, ALTITUDE)]
+    assert client.upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
+    fly_mission(gs)
+    gs.wait_sim(4.0)
+    p = gs.latest["LOCAL_POSITION_NED"]
+    south_error = math.degrees(wrap(math.atan2(0.0 - p.y, -30.0 - p.x) - gs.latest["ATTITUDE"].yaw))
+    print(f"after DO_SET_ROI_LOCATION (command): heading {yaw_deg(gs):.2f} deg, {south_error:.2f} deg off the ROI")
+    assert abs(south_error) < 3.0  # the ROI wins over the waypoint's yaw of 30 deg

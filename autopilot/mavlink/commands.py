@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from aircraft.failures import FailureRejected, parse_failure
+from autopilot.auto_flight import RegionOfInterest
 from autopilot.commander import FORCE_MAGIC
 from autopilot.home_position import home_at, home_here, home_refusal
 from autopilot.mavlink import messages
@@ -37,6 +38,7 @@ from autopilot.requests import (
     ReturnToLaunch,
     SetHome,
     SetMode,
+    SetRegionOfInterest,
     StartMission,
     Takeoff,
     Transition,
@@ -107,6 +109,10 @@ class CommandService:
             M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES: self._capabilities,
             M.MAV_CMD_GET_HOME_POSITION: self._home,
             M.MAV_CMD_DO_SET_HOME: self._set_home,
+            M.MAV_CMD_DO_SET_ROI_LOCATION: self._region_of_interest,
+            M.MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET: self._region_of_interest,
+            M.MAV_CMD_DO_SET_ROI_NONE: self._region_of_interest,
+            M.MAV_CMD_DO_SET_ROI: self._region_of_interest,
         }
 
     # ---- messages ---------------------------------------------------------------------------------------------
@@ -208,15 +214,23 @@ class CommandService:
             return M.MAV_RESULT_DENIED, "Transition: param1 must be 3 (MC) or 4 (FW)"
         return self.flight_stack.handle(Transition(target))
 
-    def _position(self, p: Params, frame: int | None) -> tuple[float, float, float | None] | str:
-        """params 5-7 (lat, lon, alt; COMMAND_INT: degE7 and the frame's altitude) as north, east and down (None:
-        NaN altitude), or why not; NaN lat/lon are refused here (the callers treat them first)."""
+    def _horizontal(self, p: Params, frame: int | None) -> tuple[float, float] | str:
+        """params 5 and 6 (lat, lon; COMMAND_INT: degE7) as north and east, or why not."""
         lat, lon = (p[4] * 1e-7, p[5] * 1e-7) if frame is not None else (p[4], p[5])
         if not (math.isfinite(lat) and math.isfinite(lon)) or abs(lat) > 90.0 or abs(lon) > 180.0:
             return f"latitude/longitude {p[4]:g}, {p[5]:g} not valid"
+        north, east, _ = ned_from_geodetic(self.origin, lat, lon, self.origin.alt)
+        return north, east
+
+    def _position(self, p: Params, frame: int | None) -> tuple[float, float, float | None] | str:
+        """params 5-7 (lat, lon, alt; COMMAND_INT: degE7 and the frame's altitude) as north, east and down (None:
+        NaN altitude), or why not; NaN lat/lon are refused here (the callers treat them first)."""
+        horizontal = self._horizontal(p, frame)
+        if isinstance(horizontal, str):
+            return horizontal
         if math.isinf(p[6]):
             return "altitude infinite"
-        north, east, _ = ned_from_geodetic(self.origin, lat, lon, self.origin.alt)
+        north, east = horizontal
         down = self._down(p[6], frame)
         if isinstance(down, str):
             return down
@@ -259,6 +273,28 @@ class CommandService:
         speed = p[0] if math.isfinite(p[0]) and p[0] > 0 else None
         position = np.array([north, east, float(here[2]) if down is None else down])
         return self.flight_stack.handle(Reposition(position, speed, None if math.isnan(p[3]) else p[3]))
+
+    def _region_of_interest(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
+        """MAV_CMD_DO_SET_ROI_LOCATION (params 5, 6 lat, lon; the altitude is not used: the nose only turns),
+        DO_SET_ROI_WPNEXT_OFFSET (param7 the yaw offset, deg), DO_SET_ROI_NONE, and the older DO_SET_ROI (param1
+        MAV_ROI mode; LOCATION at params 5, 6)."""
+        command = origin.command
+        mode = {M.MAV_CMD_DO_SET_ROI_LOCATION: M.MAV_ROI_LOCATION, M.MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET: M.MAV_ROI_WPNEXT,
+                M.MAV_CMD_DO_SET_ROI_NONE: M.MAV_ROI_NONE}.get(command, int_param(p[0]))  # fmt: skip
+        roi: RegionOfInterest | None = None
+        if mode == M.MAV_ROI_LOCATION:
+            point = self._horizontal(p, frame)
+            if isinstance(point, str):
+                return M.MAV_RESULT_DENIED, f"ROI denied: {point}"
+            roi = RegionOfInterest(np.array(point))
+        elif mode == M.MAV_ROI_WPNEXT:
+            offset = p[6] if command == M.MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET else 0.0
+            if not math.isfinite(offset):
+                return M.MAV_RESULT_DENIED, "ROI denied: param7 (yaw offset) not finite"
+            roi = RegionOfInterest(None, math.radians(offset))
+        elif mode not in (M.MAV_ROI_NONE, M.MAV_ROI_WPINDEX):
+            return M.MAV_RESULT_DENIED, f"ROI denied: param1 (ROI mode) {p[0]:g} not 0..3"
+        return self.flight_stack.handle(SetRegionOfInterest(roi))
 
     def _change_speed(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
         """MAV_CMD_DO_CHANGE_SPEED: param2 the speed (> 0; -1, -2 or 0: back to the defaults, as PX4's navigator);
