@@ -8,6 +8,8 @@ progress reported to the mission store (MISSION_CURRENT, MISSION_ITEM_REACHED).
                                   param4
     NAV_LOITER_TIME / _UNLIM      FlyTo, then HoldAt for param1 s (for ever); _UNLIM: yaw param4 (LOITER_TIME's
                                   param4 is not a yaw)
+    NAV_LOITER_TO_ALT             FlyTo: over the point at the item's altitude (PX4's multicopter flies it so;
+                                  QGroundControl's landing patterns descend with it)
     NAV_DELAY                     HoldAt here for param1 s
     NAV_RETURN_TO_LAUNCH          the Return route (to the closest of home and the rally points)
     DO_CHANGE_SPEED               param2 > 0: the cruise speed of the following legs (-1: back to the defaults)
@@ -66,7 +68,8 @@ YAW_ITEMS = (M.MAV_CMD_NAV_WAYPOINT, M.MAV_CMD_NAV_LOITER_UNLIM, M.MAV_CMD_NAV_T
              M.MAV_CMD_NAV_LAND, M.MAV_CMD_NAV_VTOL_LAND)  # param4 is their yaw (deg)
 LANDS = (M.MAV_CMD_NAV_LAND, M.MAV_CMD_NAV_VTOL_LAND)
 TAKEOFFS = (M.MAV_CMD_NAV_TAKEOFF, M.MAV_CMD_NAV_VTOL_TAKEOFF)
-TAKEOFF_BEFORE = (M.MAV_CMD_NAV_WAYPOINT, M.MAV_CMD_NAV_LOITER_TIME, M.MAV_CMD_NAV_LOITER_UNLIM)
+TAKEOFF_BEFORE = (M.MAV_CMD_NAV_WAYPOINT, M.MAV_CMD_NAV_LOITER_TIME, M.MAV_CMD_NAV_LOITER_UNLIM,
+                  M.MAV_CMD_NAV_LOITER_TO_ALT)
 
 
 def item_yaw(item: MissionItem) -> float | None:
@@ -233,6 +236,8 @@ class MissionFlight:
         if command == M.MAV_CMD_NAV_WAYPOINT:
             radius = item.param2 if math.isfinite(item.param2) and item.param2 > 0 else p["NAV_ACC_RAD"]
             return [FlyTo(self._position(state.position_ned, item), radius, yaw=yaw)]
+        if command == M.MAV_CMD_NAV_LOITER_TO_ALT:
+            return [FlyTo(self._position(state.position_ned, item), p["NAV_ACC_RAD"])]
         if command in TAKEOFFS:
             down = float(self._position(state.position_ned, item)[2])
             return [Climb(state.position_ned[0:2].copy(), down, p["MPC_TKO_SPEED"], yaw)]

@@ -320,7 +320,8 @@ def fly_mission(gs) -> None:
 
 def test_a_region_of_interest_turns_the_nose_on_a_missions_legs_and_payload_items_are_passed(mpc_gs):
     # A mission as QGroundControl plans one with a camera: the region of interest 40 m east of home, the camera and
-    # gimbal items (no payload on this airframe: stored, sent back as they came, passed), a waypoint 20 m north.
+    # gimbal items (no payload on this airframe: stored, sent back as they came, passed), a waypoint 20 m north, a
+    # NAV_LOITER_TO_ALT 8 m above it.
     gs = mpc_gs
     roi_lat, roi_lon = latlon_e7(0.0, 40.0)
     north, east = latlon_e7(20.0, 0.0)
@@ -332,6 +333,7 @@ def test_a_region_of_interest_turns_the_nose_on_a_missions_legs_and_payload_item
         (M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, M.MAV_CMD_NAV_WAYPOINT, 0, 2.0, 0, math.nan, north, east, ALTITUDE),
         (mission, M.MAV_CMD_DO_SET_CAM_TRIGG_DIST, 0, 0, 1, 0, 0, 0, 0.0),
         (mission, M.MAV_CMD_IMAGE_STOP_CAPTURE, 0, math.nan, math.nan, math.nan, 0, 0, 0.0),
+        (M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, M.MAV_CMD_NAV_LOITER_TO_ALT, 0, 25.0, 0, 0, north, east, ALTITUDE + 8),
     ]  # fmt: skip
     client = Client(gs)
     assert client.upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
@@ -346,6 +348,7 @@ def test_a_region_of_interest_turns_the_nose_on_a_missions_legs_and_payload_item
     p = gs.latest["LOCAL_POSITION_NED"]
     print(f"held at ({p.x:.2f}, {p.y:.2f}), heading {yaw_deg(gs):.2f} deg, {roi_error_deg():.2f} deg off the ROI")
     assert math.hypot(p.x - 20.0, p.y) < 2.0 and abs(roi_error_deg()) < 3.0
+    assert -p.z > ALTITUDE + 5.0  # NAV_LOITER_TO_ALT climbed over the waypoint (reached within 3 m of its altitude)
 
     # DO_SET_ROI_NONE: the items' own yaw again (a waypoint's param4), in the next mission too.
     north, east = latlon_e7(20.0, 8.0)
