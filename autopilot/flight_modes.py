@@ -27,7 +27,8 @@ from autopilot.mission_flight import MissionFlight
 from autopilot.navigator import Navigator
 from autopilot.offboard_setpoint import OffboardSetpoint
 from autopilot.parameters import ParameterStore
-from autopilot.return_route import plan_return
+from autopilot.return_route import (RTL_MISSION_LANDING, MissionLanding, climb_to_return_height, plan_return,
+                                    return_destination)  # fmt: skip
 from autopilot.vehicle_state import VehicleState
 from autopilot.yaw_setpoint import StickYaw, YawSetpoint
 from transport.mavlink import mavlink
@@ -230,8 +231,9 @@ class MissionMode(FlightMode):
 
 
 class ReturnMode(FlightMode):
-    """AUTO.RTL: climb to the return altitude, fly to the closest of home and the rally points, loiter there if
-    RTL_LAND_DELAY asks, land (autopilot/return_route.py); it says PX4's texts as it goes."""
+    """AUTO.RTL: climb to the return altitude, fly to the destination RTL_TYPE chooses, loiter there if
+    RTL_LAND_DELAY asks, land (autopilot/return_route.py); or, to the mission's landing, climb and fly the mission
+    from its DO_LAND_START item (mission_flight.py). It says PX4's texts as it goes."""
 
     name = RETURN
 
@@ -241,21 +243,35 @@ class ReturnMode(FlightMode):
         self.auto = auto
         self.mission = mission
         self.say = say
+        self.mission_landing = False  # flying the mission's landing
         self._announced = -1  # the route's target last announced
 
     def activate(self, state: VehicleState) -> None:
         home = self.mission.homes.position
-        plan = plan_return(self.params, state, self.mission.rally_points(), home.ned)
-        self.auto.start(state, plan.route)
+        landing = self.mission.landing_pattern() if self.params.get_int("RTL_TYPE") == RTL_MISSION_LANDING else None
+        destination = return_destination(self.params.get_int("RTL_TYPE"), state.position_ned,
+                                         self.mission.rally_points(), home.ned, landing)  # fmt: skip
         self._announced = -1
-        self.say(mavlink.MAV_SEVERITY_INFO, f"RTL: start return at {math.ceil(home.alt + plan.height)} m "
-                 f"({math.ceil(plan.height)} m above destination)")  # fmt: skip
+        self.mission_landing = isinstance(destination, MissionLanding)
+        if isinstance(destination, MissionLanding):
+            height, climb = climb_to_return_height(self.params, state, destination.point, home.ned)
+            self.mission.fly_landing(state, destination, climb)
+            where = "mission landing"
+        else:
+            plan = plan_return(self.params, state, destination, home.ned)
+            height = plan.height
+            self.auto.start(state, plan.route)
+            where = "destination"
+        self.say(mavlink.MAV_SEVERITY_INFO, f"RTL: start return at {math.ceil(home.alt + height)} m "
+                 f"({math.ceil(height)} m above {where})")  # fmt: skip
 
     @property
     def landing(self) -> bool:
         return self.auto.descending
 
     def setpoint(self, state: VehicleState) -> np.ndarray:
+        if self.mission_landing:
+            return self.mission.step(state)
         setpoint = self.auto.step(state)
         if self.auto.index != self._announced:
             self._announced = self.auto.index
@@ -265,6 +281,14 @@ class ReturnMode(FlightMode):
             elif isinstance(target, LandAt):
                 self.say(mavlink.MAV_SEVERITY_INFO, "RTL: land at destination")
         return setpoint
+
+    def yaw(self, state: VehicleState) -> YawSetpoint | None:
+        """A mission landing's items' yaw (and the region of interest); Return's own route has none."""
+        return self.auto.yaw(state)
+
+    def touched_down(self, state: VehicleState) -> None:
+        if self.mission_landing:
+            self.mission.landed(state)
 
 
 class OrbitMode(FlightMode):

@@ -55,10 +55,11 @@ from collections.abc import Callable
 import numpy as np
 
 from autopilot.auto_flight import AutoFlight, Climb, FlyTo, HoldAt, LandAt, RegionOfInterest, Target
-from autopilot.mission_items import ROI_AT_POSITION, ROI_WITHOUT_POSITION, MissionItem
+from autopilot.mission_items import LANDS, ROI_AT_POSITION, ROI_WITHOUT_POSITION, MissionItem
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
-from autopilot.return_route import LANDING_APPROACH_RADIUS, plan_return
+from autopilot.return_route import (LANDING_APPROACH_RADIUS, MissionLanding, closest_safe_point, mission_landing,
+                                    plan_return)  # fmt: skip
 from autopilot.vehicle_state import VehicleState
 from autopilot.home_position import HomeKeeper
 from transport.geodesy import ned_from_geodetic
@@ -66,7 +67,6 @@ from transport.mavlink import mavlink as M
 
 YAW_ITEMS = (M.MAV_CMD_NAV_WAYPOINT, M.MAV_CMD_NAV_LOITER_UNLIM, M.MAV_CMD_NAV_TAKEOFF, M.MAV_CMD_NAV_VTOL_TAKEOFF,
              M.MAV_CMD_NAV_LAND, M.MAV_CMD_NAV_VTOL_LAND)  # param4 is their yaw (deg)
-LANDS = (M.MAV_CMD_NAV_LAND, M.MAV_CMD_NAV_VTOL_LAND)
 TAKEOFFS = (M.MAV_CMD_NAV_TAKEOFF, M.MAV_CMD_NAV_VTOL_TAKEOFF)
 TAKEOFF_BEFORE = (M.MAV_CMD_NAV_WAYPOINT, M.MAV_CMD_NAV_LOITER_TIME, M.MAV_CMD_NAV_LOITER_UNLIM,
                   M.MAV_CMD_NAV_LOITER_TO_ALT)
@@ -112,6 +112,7 @@ class MissionFlight:
         self._jumps: dict[int, int] = {}  # DO_JUMP item -> jumps done
         self._version = -1
         self._takeoff_first = False  # started on the ground: climb before the first navigation item
+        self._climb_first: Climb | None = None  # Return's climb before its mission landing
         self.roi: RegionOfInterest | None = None  # the last DO_SET_ROI_* item's
 
     @property
@@ -125,15 +126,30 @@ class MissionFlight:
         seq = self.store.snapshot.current
         if self.store.snapshot.state == M.MISSION_STATE_COMPLETE or seq >= len(self.items):
             seq = 0
-        self._jumps = {}
+        self._prepare(state)
         self._takeoff_first = self.landed_now()
+        self._begin(state, seq)
+        return None
+
+    def landing_pattern(self) -> MissionLanding | None:
+        """The stored mission's landing (its DO_LAND_START and the land item after it), or None."""
+        return mission_landing(self.items, self.item_position)
+
+    def fly_landing(self, state: VehicleState, landing: MissionLanding, climb: Climb) -> None:
+        """Return's mission landing (RTL_TYPE 1): `climb` over here, then the mission from its DO_LAND_START item."""
+        self._prepare(state)
+        self._climb_first = climb
+        self._begin(state, landing.start_seq)
+
+    def _prepare(self, state: VehicleState) -> None:
+        self._jumps = {}
+        self._takeoff_first = False
+        self._climb_first = None
         self.auto.mission_speed = None
         self.auto.start(state, [])
         self.auto.point_at(self.roi)
         transitions = any(item.command == M.MAV_CMD_DO_VTOL_TRANSITION for item in self.items)
         self.auto.forward_flight = False if transitions else None
-        self._begin(state, seq)
-        return None
 
     @property
     def landing(self) -> bool:
@@ -189,6 +205,9 @@ class MissionFlight:
             if (item.command in LANDS or item.command == M.MAV_CMD_NAV_RETURN_TO_LAUNCH) and self.auto.forward_flight:
                 self.auto.forward_flight = None  # braked into, as Return flies (PX4 back-transitions for these)
             targets = self._targets(state, item)
+            if targets and self._climb_first is not None:
+                targets.insert(0, self._climb_first)
+                self._climb_first = None
             if targets and self._takeoff_first:
                 self._takeoff_first = False
                 if item.command in TAKEOFF_BEFORE:
@@ -252,5 +271,6 @@ class MissionFlight:
         if command == M.MAV_CMD_NAV_DELAY:
             return [HoldAt(state.position_ned.copy(), max(item.param1, 0.0))]
         if command == M.MAV_CMD_NAV_RETURN_TO_LAUNCH:
-            return plan_return(p, state, self.rally_points(), self.homes.position.ned).route
+            home = self.homes.position.ned
+            return plan_return(p, state, closest_safe_point(state.position_ned, self.rally_points(), home), home).route
         return []  # DO_CHANGE_SPEED, DO_VTOL_TRANSITION, DO_SET_ROI_* (done above), DO_SET_HOME, payload: nothing to fly

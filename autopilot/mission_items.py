@@ -40,6 +40,7 @@ FENCE_CIRCLES = frozenset({M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, M.MAV_CMD_NAV_F
 NAVIGATION = frozenset({M.MAV_CMD_NAV_WAYPOINT, M.MAV_CMD_NAV_TAKEOFF, M.MAV_CMD_NAV_VTOL_TAKEOFF, M.MAV_CMD_NAV_LAND,
                         M.MAV_CMD_NAV_VTOL_LAND, M.MAV_CMD_NAV_LOITER_TIME, M.MAV_CMD_NAV_LOITER_UNLIM,
                         M.MAV_CMD_NAV_LOITER_TO_ALT})  # fmt: skip
+LANDS = frozenset({M.MAV_CMD_NAV_LAND, M.MAV_CMD_NAV_VTOL_LAND})
 # Payload items: PX4 hands them to its camera, gimbal and actuator modules and goes on to the next item at once
 # (MissionBlock's "action commands that complete instantaneously"). This airframe carries no payload, so they are
 # stored, downloaded as sent and passed when flown (docs/mavlink.md, "Missions"); a plan with camera items

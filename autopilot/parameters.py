@@ -112,8 +112,12 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
       "transition to fixed wing"),
     P("NAV_ACC_RAD", REAL32, 10.0, 0.05, 200.0, "m", "mission waypoint acceptance radius (when the item's param2 is "
       "0)"),
+    P("RTL_TYPE", INT32, 0, 0, 1, "", "Return's destination: 0 the closest of home and the rally points; 1 the "
+      "closest of the rally points and the mission's landing (the land item after its DO_LAND_START), home only "
+      "when there is neither; a mission landing is flown from its DO_LAND_START item (PX4's 2, the mission path, "
+      "and 3 are refused)"),
     P("RTL_RETURN_ALT", REAL32, 60.0, 0.0, 1000.0, "m", "Return: climb to this height above home (if lower) before "
-      "flying to the closest of home and the rally points"),
+      "flying to its destination"),
     P("RTL_CONE_ANG", INT32, 45, 0, 90, "deg", "Return: half-angle of the cone over the destination that lowers the "
       "return altitude within RTL_MIN_DIST of it (0: always RTL_RETURN_ALT)"),
     P("RTL_MIN_DIST", REAL32, 10.0, 0.5, 10000.0, "m", "Return: within this horizontal distance of the destination "

@@ -22,7 +22,8 @@ from autopilot.mission_items import MissionItem
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterRejected, ParameterStore
 from autopilot.requests import ManualControlInput, Reposition
-from autopilot.return_route import closest_safe_point, return_height
+from autopilot.return_route import (MissionLanding, closest_safe_point, mission_landing, return_destination,
+                                    return_height)  # fmt: skip
 from autopilot.vehicle_state import VehicleState
 from transport.geodesy import Home
 from transport.mavlink import mavlink as M
@@ -84,6 +85,36 @@ def test_return_goes_to_the_closest_of_home_and_the_rally_points():
     rally = [np.array([100.0, 0.0, 0.0]), np.array([0.0, -300.0, 0.0])]
     assert list(closest_safe_point(np.array([80.0, 0.0, -20.0]), rally)) == [100.0, 0.0]
     assert list(closest_safe_point(np.array([10.0, -100.0, -20.0]), rally)) == [0.0, 0.0]
+
+
+def test_rtl_type_1_goes_to_the_closest_of_the_rally_points_and_the_mission_landing_home_only_without_them():
+    home = np.zeros(3)
+    here = np.array([80.0, 0.0, -20.0])
+    rally = [np.array([100.0, 0.0, 0.0])]
+    landing = MissionLanding(2, np.array([0.0, 60.0]))
+    assert return_destination(0, here, rally, home, landing).tolist() == [100.0, 0.0]  # type 0: no mission landing
+    assert return_destination(1, here, rally, home, landing).tolist() == [100.0, 0.0]  # 20 m against 100 m
+    assert return_destination(1, np.array([10.0, 50.0, -20.0]), rally, home, landing) is landing
+    assert return_destination(1, here, [], home, landing) is landing  # farther than home, still the landing
+    assert return_destination(1, here, [], home, None).tolist() == [0.0, 0.0]  # neither: home
+    # the landing: the first DO_LAND_START with a land item after it that has a position
+    wp, land, start = M.MAV_CMD_NAV_WAYPOINT, M.MAV_CMD_NAV_LAND, M.MAV_CMD_DO_LAND_START
+    rows = [mission_row(wp, 1), mission_row(land, 2), mission_row(start, 0), mission_row(wp, 3),
+            mission_row(M.MAV_CMD_NAV_VTOL_LAND, 4)]  # fmt: skip
+
+    def place(it: MissionItem) -> np.ndarray | None:
+        return None if it.x == 0 else np.array([float(it.x), 0.0, 0.0])
+
+    found = mission_landing(tuple(rows), place)
+    assert found is not None and found.start_seq == 2 and found.point.tolist() == [4.0, 0.0]
+    assert mission_landing(tuple(rows[:2]), place) is None  # no DO_LAND_START
+    assert mission_landing((rows[2], rows[3]), place) is None  # no land after it
+    assert mission_landing((rows[2], mission_row(land, 0)), place) is None  # a land "here" has no place to go to
+
+
+def mission_row(command: int, x: int) -> MissionItem:
+    frame = M.MAV_FRAME_MISSION if command == M.MAV_CMD_DO_LAND_START else M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+    return MissionItem(frame, command, 1, 0.0, 0.0, 0.0, 0.0, x, 0 if x == 0 else 1, 10.0)
 
 
 def test_return_altitude_follows_px4_s_rule_rtl_min_dist_and_rtl_cone_ang():

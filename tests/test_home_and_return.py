@@ -164,3 +164,42 @@ def test_return_altitude_descend_altitude_and_land_delay(tmp_path):
         gs.wait(lambda: not gs.armed, "the landing and the disarm", 120)
         assert math.hypot(*here(gs)[0:2]) < 1.0
 
+
+
+def test_rtl_type_1_returns_to_the_mission_landing_and_flies_it_from_do_land_start(tmp_path):
+    # A mission (not flown) whose landing pattern starts 30 m north, 20 m east: DO_LAND_START, a NAV_LOITER_TO_ALT
+    # down to 5 m over it, the land. With RTL_TYPE 1 and no rally point, Return climbs and flies that landing.
+    from tests.test_mavlink_missions import Client
+
+    with hovering(tmp_path, 8.0) as gs:
+        texts = len(gs.statustexts)
+        rtl_type = BY_NAME["RTL_TYPE"]
+        refused = gs.param_set("RTL_TYPE", encode_value(rtl_type, 2), M.MAV_PARAM_TYPE_INT32)  # PX4's mission path
+        assert refused.param_value == encode_value(rtl_type, 0)
+        said(gs, "RTL_TYPE: 2 outside 0..1", texts)
+        for name, value in (("RTL_TYPE", 1), ("RTL_RETURN_ALT", 12.0)):
+            set_param(gs, name, value)
+        far, over = latlon_e7(60.0, 0.0), latlon_e7(30.0, 20.0)
+        rows = [(REL, M.MAV_CMD_NAV_WAYPOINT, 0, 0, 0, math.nan, *far, 10.0),
+                (M.MAV_FRAME_MISSION, M.MAV_CMD_DO_LAND_START, 0, 0, 0, 0, 0, 0, 0.0),
+                (REL, M.MAV_CMD_NAV_LOITER_TO_ALT, 0, 0, 0, 0, *over, 5.0),
+                (REL, M.MAV_CMD_NAV_LAND, 0, 0, 0, math.nan, *over, 0.0)]  # fmt: skip
+        assert Client(gs).upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
+        texts = len(gs.statustexts)
+        assert gs.command(M.MAV_CMD_NAV_RETURN_TO_LAUNCH).result == M.MAV_RESULT_ACCEPTED
+        assert said(gs, "RTL: start return", texts).endswith("(12 m above mission landing)")
+        highest, reached, modes = [0.0], set(), set()
+
+        def sample() -> bool:
+            highest[0] = max(highest[0], gs.altitude)
+            if gs.armed:
+                modes.add(gs.mode)
+            if "MISSION_ITEM_REACHED" in gs.latest:
+                reached.add(gs.latest["MISSION_ITEM_REACHED"].seq)
+            return not gs.armed
+
+        gs.wait(sample, "the mission landing and the disarm", 180)
+        north, east, _ = here(gs)
+        print(f"landed at ({north:.2f}, {east:.2f}), highest {highest[0]:.1f} m, items reached {sorted(reached)}")
+        assert math.hypot(north - 30.0, east - 20.0) < 2.0  # the mission's land item, not home
+        assert 11.0 < highest[0] < 13.5 and modes == {RETURN_MODE} and {2, 3} <= reached and 0 not in reached
