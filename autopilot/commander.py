@@ -68,6 +68,7 @@ class CommanderReport:
     landed_state: int
     flying: bool
     state_version: int
+    terminated: bool
 
 
 class Commander:
@@ -105,7 +106,8 @@ class Commander:
         self.ground = GroundState(in_air)
         self.mode = OFFBOARD if profile is not None else HOLD
         self.started = False
-        self.state_version = 1  # counts arming, mode and ground-state changes (each sends a HEARTBEAT)
+        self.state_version = 1  # counts arming, mode, ground-state and termination changes (each sends a HEARTBEAT)
+        self.terminated = False  # flight termination: motors off (disarmed), arming refused until it is cleared
         self._reported_version = 0
         self.now_usec = 0
         self.state = VehicleState()  # the current step's estimate (observe())
@@ -138,7 +140,7 @@ class Commander:
     def report(self) -> CommanderReport:
         self._reported_version = self.state_version
         return CommanderReport(self.started, self.armed, self.mode, self.landed_state, self.flying,
-                               self.state_version)  # fmt: skip
+                               self.state_version, self.terminated)  # fmt: skip
 
     def observe(self, state: VehicleState) -> None:
         """The state estimate of the current plant step (requests are judged against it)."""
@@ -186,6 +188,28 @@ class Commander:
             self.state_version += 1
             if reason:
                 self.say(mavlink.MAV_SEVERITY_INFO, reason)
+
+    def terminate_flight(self, text: str) -> None:
+        """Flight termination: the motors stop (a forced disarm, PWM to the disarmed values: in the air the vehicle
+        falls) and stay stopped until `clear_termination`."""
+        self.terminated = True
+        self.state_version += 1
+        if self.armed:
+            self._set_armed(False, text)
+        else:
+            self.say(mavlink.MAV_SEVERITY_CRITICAL, text)
+
+    def flight_termination(self, on: bool) -> Reply:
+        """MAV_CMD_DO_FLIGHTTERMINATION: terminate (motors off), or clear a termination so the vehicle can arm."""
+        if (refusal := self.refusal()) is not None:
+            return refusal
+        if on:
+            self.terminate_flight("Flight termination: motors off")
+        elif self.terminated:
+            self.terminated = False
+            self.state_version += 1
+            self.say(mavlink.MAV_SEVERITY_INFO, "Flight termination cleared")
+        return ACCEPTED, None
 
     def _set_armed(self, armed: bool, text: str) -> None:
         self.armed = armed
@@ -236,6 +260,8 @@ class Commander:
             return ACCEPTED, None
         if not self.started or not state.valid:
             return TEMPORARILY_REJECTED, "Arming denied: no vehicle state from the plant yet"
+        if self.terminated:
+            return DENIED, "Arming denied: flight terminated (MAV_CMD_DO_FLIGHTTERMINATION with param1 0 clears it)"
         roll, pitch = float(state.euler[0]), float(state.euler[1])
         if not force and (abs(roll) > MAX_LEVEL_TILT or abs(pitch) > MAX_LEVEL_TILT):
             return DENIED, (f"Arming denied: not level (roll {math.degrees(roll):.0f}, "
@@ -381,7 +407,9 @@ class Commander:
         plan = reaction(decision, self.mode, self.flying)
         for severity, text in plan.before:
             self.say(severity, text)
-        if plan.cut_motors is not None:
+        if plan.cut_motors is not None and plan.terminate:
+            self.terminate_flight(plan.cut_motors)
+        elif plan.cut_motors is not None:
             self._set_armed(False, plan.cut_motors)
         if plan.mode is not None:
             self.switch_mode(plan.mode, state, plan.mode_reason)

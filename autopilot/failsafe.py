@@ -31,13 +31,13 @@ from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
 from transport.mavlink import mavlink
 
-NONE, WARN, TERMINATE = "None", "Warn", "Terminate"  # the actions that are not modes (Hold, Return, Land are)
+NONE, WARN, TERMINATE, DISARM = "None", "Warn", "Terminate", "Disarm"  # the actions that are not modes
 DESCEND = "Descend"  # Land with no horizontal position control (PX4 reports it as AUTO.LAND too)
 OFFBOARD_LOSS_ACTIONS = {0: POSITION, 1: ALTITUDE, 2: HOLD, 3: RETURN, 4: LAND, 5: HOLD}  # COM_OBL_RC_ACT
 NEEDS_MANUAL_CONTROL = (POSITION, ALTITUDE)  # without it PX4 falls back along Altitude, Stabilized, to Hold
 DATALINK_LOSS_ACTIONS = {0: NONE, 1: HOLD, 2: RETURN, 3: LAND}  # NAV_DLL_ACT
 GEOFENCE_ACTIONS = {0: NONE, 1: WARN, 2: HOLD, 3: RETURN, 4: TERMINATE, 5: LAND}  # GF_ACTION
-MANUAL_LOSS_ACTIONS = {0: NONE, 1: HOLD, 2: RETURN, 3: LAND, 4: HOLD, 5: TERMINATE, 6: TERMINATE}  # NAV_RCL_ACT
+MANUAL_LOSS_ACTIONS = {0: NONE, 1: HOLD, 2: RETURN, 3: LAND, 4: HOLD, 5: TERMINATE, 6: DISARM}  # NAV_RCL_ACT
 
 
 @dataclass(frozen=True)

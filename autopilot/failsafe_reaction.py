@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from autopilot.failsafe import DESCEND, TERMINATE, WARN, Decision
+from autopilot.failsafe import DESCEND, DISARM, TERMINATE, WARN, Decision
 from autopilot.flight_modes import HOLD, LAND, RETURN
 from transport.mavlink import mavlink
 
@@ -23,7 +23,8 @@ class Reaction:
     mode: str | None = None  # the mode to enter (again)
     mode_reason: str | None = None  # said when the mode changes
     descend: bool = False  # the Land entered is PX4's Descend
-    cut_motors: str | None = None  # flight termination: disarm, saying this
+    cut_motors: str | None = None  # disarm, saying this
+    terminate: bool = False  # the motors stay off until the termination is cleared (flight termination)
     after: Said = ()
 
 
@@ -37,7 +38,9 @@ def reaction(decision: Decision, mode: str, flying: bool) -> Reaction:
                         after=((CRITICAL, "Failsafe activated: Descend"),))  # fmt: skip
     if action == TERMINATE:
         return Reaction(before=((CRITICAL, f"{cause}: flight termination"),),
-                        cut_motors="Failsafe activated: flight termination, motors off")  # fmt: skip
+                        cut_motors="Failsafe activated: flight termination, motors off", terminate=True)  # fmt: skip
+    if action == DISARM:
+        return Reaction(before=((CRITICAL, f"{cause}: disarm"),), cut_motors="Failsafe activated: disarm, motors off")
     return Reaction(before=((WARNING, f"{cause}, {action}"),) if action == mode else (), mode=action,
                     mode_reason=f"{cause}, {action}",
                     after=((CRITICAL, f"Failsafe activated: {action}"),) if flying else ())  # fmt: skip

@@ -14,11 +14,11 @@ from autopilot.mission_items import FENCE as FENCE_TYPE
 from autopilot.mission_items import MISSION as MISSION_TYPE
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
-from autopilot.requests import (Arm, ChangeSpeed, ClearMission, Disarm, GcsHeartbeat, InjectFailure, Land,
-                                ManualControlInput, OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit,
-                                Reply, Reposition, Request, ReturnToLaunch, SetMissionCurrent, SetMode,
-                                SetHome, SetRegionOfInterest, StartMission, StoreMission, Takeoff, Transition,
-                                TurnTo)  # fmt: skip
+from autopilot.requests import (Arm, ChangeSpeed, ClearMission, Disarm, FlightTermination, GcsHeartbeat,
+                                InjectFailure, Land, ManualControlInput, OffboardAttitude, OffboardPosition,
+                                OffboardVelocity, Orbit, Reply, Reposition, Request, ReturnToLaunch,
+                                SetMissionCurrent, SetMode, SetHome, SetRegionOfInterest, StartMission, StoreMission,
+                                Takeoff, Transition, TurnTo)  # fmt: skip
 from transport.mavlink import mavlink
 
 
@@ -81,6 +81,8 @@ class FlightStack:
                 return guided.turn_to(request, state)
             case SetRegionOfInterest(roi=roi):
                 return guided.point_at(roi)
+            case FlightTermination(on=on):
+                return commander.flight_termination(on)
             case OffboardVelocity() | OffboardPosition() | OffboardAttitude():
                 return guided.offboard_request(request)
             case ManualControlInput():

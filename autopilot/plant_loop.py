@@ -232,7 +232,7 @@ class PlantLoop:
             position=GlobalPosition(hil.lat, hil.lon, hil.alt, hil.vx, hil.vy, hil.vz),
             home=self.commander.homes.position, pwm=tuple(pwm), throttle_percent=throttle, controller=c.kind,
             failures=tuple(self.injection.known), events=self.events.drain(),
-            injections=self.injection.drain_outcomes(), missions=self.missions.snapshot,
+            injections=self.injection.drain_outcomes(), missions=self.missions.snapshot, terminated=report.terminated,
         )  # fmt: skip
 
     # ---- the loop ------------------------------------------------------------------------------------------------

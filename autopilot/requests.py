@@ -190,6 +190,13 @@ class SetRegionOfInterest:
 
 
 @dataclass(frozen=True)
+class FlightTermination:
+    """MAV_CMD_DO_FLIGHTTERMINATION: terminate (motors off) when `on`, else clear a termination."""
+
+    on: bool
+
+
+@dataclass(frozen=True)
 class GcsHeartbeat:
     """A HEARTBEAT from a ground station (MAV_TYPE_GCS) arrived now: the data link is alive (NAV_DLL_ACT)."""
 
@@ -197,7 +204,7 @@ class GcsHeartbeat:
 Request = (Arm | Disarm | Takeoff | Land | SetMode | Transition | OffboardVelocity | OffboardPosition
            | OffboardAttitude | ManualControlInput | InjectFailure
            | StoreMission | ClearMission | SetMissionCurrent | StartMission | ReturnToLaunch | Reposition | ChangeSpeed
-           | Orbit | GcsHeartbeat | SetHome | TurnTo | SetRegionOfInterest)  # fmt: skip
+           | Orbit | GcsHeartbeat | SetHome | TurnTo | SetRegionOfInterest | FlightTermination)  # fmt: skip
 
 
 class RequestHandler(Protocol):

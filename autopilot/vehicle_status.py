@@ -77,6 +77,7 @@ class VehicleStatus:
     events: tuple[Event, ...] = ()  # since the last snapshot
     injections: tuple[InjectionOutcome, ...] = ()  # answered since the last snapshot
     missions: Missions = NO_MISSIONS  # stored mission, fence, rally; current item, state, last reached (immutable)
+    terminated: bool = False  # flight termination (a failsafe or DO_FLIGHTTERMINATION): motors off until cleared
 
     @property
     def time_boot_ms(self) -> int:

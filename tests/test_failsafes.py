@@ -204,7 +204,7 @@ def test_geofence_breach_takes_gf_action_once_and_return_heads_for_the_closest_r
     assert on_ground.arm(state_at(0.0, down=0.0))[0] == M.MAV_RESULT_ACCEPTED
     terminate, said = flying_commander(GF_MAX_VER_DIST=40.0, GF_ACTION=4)
     fly(terminate, 0.0, 0.1)
-    assert not terminate.armed and any("flight termination" in text for text in said)
+    assert not terminate.armed and terminate.terminated and any("flight termination" in text for text in said)
 
 
 # ---- sensor failures ----------------------------------------------------------------------------------------------------
@@ -255,7 +255,9 @@ def test_a_failsafe_decision_becomes_px4_s_plan():
     descend = reaction(Decision("Descend", cause), HOLD, True)
     assert (descend.mode, descend.descend, descend.after) == (LAND, True, ((M.MAV_SEVERITY_CRITICAL,
                                                                              "Failsafe activated: Descend"),))
-    assert reaction(Decision("Terminate", cause), HOLD, True).cut_motors is not None
+    terminate, disarm = reaction(Decision("Terminate", cause), HOLD, True), reaction(Decision("Disarm", cause), HOLD, True)
+    assert terminate.cut_motors is not None and terminate.terminate  # the motors stay off until cleared
+    assert disarm.cut_motors is not None and not disarm.terminate  # NAV_RCL_ACT 6: a disarm, no termination
     again = reaction(Decision(HOLD, cause), HOLD, False)  # Hold again stops a Go-to; nothing activated on the ground
     assert again.mode == HOLD and again.before == ((M.MAV_SEVERITY_WARNING, f"{cause}, Hold"),) and again.after == ()
 

@@ -9,7 +9,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 
 from autopilot.parameters import BY_NAME, encode_value
-from tests.ground_station import HOLD, LAND, OFFBOARD
+from tests.ground_station import HOLD, LAND, OFFBOARD, said
 from tests.mavlink_sitl import start_sitl
 from tests.test_mavlink_missions import Client
 from tests.test_mavlink_navigation import RETURN_MODE, latlon_e7
@@ -153,3 +153,30 @@ def test_offboard_loss_with_manual_control_heard_takes_position_or_altitude_as_p
             gs.wait(lambda: gs.mode == mode, f"the offboard loss failsafe to {name}", timeout_s=30, every=sticks)
             gs.wait(lambda: f"Failsafe activated: {name}" in gs.statustexts, "the failsafe's STATUSTEXT", every=sticks)
             assert gs.armed and gs.altitude > 15.0
+
+
+def test_flight_termination_stops_the_motors_until_cleared_and_refuses_arming_meanwhile(tmp_path):
+    # MAVSDK's action.terminate(): DO_FLIGHTTERMINATION param1 1, from a hover at 20 m flown by the MPC.
+    with hovering(tmp_path) as gs:
+        assert gs.command(M.MAV_CMD_DO_FLIGHTTERMINATION, math.nan).result == M.MAV_RESULT_DENIED
+        texts = len(gs.statustexts)
+        assert gs.command(M.MAV_CMD_DO_FLIGHTTERMINATION, 1).result == M.MAV_RESULT_ACCEPTED
+        said(gs, "Flight termination: motors off", texts)
+        gs.wait(lambda: not gs.armed and gs.latest["HEARTBEAT"].system_status == M.MAV_STATE_FLIGHT_TERMINATION,
+                "the termination in the HEARTBEAT")  # fmt: skip
+        gs.wait(lambda: gs.altitude < 0.5 and gs.latest["SERVO_OUTPUT_RAW"].servo1_raw <= 1000, "the fall", 30)
+        refused = gs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1, 21196)  # not even forced
+        assert refused.result == M.MAV_RESULT_DENIED
+        said(gs, "Arming denied: flight terminated", texts)
+        # param1 0 clears it: the HEARTBEAT says STANDBY and arming is judged as usual again (where the fall left
+        # the vehicle: on its gear it arms, tumbled it is not level).
+        assert gs.command(M.MAV_CMD_DO_FLIGHTTERMINATION, 0).result == M.MAV_RESULT_ACCEPTED
+        gs.wait(lambda: gs.latest["HEARTBEAT"].system_status == M.MAV_STATE_STANDBY, "the termination cleared")
+        texts = len(gs.statustexts)
+        attitude = gs.latest["ATTITUDE"]
+        level = max(abs(attitude.roll), abs(attitude.pitch)) < math.radians(30.0)
+        result = gs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1).result
+        print(f"after the fall: roll {math.degrees(attitude.roll):.1f}, pitch {math.degrees(attitude.pitch):.1f} deg; "
+              f"arming {result}")  # fmt: skip
+        assert result == (M.MAV_RESULT_ACCEPTED if level else M.MAV_RESULT_DENIED)
+        assert not any("flight terminated" in text for text in gs.statustexts[texts:])

@@ -29,6 +29,7 @@ from autopilot.requests import (
     Arm,
     ChangeSpeed,
     Disarm,
+    FlightTermination,
     InjectFailure,
     Land,
     Orbit,
@@ -113,6 +114,7 @@ class CommandService:
             M.MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET: self._region_of_interest,
             M.MAV_CMD_DO_SET_ROI_NONE: self._region_of_interest,
             M.MAV_CMD_DO_SET_ROI: self._region_of_interest,
+            M.MAV_CMD_DO_FLIGHTTERMINATION: self._flight_termination,
         }
 
     # ---- messages ---------------------------------------------------------------------------------------------
@@ -295,6 +297,13 @@ class CommandService:
         elif mode not in (M.MAV_ROI_NONE, M.MAV_ROI_WPINDEX):
             return M.MAV_RESULT_DENIED, f"ROI denied: param1 (ROI mode) {p[0]:g} not 0..3"
         return self.flight_stack.handle(SetRegionOfInterest(roi))
+
+    def _flight_termination(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
+        """MAV_CMD_DO_FLIGHTTERMINATION (MAVSDK's action.terminate()): param1 > 0.5 terminates (PX4's 1, and its 2,
+        the lockdown test, likewise stop the motors here), otherwise clears a termination."""
+        if not math.isfinite(p[0]):
+            return M.MAV_RESULT_DENIED, "Flight termination denied: param1 not finite"
+        return self.flight_stack.handle(FlightTermination(p[0] > 0.5))
 
     def _change_speed(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
         """MAV_CMD_DO_CHANGE_SPEED: param2 the speed (> 0; -1, -2 or 0: back to the defaults, as PX4's navigator);

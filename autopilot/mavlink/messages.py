@@ -53,6 +53,8 @@ def heartbeat(mav: Any, status: VehicleStatus) -> Any:
     state = M.MAV_STATE_ACTIVE if status.armed else M.MAV_STATE_STANDBY
     if not status.started:
         state = M.MAV_STATE_BOOT
+    elif status.terminated:
+        state = M.MAV_STATE_FLIGHT_TERMINATION
     return mav.heartbeat_encode(M.MAV_TYPE_VTOL_TILTROTOR, M.MAV_AUTOPILOT_PX4, base, custom_mode(status.mode), state)
 
 
