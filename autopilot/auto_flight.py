@@ -20,7 +20,8 @@ one holds the yaw of the last target that had one.
 
 A region of interest (`point_at`, a mission's DO_SET_ROI_* items) replaces the targets' yaw outside the fixed-wing
 phase: the nose points at it, or at the target being flown to (ROI_WPNEXT) plus an offset, and keeps its last
-heading within NAV_ACC_RAD of that point (PX4's MissionBase::heading_sp_update). Orbits keep their own yaw.
+heading within NAV_ACC_RAD of that point (PX4's MissionBase::heading_sp_update). Takeoffs, landings (LandAt and
+their approach) and orbits keep their own yaw, as PX4's heading update leaves takeoff and land items alone.
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ from autopilot.attitude import wrap
 from autopilot.guidance import (circle_velocity, leg_cruise_speed, leg_velocity, limit_norm, ramp, turn_ramp,
                                 vertical_velocity)  # fmt: skip
 from autopilot.parameters import ParameterStore
+from autopilot.region_of_interest import RegionOfInterest
 from autopilot.vehicle_state import VehicleState
 from autopilot.yaw_setpoint import YawSetpoint
 from transport.mavlink import mavlink as M
@@ -66,6 +68,7 @@ class FlyTo:
     acceptance: float  # m
     speed: float | None = None  # None: guidance.leg_cruise_speed
     yaw: float | None = None
+    approach: bool = False  # a landing's approach: its own yaw whatever the region of interest (PX4 likewise)
 
 
 @dataclass(frozen=True)
@@ -112,15 +115,6 @@ def orbit_yaw(circle: Circle, position: np.ndarray) -> YawSetpoint | None:
 
 
 Target = Climb | FlyTo | HoldAt | LandAt | Circle
-
-
-@dataclass(frozen=True)
-class RegionOfInterest:
-    """Where the nose points: `xy` (NE, m), or the target being flown to when None (ROI_WPNEXT), turned by
-    `yaw_offset` (rad)."""
-
-    xy: np.ndarray | None
-    yaw_offset: float = 0.0
 
 
 def target_xy(target: Climb | FlyTo | HoldAt | LandAt) -> np.ndarray:
@@ -197,7 +191,8 @@ class AutoFlight:
         """The target's yaw, or the heading to the region of interest where one is set (its last heading within
         NAV_ACC_RAD of it; the target's yaw until it has one)."""
         roi = self.roi
-        if roi is None or self.forward_flight:
+        own_yaw = isinstance(target, Climb | LandAt) or (isinstance(target, FlyTo) and target.approach)
+        if roi is None or self.forward_flight or own_yaw:
             return target.yaw
         point = target_xy(target) if roi.xy is None else roi.xy
         north, east = (point - state.position_ned[0:2]).tolist()

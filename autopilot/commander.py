@@ -93,10 +93,11 @@ class Commander:
         self.land_mode = LandMode(navigator)
         self.orbit = OrbitMode(auto, self.manual.yaw_rate)
         self.mission_mode = MissionMode(mission)
+        self.return_mode = ReturnMode(params, auto, mission, lambda: self.feasibility.check() is None, say)
         self.modes: dict[str, FlightMode] = {mode.name: mode for mode in (
             self.hold, self.takeoff_mode, self.land_mode, OffboardMode(navigator, self.offboard, hover_fraction),
             self.mission_mode,
-            ReturnMode(params, auto, mission, say), self.orbit, StickMode(POSITION, params, self.manual),
+            self.return_mode, self.orbit, StickMode(POSITION, params, self.manual),
             StickMode(ALTITUDE, params, self.manual))}  # fmt: skip
         self.land_detector = LandDetector(hover_fraction)
         self.yaw_shaper = YawShaper()
@@ -179,6 +180,8 @@ class Commander:
 
     def switch_mode(self, mode: str, state: VehicleState, reason: str | None = None) -> None:
         """Enter `mode` (again, if it is the current one: it starts afresh, except Offboard)."""
+        if mode == RETURN:
+            self.return_mode.mission_was_flying = self.mode == MISSION
         if mode != OFFBOARD or self.mode != OFFBOARD:
             self.modes[mode].activate(state)
         if mode == LAND:
@@ -191,7 +194,7 @@ class Commander:
 
     def terminate_flight(self, text: str) -> None:
         """Flight termination: the motors stop (a forced disarm, PWM to the disarmed values: in the air the vehicle
-        falls) and stay stopped until `clear_termination`."""
+        falls) and stay stopped until `flight_termination(False)` clears it."""
         self.terminated = True
         self.state_version += 1
         if self.armed:

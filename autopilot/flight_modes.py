@@ -24,6 +24,7 @@ import numpy as np
 
 from autopilot.auto_flight import ORBIT_RC_CONTROLLED, AutoFlight, Circle, FlyTo, HoldAt, LandAt
 from autopilot.mission_flight import MissionFlight
+from autopilot.mission_items import MissionItem
 from autopilot.navigator import Navigator
 from autopilot.offboard_setpoint import OffboardSetpoint
 from autopilot.parameters import ParameterStore
@@ -233,25 +234,35 @@ class MissionMode(FlightMode):
 class ReturnMode(FlightMode):
     """AUTO.RTL: climb to the return altitude, fly to the destination RTL_TYPE chooses, loiter there if
     RTL_LAND_DELAY asks, land (autopilot/return_route.py); or, to the mission's landing, climb and fly the mission
-    from its DO_LAND_START item (mission_flight.py). It says PX4's texts as it goes."""
+    from its DO_LAND_START item (mission_flight.py), or go on with it when Mission was already flying its landing
+    (PX4's navigator does not switch then). It says PX4's texts as it goes."""
 
     name = RETURN
 
     def __init__(self, params: ParameterStore, auto: AutoFlight, mission: MissionFlight,
-                 say: Callable[..., None]) -> None:  # fmt: skip
+                 mission_valid: Callable[[], bool], say: Callable[..., None]) -> None:  # fmt: skip
         self.params = params
         self.auto = auto
         self.mission = mission
+        self.mission_valid = mission_valid  # the stored mission passes the feasibility check
         self.say = say
+        self.mission_was_flying = False  # the commander sets it: the mode Return was entered from was Mission
         self.mission_landing = False  # flying the mission's landing
+        self._landing_mission: tuple[MissionItem, ...] = ()  # the mission whose landing is flown
         self._announced = -1  # the route's target last announced
 
     def activate(self, state: VehicleState) -> None:
         home = self.mission.homes.position
-        landing = self.mission.landing_pattern() if self.params.get_int("RTL_TYPE") == RTL_MISSION_LANDING else None
-        destination = return_destination(self.params.get_int("RTL_TYPE"), state.position_ned,
-                                         self.mission.rally_points(), home.ned, landing)  # fmt: skip
+        rtl_type = self.params.get_int("RTL_TYPE")
+        landing = self.mission.landing_pattern() if rtl_type == RTL_MISSION_LANDING and self.mission_valid() else None
         self._announced = -1
+        self._landing_mission = self.mission.items
+        if landing is not None and self.mission_was_flying and self.mission.landing_underway(landing):
+            self.mission_landing = True  # the mission goes on landing, as it was
+            self.say(mavlink.MAV_SEVERITY_INFO, "RTL: continuing the mission landing")
+            return
+        destination = return_destination(rtl_type, state.position_ned, self.mission.rally_points(), home.ned,
+                                         landing)  # fmt: skip
         self.mission_landing = isinstance(destination, MissionLanding)
         if isinstance(destination, MissionLanding):
             height, climb = climb_to_return_height(self.params, state, destination.point, home.ned)
@@ -270,6 +281,9 @@ class ReturnMode(FlightMode):
         return self.auto.descending
 
     def setpoint(self, state: VehicleState) -> np.ndarray:
+        if self.mission_landing and self.mission.items is not self._landing_mission:
+            self.mission_was_flying = False
+            self.activate(state)  # the mission changed under its landing: Return plans again
         if self.mission_landing:
             return self.mission.step(state)
         setpoint = self.auto.step(state)

@@ -4,10 +4,11 @@ commander does."""
 
 from __future__ import annotations
 
-from autopilot.auto_flight import Circle, RegionOfInterest
+from autopilot.auto_flight import Circle
 from autopilot.commander import ACCEPTED, DENIED, TEMPORARILY_REJECTED, Commander
-from autopilot.flight_modes import HOLD, LAND, MISSION, OFFBOARD, ORBIT, VTOL_FW, VTOL_MC
+from autopilot.flight_modes import HOLD, LAND, MISSION, OFFBOARD, ORBIT, RETURN, VTOL_FW, VTOL_MC
 from autopilot.offboard_setpoint import SETPOINT_LIMITS
+from autopilot.region_of_interest import RegionOfInterest
 from autopilot.attitude import wrap
 from autopilot.requests import (OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit, Reply, Reposition, SetHome,
                                 TurnTo)  # fmt: skip
@@ -95,9 +96,8 @@ class GuidedRequests:
         c = self.commander
         if (refusal := c.refusal()) is not None:
             return refusal
-        c.mission_mode.mission.roi = roi
-        if c.mode == MISSION:
-            c.auto.point_at(roi)
+        flying = c.mode == MISSION or (c.mode == RETURN and c.return_mode.mission_landing)
+        c.mission_mode.mission.point_at(roi, flying)
         return ACCEPTED, None
 
     def turn_to(self, request: TurnTo, state: VehicleState) -> Reply:

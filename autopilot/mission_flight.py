@@ -30,8 +30,10 @@ progress reported to the mission store (MISSION_CURRENT, MISSION_ITEM_REACHED).
                                   passed at once: this airframe carries no payload (PX4 forwards them to its
                                   payload modules and goes on at once)
 
-The region of interest is the vehicle's, as PX4's navigator keeps it: it holds across missions until another ROI
-item changes it, and only Mission flies by it (Return, Go-to and Hold keep their own yaw rules).
+The region of interest is the vehicle's, as PX4's navigator keeps it: it lasts until another ROI item or command
+changes it, a new mission is stored or the mission starts again from its first item; only Mission and Return's
+mission landing fly by it (Return's own route, Go-to and Hold keep their own yaw rules), and not on takeoff and
+landing items.
 
 A mission with a DO_VTOL_TRANSITION item flies as PX4 flies it: in multicopter until the item to fixed wing,
 back to multicopter at the item to MC (so the PID back-transitions before its landing). A mission without one
@@ -54,10 +56,11 @@ from collections.abc import Callable
 
 import numpy as np
 
-from autopilot.auto_flight import AutoFlight, Climb, FlyTo, HoldAt, LandAt, RegionOfInterest, Target
-from autopilot.mission_items import LANDS, ROI_AT_POSITION, ROI_WITHOUT_POSITION, MissionItem
+from autopilot.auto_flight import AutoFlight, Climb, FlyTo, HoldAt, LandAt, Target
+from autopilot.mission_items import LANDS, ROI_COMMANDS, MissionItem
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
+from autopilot.region_of_interest import RegionOfInterest
 from autopilot.return_route import (LANDING_APPROACH_RADIUS, MissionLanding, closest_safe_point, mission_landing,
                                     plan_return)  # fmt: skip
 from autopilot.vehicle_state import VehicleState
@@ -84,7 +87,8 @@ def region_of_interest(item: MissionItem, ned_of: Callable[[MissionItem], np.nda
     if item.command == M.MAV_CMD_DO_SET_ROI_LOCATION or (item.positional and item.param1 == M.MAV_ROI_LOCATION):
         return RegionOfInterest(ned_of(item)[0:2])
     if item.command == M.MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET:
-        return RegionOfInterest(None, math.radians(item.z))  # param7: the yaw offset (deg)
+        offset = item.z if math.isfinite(item.z) else 0.0  # param7: the yaw offset (deg; NaN: MAVLink's default)
+        return RegionOfInterest(None, math.radians(offset))
     if item.command == M.MAV_CMD_DO_SET_ROI and not item.positional and item.param1 == M.MAV_ROI_WPNEXT:
         return RegionOfInterest(None)
     return None
@@ -113,7 +117,8 @@ class MissionFlight:
         self._version = -1
         self._takeoff_first = False  # started on the ground: climb before the first navigation item
         self._climb_first: Climb | None = None  # Return's climb before its mission landing
-        self.roi: RegionOfInterest | None = None  # the last DO_SET_ROI_* item's
+        self.roi: RegionOfInterest | None = None  # the last DO_SET_ROI_* item's or command's
+        self._roi_mission: tuple[MissionItem, ...] = ()  # the mission stored when it was set
 
     @property
     def items(self) -> tuple[MissionItem, ...]:
@@ -126,6 +131,7 @@ class MissionFlight:
         seq = self.store.snapshot.current
         if self.store.snapshot.state == M.MISSION_STATE_COMPLETE or seq >= len(self.items):
             seq = 0
+            self.roi = None  # PX4 resets the region of interest with the mission
         self._prepare(state)
         self._takeoff_first = self.landed_now()
         self._begin(state, seq)
@@ -134,6 +140,19 @@ class MissionFlight:
     def landing_pattern(self) -> MissionLanding | None:
         """The stored mission's landing (its DO_LAND_START and the land item after it), or None."""
         return mission_landing(self.items, self.item_position)
+
+    def landing_underway(self, landing: MissionLanding) -> bool:
+        """The mission flown last is at or past its landing's DO_LAND_START and not over."""
+        return not self.complete and self.seq >= landing.start_seq
+
+    def point_at(self, roi: RegionOfInterest | None, flying: bool = True) -> None:
+        """The vehicle's region of interest from now on (it lasts until a new mission is stored or the mission
+        starts again from its first item, as PX4's navigator resets it); `flying`: this mission is being flown
+        (Mission, or Return's mission landing), which turns to it at once."""
+        self.roi = roi
+        self._roi_mission = self.items
+        if flying:
+            self.auto.point_at(roi)
 
     def fly_landing(self, state: VehicleState, landing: MissionLanding, climb: Climb) -> None:
         """Return's mission landing (RTL_TYPE 1): `climb` over here, then the mission from its DO_LAND_START item."""
@@ -147,6 +166,8 @@ class MissionFlight:
         self._climb_first = None
         self.auto.mission_speed = None
         self.auto.start(state, [])
+        if self.items is not self._roi_mission:
+            self.roi = None  # a new mission
         self.auto.point_at(self.roi)
         transitions = any(item.command == M.MAV_CMD_DO_VTOL_TRANSITION for item in self.items)
         self.auto.forward_flight = False if transitions else None
@@ -165,6 +186,9 @@ class MissionFlight:
 
     def step(self, state: VehicleState) -> np.ndarray:
         if self.store.version != self._version and not self.complete:  # a new mission or current item
+            if self.items is not self._roi_mission:
+                self.roi = None
+                self.auto.point_at(None)
             self._begin(state, self.store.snapshot.current if self.items else 0)
         elif self.auto.finished and not self.complete:
             self._item_done(state)
@@ -196,15 +220,17 @@ class MissionFlight:
                 continue
             if item.command == M.MAV_CMD_DO_CHANGE_SPEED:
                 self.auto.mission_speed = item.param2 if item.param2 > 0 else None
-            if item.command in ROI_AT_POSITION | ROI_WITHOUT_POSITION:
-                self.roi = region_of_interest(item, self._place)
-                self.auto.point_at(self.roi)
+            if item.command in ROI_COMMANDS:
+                self.point_at(region_of_interest(item, self._place))
             if item.command == M.MAV_CMD_DO_VTOL_TRANSITION and int(item.param1) in (VTOL_FW, VTOL_MC):
                 self.auto.forward_flight = int(item.param1) == VTOL_FW
                 self.auto.mission_speed = None  # as PX4's navigator, a new phase flies its own default cruise
             if (item.command in LANDS or item.command == M.MAV_CMD_NAV_RETURN_TO_LAUNCH) and self.auto.forward_flight:
                 self.auto.forward_flight = None  # braked into, as Return flies (PX4 back-transitions for these)
-            targets = self._targets(state, item)
+            here = state.position_ned.copy()
+            if self._climb_first is not None:
+                here[2] = self._climb_first.down  # the item starts at the return altitude
+            targets = self._targets(state, here, item)
             if targets and self._climb_first is not None:
                 targets.insert(0, self._climb_first)
                 self._climb_first = None
@@ -249,27 +275,29 @@ class MissionFlight:
             return np.array([float(here[0]), float(here[1]), self._down(item)])
         return self._place(item)
 
-    def _targets(self, state: VehicleState, item: MissionItem) -> list[Target]:
+    def _targets(self, state: VehicleState, here: np.ndarray, item: MissionItem) -> list[Target]:
+        """The item's targets, flown from `here` (NED: the vehicle's position, at the altitude it will be at when
+        the item starts)."""
         p = self.params
         command, yaw = item.command, item_yaw(item)
         if command == M.MAV_CMD_NAV_WAYPOINT:
             radius = item.param2 if math.isfinite(item.param2) and item.param2 > 0 else p["NAV_ACC_RAD"]
-            return [FlyTo(self._position(state.position_ned, item), radius, yaw=yaw)]
+            return [FlyTo(self._position(here, item), radius, yaw=yaw)]
         if command == M.MAV_CMD_NAV_LOITER_TO_ALT:
-            return [FlyTo(self._position(state.position_ned, item), p["NAV_ACC_RAD"])]
+            return [FlyTo(self._position(here, item), p["NAV_ACC_RAD"])]
         if command in TAKEOFFS:
-            down = float(self._position(state.position_ned, item)[2])
-            return [Climb(state.position_ned[0:2].copy(), down, p["MPC_TKO_SPEED"], yaw)]
+            down = float(self._position(here, item)[2])
+            return [Climb(here[0:2].copy(), down, p["MPC_TKO_SPEED"], yaw)]
         if command in LANDS:
-            point = self._position(state.position_ned, item)
-            point[2] = float(state.position_ned[2])
-            return [FlyTo(point, LANDING_APPROACH_RADIUS, yaw=yaw), LandAt(point[0:2].copy(), yaw)]
+            point = self._position(here, item)
+            point[2] = float(here[2])
+            return [FlyTo(point, LANDING_APPROACH_RADIUS, yaw=yaw, approach=True), LandAt(point[0:2].copy(), yaw)]
         if command in (M.MAV_CMD_NAV_LOITER_TIME, M.MAV_CMD_NAV_LOITER_UNLIM):
-            point = self._position(state.position_ned, item)
+            point = self._position(here, item)
             seconds = max(item.param1, 0.0) if command == M.MAV_CMD_NAV_LOITER_TIME else None
             return [FlyTo(point, p["NAV_ACC_RAD"], yaw=yaw), HoldAt(point, seconds, yaw)]
         if command == M.MAV_CMD_NAV_DELAY:
-            return [HoldAt(state.position_ned.copy(), max(item.param1, 0.0))]
+            return [HoldAt(here.copy(), max(item.param1, 0.0))]
         if command == M.MAV_CMD_NAV_RETURN_TO_LAUNCH:
             home = self.homes.position.ned
             return plan_return(p, state, closest_safe_point(state.position_ned, self.rally_points(), home), home).route

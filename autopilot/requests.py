@@ -14,7 +14,7 @@ from typing import Protocol
 import numpy as np
 
 from aircraft.failures import Failure
-from autopilot.auto_flight import RegionOfInterest
+from autopilot.region_of_interest import RegionOfInterest
 from autopilot.home_position import HomePosition
 from autopilot.mission_items import MissionItem
 from autopilot.yaw_setpoint import YawSetpoint

@@ -166,9 +166,17 @@ def test_return_altitude_descend_altitude_and_land_delay(tmp_path):
 
 
 
+def mission_landing_rows(waypoint: tuple[float, float], landing: tuple[float, float]) -> list[tuple]:
+    """A waypoint at 10 m, then the landing: DO_LAND_START and a NAV_LAND."""
+    far, over = latlon_e7(*waypoint), latlon_e7(*landing)
+    return [(REL, M.MAV_CMD_NAV_WAYPOINT, 0, 0, 0, math.nan, *far, 10.0),
+            (M.MAV_FRAME_MISSION, M.MAV_CMD_DO_LAND_START, 0, 0, 0, 0, 0, 0, 0.0),
+            (REL, M.MAV_CMD_NAV_LAND, 0, 0, 0, math.nan, *over, 0.0)]  # fmt: skip
+
+
 def test_rtl_type_1_returns_to_the_mission_landing_and_flies_it_from_do_land_start(tmp_path):
-    # A mission (not flown) whose landing pattern starts 30 m north, 20 m east: DO_LAND_START, a NAV_LOITER_TO_ALT
-    # down to 5 m over it, the land. With RTL_TYPE 1 and no rally point, Return climbs and flies that landing.
+    # A mission (not flown) whose landing is 30 m north, 20 m east. With RTL_TYPE 1 and no rally point, Return
+    # climbs to RTL_RETURN_ALT and flies the mission from DO_LAND_START: over the land item at that altitude, down.
     from tests.test_mavlink_missions import Client
 
     with hovering(tmp_path, 8.0) as gs:
@@ -179,19 +187,18 @@ def test_rtl_type_1_returns_to_the_mission_landing_and_flies_it_from_do_land_sta
         said(gs, "RTL_TYPE: 2 outside 0..1", texts)
         for name, value in (("RTL_TYPE", 1), ("RTL_RETURN_ALT", 12.0)):
             set_param(gs, name, value)
-        far, over = latlon_e7(60.0, 0.0), latlon_e7(30.0, 20.0)
-        rows = [(REL, M.MAV_CMD_NAV_WAYPOINT, 0, 0, 0, math.nan, *far, 10.0),
-                (M.MAV_FRAME_MISSION, M.MAV_CMD_DO_LAND_START, 0, 0, 0, 0, 0, 0, 0.0),
-                (REL, M.MAV_CMD_NAV_LOITER_TO_ALT, 0, 0, 0, 0, *over, 5.0),
-                (REL, M.MAV_CMD_NAV_LAND, 0, 0, 0, math.nan, *over, 0.0)]  # fmt: skip
+        rows = mission_landing_rows((60.0, 0.0), (30.0, 20.0))
         assert Client(gs).upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
         texts = len(gs.statustexts)
         assert gs.command(M.MAV_CMD_NAV_RETURN_TO_LAUNCH).result == M.MAV_RESULT_ACCEPTED
         assert said(gs, "RTL: start return", texts).endswith("(12 m above mission landing)")
-        highest, reached, modes = [0.0], set(), set()
+        highest, lowest_away, reached, modes = [0.0], [99.0], set(), set()
 
         def sample() -> bool:
+            north, east, _ = here(gs)
             highest[0] = max(highest[0], gs.altitude)
+            if highest[0] > 11.0 and math.hypot(north - 30.0, east - 20.0) > 3.0:  # climbed, not yet over it
+                lowest_away[0] = min(lowest_away[0], gs.altitude)
             if gs.armed:
                 modes.add(gs.mode)
             if "MISSION_ITEM_REACHED" in gs.latest:
@@ -200,6 +207,30 @@ def test_rtl_type_1_returns_to_the_mission_landing_and_flies_it_from_do_land_sta
 
         gs.wait(sample, "the mission landing and the disarm", 180)
         north, east, _ = here(gs)
-        print(f"landed at ({north:.2f}, {east:.2f}), highest {highest[0]:.1f} m, items reached {sorted(reached)}")
+        print(f"landed at ({north:.2f}, {east:.2f}), highest {highest[0]:.1f} m, lowest before the landing point "
+              f"{lowest_away[0]:.1f} m, items reached {sorted(reached)}")  # fmt: skip
         assert math.hypot(north - 30.0, east - 20.0) < 2.0  # the mission's land item, not home
-        assert 11.0 < highest[0] < 13.5 and modes == {RETURN_MODE} and {2, 3} <= reached and 0 not in reached
+        assert 11.0 < highest[0] < 13.5 and lowest_away[0] > 10.5  # the approach at the return altitude
+        assert modes == {RETURN_MODE} and 2 in reached and 0 not in reached
+
+
+def test_return_while_mission_flies_its_landing_goes_on_with_it(tmp_path):
+    # PX4's navigator does not switch when Return comes during the mission's landing: no climb, the same landing.
+    from tests.test_mavlink_missions import Client
+    from tests.test_mavlink_navigation import MISSION_MODE
+
+    with hovering(tmp_path, 8.0) as gs:
+        for name, value in (("RTL_TYPE", 1), ("RTL_RETURN_ALT", 30.0)):
+            set_param(gs, name, value)
+        rows = mission_landing_rows((0.0, 5.0), (12.0, 5.0))
+        assert Client(gs).upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
+        assert gs.set_mode(MISSION_MODE).result == M.MAV_RESULT_ACCEPTED
+        gs.wait(lambda: gs.latest["MISSION_CURRENT"].seq == 2 and gs.altitude < 7.0, "the mission's descent", 120)
+        texts = len(gs.statustexts)
+        assert gs.command(M.MAV_CMD_NAV_RETURN_TO_LAUNCH).result == M.MAV_RESULT_ACCEPTED
+        said(gs, "RTL: continuing the mission landing", texts)
+        highest = [0.0]
+        gs.wait(lambda: highest.__setitem__(0, max(highest[0], gs.altitude)) or not gs.armed, "the landing", 120)
+        north, east, _ = here(gs)
+        print(f"landed at ({north:.2f}, {east:.2f}); highest after Return {highest[0]:.1f} m")
+        assert highest[0] < 7.5 and math.hypot(north - 12.0, east - 5.0) < 2.0

@@ -98,7 +98,7 @@ def test_supported_items_pass_and_fence_polygons_need_three_vertices():
            (M.MAV_FRAME_MISSION, M.MAV_CMD_DO_SET_ROI, M.MAV_ROI_WPNEXT, 0, 0, 0, 0, 0, 0.0),
            (M.MAV_FRAME_MISSION, M.MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET, 0, 0, 0, 0, 0, 0, 30.0),
            (M.MAV_FRAME_MISSION, M.MAV_CMD_DO_SET_ROI_NONE, 0, 0, 0, 0, 0, 0, 0.0)]  # fmt: skip
-    assert len(payload) == 20
+    assert len(payload) == 19  # with DO_LAND_START, the 20 MAV_FRAME_MISSION commands PX4 passes at once
     assert all(check_item(M.MAV_MISSION_TYPE_MISSION, item(row)) == M.MAV_MISSION_ACCEPTED for row in payload + roi)
 
 
@@ -109,6 +109,9 @@ def test_a_region_of_interest_is_the_point_or_the_next_item_and_not_a_waypoint_f
     offset = region_of_interest(item((M.MAV_FRAME_MISSION, M.MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET, 0, 0, 0, 0, 0, 0,
                                       30.0)), lambda _: here)  # fmt: skip
     assert offset is not None and offset.xy is None and math.isclose(offset.yaw_offset, math.radians(30.0))
+    nan_offset = region_of_interest(item((M.MAV_FRAME_MISSION, M.MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET, 0, 0, 0, 0, 0, 0,
+                                          math.nan)), lambda _: here)  # fmt: skip
+    assert nan_offset is not None and nan_offset.yaw_offset == 0.0  # NaN: MAVLink's default, no offset
     for row in ((M.MAV_FRAME_MISSION, M.MAV_CMD_DO_SET_ROI_NONE, 0, 0, 0, 0, 0, 0, 0.0),
                 (M.MAV_FRAME_MISSION, M.MAV_CMD_DO_SET_ROI, M.MAV_ROI_WPINDEX, 2, 0, 0, 0, 0, 0.0),
                 (REL, M.MAV_CMD_DO_SET_ROI, M.MAV_ROI_NONE, 0, 0, 0, LAT, LON, 0.0)):  # fmt: skip

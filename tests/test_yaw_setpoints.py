@@ -361,21 +361,48 @@ def test_a_region_of_interest_turns_the_nose_on_a_missions_legs_and_payload_item
     print(f"after DO_SET_ROI_NONE: heading {yaw_deg(gs):.2f} deg")
     assert abs(yaw_deg(gs) + 60.0) < 3.0
 
-    # The command (QGroundControl's "ROI" action) sets the vehicle's region of interest, 30 m south of home: Hold
-    # keeps its heading, the next mission points at it. Bad ones are DENIED.
-    assert gs.set_mode(HOLD).result == M.MAV_RESULT_ACCEPTED
+    # The command (QGroundControl's "ROI" action), while the mission holds at its end in Mission: the nose turns to
+    # its point, 30 m south of home, at once. Bad ones are DENIED. A new mission resets it (PX4): its waypoint's yaw.
     assert gs.command(M.MAV_CMD_DO_SET_ROI, 7).result == M.MAV_RESULT_DENIED
     assert gs.command(M.MAV_CMD_DO_SET_ROI_LOCATION, 0, 0, 0, 0, 91.0, 8.5, 0).result == M.MAV_RESULT_DENIED
     south_lat, south_lon = latlon_e7(-30.0, 0.0)
     ack = gs.command(M.MAV_CMD_DO_SET_ROI_LOCATION, 0, 0, 0, 0, south_lat * 1e-7, south_lon * 1e-7, 0.0)
     assert ack.result == M.MAV_RESULT_ACCEPTED
-    gs.wait_sim(2.0)
-    assert abs(yaw_deg(gs) + 60.0) < 3.0  # Hold keeps its own heading
-    rows = [(M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, M.MAV_CMD_NAV_WAYPOINT, 0, 2.0, 0, 30.0, north, east, ALTITUDE)]
-    assert client.upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
-    fly_mission(gs)
-    gs.wait_sim(4.0)
+    gs.wait_sim(6.0)  # 110 deg at MPC_YAWRAUTO_MAX (30 deg/s)
     p = gs.latest["LOCAL_POSITION_NED"]
     south_error = math.degrees(wrap(math.atan2(0.0 - p.y, -30.0 - p.x) - gs.latest["ATTITUDE"].yaw))
-    print(f"after DO_SET_ROI_LOCATION (command): heading {yaw_deg(gs):.2f} deg, {south_error:.2f} deg off the ROI")
-    assert abs(south_error) < 3.0  # the ROI wins over the waypoint's yaw of 30 deg
+    print(f"DO_SET_ROI_LOCATION (command) at the mission's end: heading {yaw_deg(gs):.2f} deg, {south_error:.2f} deg "
+          f"off the ROI")  # fmt: skip
+    assert abs(south_error) < 3.0
+    rows = [(M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, M.MAV_CMD_NAV_WAYPOINT, 0, 2.0, 0, 30.0, north, east, ALTITUDE)]
+    assert client.upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
+    assert gs.set_mode(HOLD).result == M.MAV_RESULT_ACCEPTED
+    fly_mission(gs)
+    gs.wait_sim(4.0)
+    print(f"a new mission: heading {yaw_deg(gs):.2f} deg")
+    assert abs(yaw_deg(gs) - 30.0) < 3.0
+
+
+def test_a_region_of_interest_leaves_takeoffs_landings_and_their_approach_alone():
+    from autopilot.auto_flight import AutoFlight, Climb, FlyTo, HoldAt, LandAt
+    from autopilot.parameters import ParameterStore
+    from autopilot.region_of_interest import RegionOfInterest
+    from autopilot.vehicle_state import VehicleState
+
+    state = VehicleState(time_usec=1, valid=True)
+    state.position_ned[:] = (0.0, 0.0, -20.0)
+    auto = AutoFlight(ParameterStore(None))
+    east = np.array([0.0, 40.0])
+    for target, expected in ((FlyTo(np.array([20.0, 0.0, -20.0]), 2.0, yaw=1.0), math.pi / 2),  # the ROI's bearing
+                             (HoldAt(np.array([0.0, 0.0, -20.0]), None, 1.0), math.pi / 2),
+                             (Climb(np.zeros(2), -30.0, 1.5, 1.0), 1.0),  # a takeoff: its own yaw
+                             (FlyTo(np.array([20.0, 0.0, -20.0]), 1.0, yaw=1.0, approach=True), 1.0),
+                             (LandAt(np.array([20.0, 0.0]), 1.0), 1.0)):  # fmt: skip
+        auto.start(state, [target])
+        auto.point_at(RegionOfInterest(east))
+        yaw = auto.yaw(state)
+        assert yaw is not None and yaw.heading is not None and math.isclose(yaw.heading, expected), target
+    auto.start(state, [FlyTo(np.array([20.0, 0.0, -20.0]), 2.0)])
+    auto.point_at(RegionOfInterest(None, math.radians(30.0)))  # ROI_WPNEXT: the target, plus the offset
+    wpnext = auto.yaw(state)
+    assert wpnext is not None and wpnext.heading is not None and math.isclose(wpnext.heading, math.radians(30.0))

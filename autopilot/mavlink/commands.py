@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from aircraft.failures import FailureRejected, parse_failure
-from autopilot.auto_flight import RegionOfInterest
+from autopilot.region_of_interest import RegionOfInterest
 from autopilot.commander import FORCE_MAGIC
 from autopilot.home_position import home_at, home_here, home_refusal
 from autopilot.mavlink import messages
