@@ -36,6 +36,7 @@ from autopilot.mission_store import MissionStore
 from autopilot.navigator import TICK_S, LandDetector, Navigator
 from autopilot.offboard_setpoint import AttitudeTarget, OffboardSetpoint
 from autopilot.parameters import ParameterStore
+from autopilot.region_of_interest import RegionOfInterest
 from autopilot.requests import ManualControlInput, Reply
 from autopilot.vehicle_state import VehicleState
 from autopilot.yaw_setpoint import YawReference, YawShaper, multicopter_speed
@@ -56,6 +57,7 @@ TAKING_OFF = mavlink.MAV_LANDED_STATE_TAKEOFF
 LANDING = mavlink.MAV_LANDED_STATE_LANDING
 
 MAX_LEVEL_TILT = math.radians(30.0)  # arming on the ground: roll and pitch within this
+HOME_AT_REST_SPEED = 0.5  # m/s: home follows a disarmed vehicle on the ground only when it is this still
 
 
 @dataclass(frozen=True)
@@ -135,7 +137,7 @@ class Commander:
 
     @property
     def state_changed(self) -> bool:
-        """Arming, mode or ground state changed since the last report()."""
+        """Arming, mode, ground state or flight termination changed since the last report()."""
         return self.state_version != self._reported_version
 
     def report(self) -> CommanderReport:
@@ -181,7 +183,8 @@ class Commander:
     def switch_mode(self, mode: str, state: VehicleState, reason: str | None = None) -> None:
         """Enter `mode` (again, if it is the current one: it starts afresh, except Offboard)."""
         if mode == RETURN:
-            self.return_mode.mission_was_flying = self.mode == MISSION
+            self.return_mode.mission_was_flying = self.mode == MISSION or (
+                self.mode == RETURN and self.return_mode.mission_landing)
         if mode != OFFBOARD or self.mode != OFFBOARD:
             self.modes[mode].activate(state)
         if mode == LAND:
@@ -198,7 +201,7 @@ class Commander:
         self.terminated = True
         self.state_version += 1
         if self.armed:
-            self._set_armed(False, text)
+            self._set_armed(False, text, mavlink.MAV_SEVERITY_CRITICAL)
         else:
             self.say(mavlink.MAV_SEVERITY_CRITICAL, text)
 
@@ -214,14 +217,20 @@ class Commander:
             self.say(mavlink.MAV_SEVERITY_INFO, "Flight termination cleared")
         return ACCEPTED, None
 
-    def _set_armed(self, armed: bool, text: str) -> None:
+    def set_region_of_interest(self, roi: RegionOfInterest | None) -> None:
+        """DO_SET_ROI_*: the vehicle's region of interest (the mission keeps it), turned to at once by Mission and
+        Return's mission landing."""
+        turn_now = self.mode == MISSION or (self.mode == RETURN and self.return_mode.mission_landing)
+        self.mission_mode.mission.point_at(roi, turn_now)
+
+    def _set_armed(self, armed: bool, text: str, severity: int = mavlink.MAV_SEVERITY_INFO) -> None:
         self.armed = armed
         self.state_version += 1
         if armed:
             self.ground.armed(self.now_usec)
         else:
             self.ground.disarmed()
-        self.say(mavlink.MAV_SEVERITY_INFO, text)
+        self.say(severity, text)
 
     def start(self, state: VehicleState) -> None:
         """The first valid state: a vehicle spawned in the air holds where it is."""
@@ -381,7 +390,8 @@ class Commander:
         if decision is not None:
             self._failsafe(decision, state)
         if not self.armed:
-            if self.on_ground and not self.failsafe.position_lost:
+            at_rest = float(np.linalg.norm(state.velocity_ned)) < HOME_AT_REST_SPEED  # not falling after a termination
+            if self.on_ground and at_rest and not self.failsafe.position_lost:
                 self.homes.follow(state.position_ned)
             return None
         if self.on_ground:

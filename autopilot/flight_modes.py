@@ -254,7 +254,9 @@ class ReturnMode(FlightMode):
     def activate(self, state: VehicleState) -> None:
         home = self.mission.homes.position
         rtl_type = self.params.get_int("RTL_TYPE")
-        landing = self.mission.landing_pattern() if rtl_type == RTL_MISSION_LANDING and self.mission_valid() else None
+        landing = self.mission.landing_pattern() if rtl_type == RTL_MISSION_LANDING else None
+        if landing is not None and not self.mission_valid():
+            landing = None  # PX4 lands on a mission only if it is valid
         self._announced = -1
         self._landing_mission = self.mission.items
         if landing is not None and self.mission_was_flying and self.mission.landing_underway(landing):
@@ -281,7 +283,7 @@ class ReturnMode(FlightMode):
         return self.auto.descending
 
     def setpoint(self, state: VehicleState) -> np.ndarray:
-        if self.mission_landing and self.mission.items is not self._landing_mission:
+        if self.mission_landing and (self.mission.items is not self._landing_mission or self.mission.changed_elsewhere):
             self.mission_was_flying = False
             self.activate(state)  # the mission changed under its landing: Return plans again
         if self.mission_landing:

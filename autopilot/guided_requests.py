@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from autopilot.auto_flight import Circle
 from autopilot.commander import ACCEPTED, DENIED, TEMPORARILY_REJECTED, Commander
-from autopilot.flight_modes import HOLD, LAND, MISSION, OFFBOARD, ORBIT, RETURN, VTOL_FW, VTOL_MC
+from autopilot.flight_modes import HOLD, LAND, OFFBOARD, ORBIT, VTOL_FW, VTOL_MC
 from autopilot.offboard_setpoint import SETPOINT_LIMITS
 from autopilot.region_of_interest import RegionOfInterest
 from autopilot.attitude import wrap
@@ -96,8 +96,7 @@ class GuidedRequests:
         c = self.commander
         if (refusal := c.refusal()) is not None:
             return refusal
-        flying = c.mode == MISSION or (c.mode == RETURN and c.return_mode.mission_landing)
-        c.mission_mode.mission.point_at(roi, flying)
+        c.set_region_of_interest(roi)
         return ACCEPTED, None
 
     def turn_to(self, request: TurnTo, state: VehicleState) -> Reply:

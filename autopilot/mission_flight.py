@@ -119,6 +119,7 @@ class MissionFlight:
         self._climb_first: Climb | None = None  # Return's climb before its mission landing
         self.roi: RegionOfInterest | None = None  # the last DO_SET_ROI_* item's or command's
         self._roi_mission: tuple[MissionItem, ...] = ()  # the mission stored when it was set
+        self._roi_after_end = False  # it was set after that mission had ended (a restart keeps it)
 
     @property
     def items(self) -> tuple[MissionItem, ...]:
@@ -131,7 +132,8 @@ class MissionFlight:
         seq = self.store.snapshot.current
         if self.store.snapshot.state == M.MISSION_STATE_COMPLETE or seq >= len(self.items):
             seq = 0
-            self.roi = None  # PX4 resets the region of interest with the mission
+            if not self._roi_after_end:
+                self.roi = None  # PX4 resets the region of interest with the mission
         self._prepare(state)
         self._takeoff_first = self.landed_now()
         self._begin(state, seq)
@@ -142,17 +144,28 @@ class MissionFlight:
         return mission_landing(self.items, self.item_position)
 
     def landing_underway(self, landing: MissionLanding) -> bool:
-        """The mission flown last is at or past its landing's DO_LAND_START and not over."""
-        return not self.complete and self.seq >= landing.start_seq
+        """The mission flown last is at or past its landing's DO_LAND_START, not over and not changed since."""
+        return not self.complete and not self.changed_elsewhere and self.seq >= landing.start_seq
 
-    def point_at(self, roi: RegionOfInterest | None, flying: bool = True) -> None:
+    @property
+    def changed_elsewhere(self) -> bool:
+        """The store changed (an upload, a current item set) since this flight last stepped."""
+        return self.store.version != self._version
+
+    def point_at(self, roi: RegionOfInterest | None, turn_now: bool = True) -> None:
         """The vehicle's region of interest from now on (it lasts until a new mission is stored or the mission
-        starts again from its first item, as PX4's navigator resets it); `flying`: this mission is being flown
+        starts again from its first item, as PX4's navigator resets it); `turn_now`: this mission is being flown
         (Mission, or Return's mission landing), which turns to it at once."""
         self.roi = roi
         self._roi_mission = self.items
-        if flying:
+        self._roi_after_end = self.complete
+        if turn_now:
             self.auto.point_at(roi)
+
+    def _forget_roi_of_another_mission(self) -> None:
+        if self.items is not self._roi_mission:
+            self.roi = None
+            self.auto.point_at(None)
 
     def fly_landing(self, state: VehicleState, landing: MissionLanding, climb: Climb) -> None:
         """Return's mission landing (RTL_TYPE 1): `climb` over here, then the mission from its DO_LAND_START item."""
@@ -166,8 +179,7 @@ class MissionFlight:
         self._climb_first = None
         self.auto.mission_speed = None
         self.auto.start(state, [])
-        if self.items is not self._roi_mission:
-            self.roi = None  # a new mission
+        self._forget_roi_of_another_mission()
         self.auto.point_at(self.roi)
         transitions = any(item.command == M.MAV_CMD_DO_VTOL_TRANSITION for item in self.items)
         self.auto.forward_flight = False if transitions else None
@@ -185,10 +197,8 @@ class MissionFlight:
         self._item_done(state)
 
     def step(self, state: VehicleState) -> np.ndarray:
-        if self.store.version != self._version and not self.complete:  # a new mission or current item
-            if self.items is not self._roi_mission:
-                self.roi = None
-                self.auto.point_at(None)
+        if self.changed_elsewhere and not self.complete:  # a new mission or current item
+            self._forget_roi_of_another_mission()
             self._begin(state, self.store.snapshot.current if self.items else 0)
         elif self.auto.finished and not self.complete:
             self._item_done(state)

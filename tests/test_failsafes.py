@@ -205,6 +205,14 @@ def test_geofence_breach_takes_gf_action_once_and_return_heads_for_the_closest_r
     terminate, said = flying_commander(GF_MAX_VER_DIST=40.0, GF_ACTION=4)
     fly(terminate, 0.0, 0.1)
     assert not terminate.armed and terminate.terminated and any("flight termination" in text for text in said)
+    home = terminate.homes.position
+    falling = state_at(0.2, down=-45.0)
+    falling.velocity_ned[:] = (0.0, 0.0, 8.0)
+    terminate.tick(falling, falling.time_usec, 0.0)
+    assert terminate.homes.position is home  # home does not follow a falling vehicle
+    at_rest = state_at(3.0, north=5.0, down=0.0)
+    terminate.tick(at_rest, at_rest.time_usec, 0.0)
+    assert terminate.homes.position.ned[0] == 5.0  # at rest on the ground, it does
 
 
 # ---- sensor failures ----------------------------------------------------------------------------------------------------
