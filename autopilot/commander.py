@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from aircraft.actuators import ROTORS, SERVO_CHANNELS
 from autopilot.auto_flight import AutoFlight
 from autopilot.failsafe import Decision, Failsafe, FailsafeInputs
 from autopilot.failsafe_reaction import reaction
@@ -35,9 +36,10 @@ from autopilot.mission_flight import MissionFlight
 from autopilot.mission_store import MissionStore
 from autopilot.navigator import TICK_S, LandDetector, Navigator
 from autopilot.offboard_setpoint import AttitudeTarget, OffboardSetpoint
+from autopilot.output_tests import OutputTests
 from autopilot.parameters import ParameterStore
 from autopilot.region_of_interest import RegionOfInterest
-from autopilot.requests import ManualControlInput, Reply
+from autopilot.requests import ManualControlInput, OutputTest, Reply
 from autopilot.vehicle_state import VehicleState
 from autopilot.yaw_setpoint import YawReference, YawShaper, multicopter_speed
 from transport.geodesy import Home
@@ -111,6 +113,7 @@ class Commander:
         self.started = False
         self.state_version = 1  # counts arming, mode, ground-state and termination changes (each sends a HEARTBEAT)
         self.terminated = False  # flight termination: motors off (disarmed), arming refused until it is cleared
+        self.output_tests = OutputTests()  # motor and actuator tests, disarmed
         self._reported_version = 0
         self.now_usec = 0
         self.state = VehicleState()  # the current step's estimate (observe())
@@ -217,6 +220,24 @@ class Commander:
             self.say(mavlink.MAV_SEVERITY_INFO, "Flight termination cleared")
         return ACCEPTED, None
 
+    def output_test(self, request: OutputTest) -> Reply:
+        """MAV_CMD_DO_MOTOR_TEST / ACTUATOR_TEST as PX4's commander takes them: disarmed only, with COM_MOT_TEST_EN."""
+        if (refusal := self.refusal("Actuator test")) is not None:
+            return refusal
+        if self.armed:
+            return DENIED, "Actuator test denied: armed"
+        if self.params.get_int("COM_MOT_TEST_EN") != 1:
+            return DENIED, "Actuator test denied: COM_MOT_TEST_EN is 0"
+        tests = self.output_tests
+        channel = (ROTORS.start if request.motor else SERVO_CHANNELS.start) + request.index
+        if request.value is None:
+            tests.release(channel)
+        elif request.motor:
+            tests.motor(request.index, request.value, request.timeout_s, self.now_usec)
+        else:
+            tests.servo(request.index, request.value, request.timeout_s, self.now_usec)
+        return ACCEPTED, None
+
     def set_region_of_interest(self, roi: RegionOfInterest | None) -> None:
         """DO_SET_ROI_*: the vehicle's region of interest (the mission keeps it), turned to at once by Mission and
         Return's mission landing."""
@@ -227,6 +248,7 @@ class Commander:
         self.armed = armed
         self.state_version += 1
         if armed:
+            self.output_tests.clear()  # PX4 ends the tests when the vehicle arms
             self.ground.armed(self.now_usec)
         else:
             self.ground.disarmed()

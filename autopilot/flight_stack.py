@@ -16,7 +16,7 @@ from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
 from autopilot.requests import (Arm, ChangeSpeed, ClearMission, Disarm, FlightTermination, GcsHeartbeat,
                                 InjectFailure, Land, ManualControlInput, OffboardAttitude, OffboardPosition,
-                                OffboardVelocity, Orbit, Reply, Reposition, Request, ReturnToLaunch,
+                                OffboardVelocity, Orbit, OutputTest, Reply, Reposition, Request, ReturnToLaunch,
                                 SetMissionCurrent, SetMode, SetHome, SetRegionOfInterest, StartMission, StoreMission,
                                 Takeoff, Transition, TurnTo)  # fmt: skip
 from transport.mavlink import mavlink
@@ -83,6 +83,8 @@ class FlightStack:
                 return guided.point_at(roi)
             case FlightTermination(on=on):
                 return commander.flight_termination(on)
+            case OutputTest():
+                return commander.output_test(request)
             case OffboardVelocity() | OffboardPosition() | OffboardAttitude():
                 return guided.offboard_request(request)
             case ManualControlInput():

@@ -93,6 +93,8 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
     P("COM_DISARM_LAND", REAL32, 2.0, 0.0, 20.0, "s", "disarm this long after a landing is detected"),
     P("COM_DISARM_PRFLT", REAL32, 10.0, -1.0, 300.0, "s", "disarm when armed on the ground without taking off for "
       "this long (negative: never)"),
+    P("COM_MOT_TEST_EN", INT32, 1, 0, 1, "", "1 allows MAV_CMD_DO_MOTOR_TEST and MAV_CMD_ACTUATOR_TEST while "
+      "disarmed"),
     P("MIS_TAKEOFF_ALT", REAL32, 2.5, 1.0, 1000.0, "m", "takeoff altitude above home"),
     P("MPC_TKO_SPEED", REAL32, 1.5, 0.5, 5.0, "m/s", "takeoff climb speed"),
     P("MPC_Z_VEL_MAX_UP", REAL32, 3.0, 0.5, 8.0, "m/s", "fastest climb when holding or returning to an altitude"),

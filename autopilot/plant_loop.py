@@ -207,7 +207,9 @@ class PlantLoop:
                 self.events.say(mavlink.MAV_SEVERITY_WARNING, event)
         if commander.flying:
             return None
-        return self._idle_pwm if commander.armed else self._disarmed_pwm
+        if commander.armed:
+            return self._idle_pwm
+        return commander.output_tests.applied(self._disarmed_pwm, t_usec)
 
     def _status_due(self, t_usec: int) -> bool:
         """Whether this step builds a VehicleStatus for the services (step 4 of the module's docstring)."""

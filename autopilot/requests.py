@@ -190,6 +190,17 @@ class SetRegionOfInterest:
 
 
 @dataclass(frozen=True)
+class OutputTest:
+    """MAV_CMD_DO_MOTOR_TEST / MAV_CMD_ACTUATOR_TEST (autopilot/output_tests.py): drive motor `index` (0 ... 3) or
+    servo `index` (0 ... 7) at `value` for `timeout_s`; `value` None releases the output."""
+
+    motor: bool
+    index: int
+    value: float | None
+    timeout_s: float
+
+
+@dataclass(frozen=True)
 class FlightTermination:
     """MAV_CMD_DO_FLIGHTTERMINATION: terminate (motors off) when `on`, else clear a termination."""
 
@@ -204,7 +215,8 @@ class GcsHeartbeat:
 Request = (Arm | Disarm | Takeoff | Land | SetMode | Transition | OffboardVelocity | OffboardPosition
            | OffboardAttitude | ManualControlInput | InjectFailure
            | StoreMission | ClearMission | SetMissionCurrent | StartMission | ReturnToLaunch | Reposition | ChangeSpeed
-           | Orbit | GcsHeartbeat | SetHome | TurnTo | SetRegionOfInterest | FlightTermination)  # fmt: skip
+           | Orbit | GcsHeartbeat | SetHome | TurnTo | SetRegionOfInterest | FlightTermination
+           | OutputTest)  # fmt: skip
 
 
 class RequestHandler(Protocol):

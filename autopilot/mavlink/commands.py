@@ -25,6 +25,7 @@ from autopilot.mavlink.router import COMP_ID, GroundLink
 from autopilot.mavlink.statustext import Announcer
 from autopilot.mavlink.streams import DEFAULT_RATES_HZ, MIN_INTERVAL_USEC, default_interval_usec
 from autopilot.mavlink.view import StatusView
+from autopilot.output_tests import MOTOR_COUNT, SERVO_COUNT
 from autopilot.requests import (
     Arm,
     ChangeSpeed,
@@ -33,6 +34,7 @@ from autopilot.requests import (
     InjectFailure,
     Land,
     Orbit,
+    OutputTest,
     Reply,
     Reposition,
     RequestHandler,
@@ -115,6 +117,8 @@ class CommandService:
             M.MAV_CMD_DO_SET_ROI_NONE: self._region_of_interest,
             M.MAV_CMD_DO_SET_ROI: self._region_of_interest,
             M.MAV_CMD_DO_FLIGHTTERMINATION: self._flight_termination,
+            M.MAV_CMD_DO_MOTOR_TEST: self._motor_test,
+            M.MAV_CMD_ACTUATOR_TEST: self._actuator_test,
         }
 
     # ---- messages ---------------------------------------------------------------------------------------------
@@ -304,6 +308,34 @@ class CommandService:
         if not math.isfinite(p[0]):
             return M.MAV_RESULT_DENIED, "Flight termination denied: param1 not finite"
         return self.flight_stack.handle(FlightTermination(p[0] > 0.5))
+
+    def _motor_test(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
+        """MAV_CMD_DO_MOTOR_TEST: param1 motor 1 ... 4, param2 throttle type (only MOTOR_TEST_THROTTLE_PERCENT, as
+        PX4), param3 throttle (%), param4 time-out (s, at most 3), param5 motor count (one at a time, as PX4)."""
+        motor, kind = int_param(p[0]), int_param(p[1])
+        count = int_param(p[4]) if math.isfinite(p[4]) else 0  # NaN: one
+        if kind != M.MOTOR_TEST_THROTTLE_PERCENT or count is None or count > 1:
+            return M.MAV_RESULT_UNSUPPORTED, "Motor test: only one motor at a time, throttle in percent"
+        if motor is None or not 1 <= motor <= MOTOR_COUNT:
+            return M.MAV_RESULT_DENIED, f"Motor test denied: param1 (motor) {p[0]:g} not 1..{MOTOR_COUNT}"
+        if not math.isfinite(p[2]):
+            return M.MAV_RESULT_DENIED, "Motor test denied: param3 (throttle) not finite"
+        value = p[2] / 100.0
+        return self.flight_stack.handle(OutputTest(True, motor - 1, value if value > 0.0 else None, p[3]))
+
+    def _actuator_test(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
+        """MAV_CMD_ACTUATOR_TEST (QGroundControl's Actuators page): param1 value (-1 ... 1), param2 time-out (s, at
+        most 3; 0 or less releases the output), param5 ACTUATOR_OUTPUT_FUNCTION (MOTOR1 ... 4, SERVO1 ... 8)."""
+        function = int_param(p[4])
+        motor = function is not None and 0 <= function - M.ACTUATOR_OUTPUT_FUNCTION_MOTOR1 < MOTOR_COUNT
+        servo = function is not None and 0 <= function - M.ACTUATOR_OUTPUT_FUNCTION_SERVO1 < SERVO_COUNT
+        if function is None or not (motor or servo):
+            return M.MAV_RESULT_UNSUPPORTED, (f"Actuator test: param5 (function) {p[4]:g} is no motor 1..{MOTOR_COUNT} "
+                                              f"or servo 1..{SERVO_COUNT} output here")  # fmt: skip
+        if math.isinf(p[0]) or not math.isfinite(p[1]):
+            return M.MAV_RESULT_DENIED, "Actuator test denied: param1 (value) infinite or param2 (time-out) not finite"
+        index = function - (M.ACTUATOR_OUTPUT_FUNCTION_MOTOR1 if motor else M.ACTUATOR_OUTPUT_FUNCTION_SERVO1)
+        return self.flight_stack.handle(OutputTest(motor, index, p[0] if p[1] > 0.0 else None, p[1]))
 
     def _change_speed(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
         """MAV_CMD_DO_CHANGE_SPEED: param2 the speed (> 0; -1, -2 or 0: back to the defaults, as PX4's navigator);
