@@ -51,7 +51,9 @@ def test_motor_and_actuator_tests_drive_one_output_of_a_disarmed_vehicle_for_the
         gs.wait(lambda: outputs()[4] == 2000, "servo 1 at its end")
         gs.wait(lambda: outputs() == disarmed, "the actuator test's end", 30)
         print(f"motor 2 ran {ran:.2f} s (time-out 1 s)")
-        assert 0.85 <= ran <= 1.15
+        # Seen through a 20 Hz stream by a ground station that reads in batches: up to a few tenths of simulated time
+        # late at either end when the machine is busy; a test that ignored its time-out would run 3 s.
+        assert 0.5 <= ran <= 1.5
         # Refusals, as PX4's commander gives them.
         unsupported = [(M.MAV_CMD_DO_MOTOR_TEST, (1, 1, 30, 1, 1, 0)),  # throttle as PWM
                        (M.MAV_CMD_DO_MOTOR_TEST, (1, 0, 30, 1, 4, 0)),  # four motors in a row
