@@ -22,7 +22,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from aircraft.actuators import ROTORS, SERVO_CHANNELS
 from autopilot.auto_flight import AutoFlight
 from autopilot.failsafe import Decision, Failsafe, FailsafeInputs
 from autopilot.failsafe_reaction import reaction
@@ -228,14 +227,7 @@ class Commander:
             return DENIED, "Actuator test denied: armed"
         if self.params.get_int("COM_MOT_TEST_EN") != 1:
             return DENIED, "Actuator test denied: COM_MOT_TEST_EN is 0"
-        tests = self.output_tests
-        channel = (ROTORS.start if request.motor else SERVO_CHANNELS.start) + request.index
-        if request.value is None:
-            tests.release(channel)
-        elif request.motor:
-            tests.motor(request.index, request.value, request.timeout_s, self.now_usec)
-        else:
-            tests.servo(request.index, request.value, request.timeout_s, self.now_usec)
+        self.output_tests.drive(request.motor, request.index, request.value, request.timeout_s, self.now_usec)
         return ACCEPTED, None
 
     def set_region_of_interest(self, roi: RegionOfInterest | None) -> None:

@@ -50,18 +50,14 @@ class OutputTests:
     def __init__(self) -> None:
         self._tests: dict[int, OutputTest] = {}
 
-    def motor(self, index: int, value: float, timeout_s: float, now_usec: int) -> None:
-        """Motor `index` (0 ... 3) at `value` for the time-out."""
-        channel = ROTORS.start + index
-        self._tests[channel] = OutputTest(channel, motor_pwm(value), now_usec + duration_usec(timeout_s))
-
-    def servo(self, index: int, value: float, timeout_s: float, now_usec: int) -> None:
-        """Servo `index` (0 ... 7) at `value` for the time-out."""
-        channel = SERVO_CHANNELS.start + index
-        self._tests[channel] = OutputTest(channel, servo_pwm(value), now_usec + duration_usec(timeout_s))
-
-    def release(self, channel: int) -> None:
-        self._tests.pop(channel, None)
+    def drive(self, motor: bool, index: int, value: float | None, timeout_s: float, now_usec: int) -> None:
+        """Motor `index` (0 ... 3) or servo `index` (0 ... 7) at `value` for the time-out; None releases it."""
+        channel = (ROTORS.start if motor else SERVO_CHANNELS.start) + index
+        if value is None:
+            self._tests.pop(channel, None)
+            return
+        pwm = motor_pwm(value) if motor else servo_pwm(value)
+        self._tests[channel] = OutputTest(channel, pwm, now_usec + duration_usec(timeout_s))
 
     def clear(self) -> None:
         self._tests.clear()
