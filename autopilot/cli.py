@@ -18,6 +18,7 @@ from autopilot.flight_controller import FlightController
 from autopilot.flight_logger import FlightLogger
 from autopilot.flight_stack import FlightStack
 from autopilot.guided_requests import GuidedRequests
+from autopilot.output_requests import OutputRequests
 from autopilot.mavlink.router import GroundLink, Router
 from autopilot.mavlink.services import MavlinkServices
 from autopilot.mission_store import MissionFileError, MissionStore, default_mission_path
@@ -187,7 +188,8 @@ def main(argv: list[str] | None = None) -> int:
     session = None
     if not args.no_zenoh:
         session = open_session(args.zenoh_listen or [ports.zenoh_autopilot], args.zenoh_connect, PROG)
-    flight_stack = FlightStack(commander, GuidedRequests(commander), injection, params, missions)
+    flight_stack = FlightStack(commander, GuidedRequests(commander), OutputRequests(commander), injection, params,
+                               missions)  # fmt: skip
     services = MavlinkServices(
         router, params, flight_stack, system_id=system_id, home=home, missions=missions.snapshot,
         events_publisher=None if session is None else session.declare_publisher(autopilot_events_key(system_id)),

@@ -11,14 +11,14 @@ takeoff (Takeoff mode, or an Offboard set-point that climbs), which starts a fre
 
 Every request answers (MAV_RESULT, reason); a reason goes to the ground station as STATUSTEXT. What the
 commander says (`say`) goes to the ground stations as STATUSTEXT too. Arming, modes and takeoff are judged here;
-the guided requests (Land, Go-to, Orbit, transition, speed, home, Offboard set-points) in guided_requests.py.
+the guided requests (Land, Go-to, Orbit, transition, speed, home, Offboard set-points) in guided_requests.py, the
+requests on the outputs (flight termination, motor and actuator tests) in output_requests.py.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -27,7 +27,7 @@ from autopilot.failsafe import Decision, Failsafe, FailsafeInputs
 from autopilot.failsafe_reaction import reaction
 from autopilot.flight_modes import (HOLD, LAND, MISSION, OFFBOARD, ORBIT, RETURN, TAKEOFF, FlightMode, HoldMode,
                                     LandMode, MissionMode, OffboardMode, OrbitMode, ReturnMode, TakeoffMode)  # fmt: skip
-from autopilot.ground_state import GroundState
+from autopilot.ground_state import GroundState, landed_state
 from autopilot.home_position import HomeKeeper
 from autopilot.manual_modes import ALTITUDE, POSITION, ManualControl, StickMode
 from autopilot.mission_feasibility import MissionFeasibility
@@ -37,9 +37,11 @@ from autopilot.navigator import TICK_S, LandDetector, Navigator
 from autopilot.offboard_setpoint import AttitudeTarget, OffboardSetpoint
 from autopilot.output_tests import OutputTests
 from autopilot.parameters import ParameterStore
+from autopilot.prearm_checks import prearm_refusal
 from autopilot.region_of_interest import RegionOfInterest
-from autopilot.requests import ManualControlInput, OutputTest, Reply
+from autopilot.requests import ManualControlInput, Reply
 from autopilot.vehicle_state import VehicleState
+from autopilot.vehicle_status import CommanderReport
 from autopilot.yaw_setpoint import YawReference, YawShaper, multicopter_speed
 from transport.geodesy import Home
 from transport.mavlink import mavlink
@@ -51,27 +53,7 @@ UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
 
 FORCE_MAGIC = 21196  # MAV_CMD_COMPONENT_ARM_DISARM param2: skip the checks (PX4)
 
-LANDED_UNDEFINED = mavlink.MAV_LANDED_STATE_UNDEFINED
-ON_GROUND = mavlink.MAV_LANDED_STATE_ON_GROUND
-IN_AIR = mavlink.MAV_LANDED_STATE_IN_AIR
-TAKING_OFF = mavlink.MAV_LANDED_STATE_TAKEOFF
-LANDING = mavlink.MAV_LANDED_STATE_LANDING
-
-MAX_LEVEL_TILT = math.radians(30.0)  # arming on the ground: roll and pitch within this
 HOME_AT_REST_SPEED = 0.5  # m/s: home follows a disarmed vehicle on the ground only when it is this still
-
-
-@dataclass(frozen=True)
-class CommanderReport:
-    """The commander's part of the vehicle status."""
-
-    started: bool
-    armed: bool
-    mode: str
-    landed_state: int
-    flying: bool
-    state_version: int
-    terminated: bool
 
 
 class Commander:
@@ -159,15 +141,7 @@ class Commander:
 
     @property
     def landed_state(self) -> int:
-        if not self.started:
-            return LANDED_UNDEFINED
-        if self.on_ground:
-            return ON_GROUND
-        if self.mode == TAKEOFF:
-            return TAKING_OFF
-        if self.active.landing:
-            return LANDING
-        return IN_AIR
+        return landed_state(self.started, self.on_ground, self.mode == TAKEOFF, self.active.landing)
 
     @property
     def setpoints_clamped(self) -> int:
@@ -199,7 +173,7 @@ class Commander:
 
     def terminate_flight(self, text: str) -> None:
         """Flight termination: the motors stop (a forced disarm, PWM to the disarmed values: in the air the vehicle
-        falls) and stay stopped until `flight_termination(False)` clears it."""
+        falls) and stay stopped until `clear_termination`."""
         self.terminated = True
         self.state_version += 1
         if self.armed:
@@ -207,28 +181,12 @@ class Commander:
         else:
             self.say(mavlink.MAV_SEVERITY_CRITICAL, text)
 
-    def flight_termination(self, on: bool) -> Reply:
-        """MAV_CMD_DO_FLIGHTTERMINATION: terminate (motors off), or clear a termination so the vehicle can arm."""
-        if (refusal := self.refusal()) is not None:
-            return refusal
-        if on:
-            self.terminate_flight("Flight termination: motors off")
-        elif self.terminated:
+    def clear_termination(self) -> None:
+        """The vehicle may arm again after a flight termination."""
+        if self.terminated:
             self.terminated = False
             self.state_version += 1
             self.say(mavlink.MAV_SEVERITY_INFO, "Flight termination cleared")
-        return ACCEPTED, None
-
-    def output_test(self, request: OutputTest) -> Reply:
-        """MAV_CMD_DO_MOTOR_TEST / ACTUATOR_TEST as PX4's commander takes them: disarmed only, with COM_MOT_TEST_EN."""
-        if (refusal := self.refusal("Actuator test")) is not None:
-            return refusal
-        if self.armed:
-            return DENIED, "Actuator test denied: armed"
-        if self.params.get_int("COM_MOT_TEST_EN") != 1:
-            return DENIED, "Actuator test denied: COM_MOT_TEST_EN is 0"
-        self.output_tests.drive(request.motor, request.index, request.value, request.timeout_s, self.now_usec)
-        return ACCEPTED, None
 
     def set_region_of_interest(self, roi: RegionOfInterest | None) -> None:
         """DO_SET_ROI_*: the vehicle's region of interest (the mission keeps it), turned to at once by Mission and
@@ -286,16 +244,11 @@ class Commander:
             return ACCEPTED, None
         if not self.started or not state.valid:
             return TEMPORARILY_REJECTED, "Arming denied: no vehicle state from the plant yet"
-        if self.terminated:
-            return DENIED, "Arming denied: flight terminated (MAV_CMD_DO_FLIGHTTERMINATION with param1 0 clears it)"
-        roll, pitch = float(state.euler[0]), float(state.euler[1])
-        if not force and (abs(roll) > MAX_LEVEL_TILT or abs(pitch) > MAX_LEVEL_TILT):
-            return DENIED, (f"Arming denied: not level (roll {math.degrees(roll):.0f}, "
-                            f"pitch {math.degrees(pitch):.0f} deg)")  # fmt: skip
-        if not force and (outside := self.failsafe.outside_fence(state.position_ned)) is not None:
-            return DENIED, f"Arming denied: vehicle outside the geofence ({outside})"
-        if not force and self.mode == MISSION and self.feasibility.check() is not None:
-            return DENIED, "Arming denied: no valid mission"
+        why = prearm_refusal(state, force=force, terminated=self.terminated,
+                             outside_fence=None if force else self.failsafe.outside_fence(state.position_ned),
+                             mission_invalid=not force and self.mode == MISSION and self.feasibility.check() is not None)
+        if why is not None:
+            return DENIED, why
         self._set_armed(True, "Armed")
         if not self.failsafe.position_lost:
             self.homes.set_here(state.position_ned)  # PX4: home where the vehicle arms (not over a manual home)

@@ -13,6 +13,7 @@ from autopilot.guided_requests import GuidedRequests
 from autopilot.mission_items import FENCE as FENCE_TYPE
 from autopilot.mission_items import MISSION as MISSION_TYPE
 from autopilot.mission_store import MissionStore
+from autopilot.output_requests import OutputRequests
 from autopilot.parameters import ParameterStore
 from autopilot.requests import (Arm, ChangeSpeed, ClearMission, Disarm, FlightTermination, GcsHeartbeat,
                                 InjectFailure, Land, ManualControlInput, OffboardAttitude, OffboardPosition,
@@ -23,10 +24,11 @@ from transport.mavlink import mavlink
 
 
 class FlightStack:
-    def __init__(self, commander: Commander, guided: GuidedRequests, injection: FailureInjection,
-                 params: ParameterStore, missions: MissionStore) -> None:  # fmt: skip
+    def __init__(self, commander: Commander, guided: GuidedRequests, outputs: OutputRequests,
+                 injection: FailureInjection, params: ParameterStore, missions: MissionStore) -> None:  # fmt: skip
         self.commander = commander
         self.guided = guided
+        self.outputs = outputs
         self.injection = injection
         self.params = params
         self.missions = missions
@@ -52,7 +54,7 @@ class FlightStack:
         return self._commander_request(request)
 
     def _commander_request(self, request: Request) -> Reply:
-        """Arming, modes, guided requests and set-points: judged against the current step's state."""
+        """Arming, modes, guided and output requests and set-points: judged against the current step's state."""
         commander, guided, state = self.commander, self.guided, self.commander.state
         match request:
             case Arm(force=force):
@@ -82,9 +84,9 @@ class FlightStack:
             case SetRegionOfInterest(roi=roi):
                 return guided.point_at(roi)
             case FlightTermination(on=on):
-                return commander.flight_termination(on)
+                return self.outputs.flight_termination(on)
             case OutputTest():
-                return commander.output_test(request)
+                return self.outputs.output_test(request)
             case OffboardVelocity() | OffboardPosition() | OffboardAttitude():
                 return guided.offboard_request(request)
             case ManualControlInput():

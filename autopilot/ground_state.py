@@ -1,10 +1,25 @@
 """On the ground or in the air, as PX4's commander and land detector keep it: lift-offs (each one a fresh
 flight controller), touchdowns, and the two automatic disarms on the ground (COM_DISARM_LAND after a landing,
-COM_DISARM_PRFLT when an armed vehicle does not take off). Times are simulation microseconds."""
+COM_DISARM_PRFLT when an armed vehicle does not take off), and the MAV_LANDED_STATE it makes. Times are simulation
+microseconds."""
 
 from __future__ import annotations
 
 from autopilot.parameters import ParameterStore
+from transport.mavlink import mavlink
+
+
+def landed_state(started: bool, on_ground: bool, taking_off: bool, landing: bool) -> int:
+    """MAV_LANDED_STATE, as EXTENDED_SYS_STATE reports it."""
+    if not started:
+        return mavlink.MAV_LANDED_STATE_UNDEFINED
+    if on_ground:
+        return mavlink.MAV_LANDED_STATE_ON_GROUND
+    if taking_off:
+        return mavlink.MAV_LANDED_STATE_TAKEOFF
+    if landing:
+        return mavlink.MAV_LANDED_STATE_LANDING
+    return mavlink.MAV_LANDED_STATE_IN_AIR
 
 
 class GroundState:

@@ -28,6 +28,19 @@ FW_TILT_MIN = math.radians(85.0)  # mean tilt above this: fixed wing
 
 
 @dataclass(frozen=True)
+class CommanderReport:
+    """The commander's part of the vehicle status."""
+
+    started: bool
+    armed: bool
+    mode: str
+    landed_state: int
+    flying: bool
+    state_version: int
+    terminated: bool
+
+
+@dataclass(frozen=True)
 class Event:
     """Something to announce (STATUSTEXT). With a key, the same refusal is said at most once a second."""
 
