@@ -60,7 +60,7 @@ from autopilot.auto_flight import AutoFlight, Climb, FlyTo, HoldAt, LandAt, Targ
 from autopilot.mission_items import LANDS, ROI_COMMANDS, MissionItem
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
-from autopilot.region_of_interest import RegionOfInterest
+from autopilot.region_of_interest import RegionOfInterest, roi_mode, wpnext_offset_deg
 from autopilot.return_route import (LANDING_APPROACH_RADIUS, MissionLanding, closest_safe_point, mission_landing,
                                     plan_return)  # fmt: skip
 from autopilot.vehicle_state import VehicleState
@@ -84,13 +84,12 @@ def item_yaw(item: MissionItem) -> float | None:
 
 def region_of_interest(item: MissionItem, ned_of: Callable[[MissionItem], np.ndarray]) -> RegionOfInterest | None:
     """The region of interest a DO_SET_ROI_* item sets (None: none), `ned_of` giving a positional item's place."""
-    if item.command == M.MAV_CMD_DO_SET_ROI_LOCATION or (item.positional and item.param1 == M.MAV_ROI_LOCATION):
+    mode = roi_mode(item.command, item.param1)  # the upload's checks took only the modes each frame has
+    if mode == M.MAV_ROI_LOCATION:
         return RegionOfInterest(ned_of(item)[0:2])
-    if item.command == M.MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET:
-        offset = item.z if math.isfinite(item.z) else 0.0  # param7: the yaw offset (deg; NaN: MAVLink's default)
-        return RegionOfInterest(None, math.radians(offset))
-    if item.command == M.MAV_CMD_DO_SET_ROI and not item.positional and item.param1 == M.MAV_ROI_WPNEXT:
-        return RegionOfInterest(None)
+    if mode == M.MAV_ROI_WPNEXT:
+        offset = wpnext_offset_deg(item.command, item.z)  # param7 (deg; NaN: MAVLink's default, none)
+        return RegionOfInterest(None, math.radians(offset if math.isfinite(offset) else 0.0))
     return None
 
 

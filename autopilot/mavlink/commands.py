@@ -15,28 +15,28 @@ from typing import Any
 import numpy as np
 
 from aircraft.failures import FailureRejected, parse_failure
-from autopilot.region_of_interest import RegionOfInterest
+from autopilot.region_of_interest import RegionOfInterest, roi_mode, wpnext_offset_deg
 from autopilot.commander import FORCE_MAGIC
 from autopilot.home_position import home_at, home_here, home_refusal
 from autopilot.mavlink import messages
+from autopilot.mavlink.command_params import GlobalTargets, Params, int_param, latitude_longitude
 from autopilot.mavlink.global_frames import altitude_amsl
+from autopilot.mavlink.output_commands import actuator_test, flight_termination, motor_test
 from autopilot.mavlink.px4_modes import mode_from_px4, px4_mode_name
 from autopilot.mavlink.router import COMP_ID, GroundLink
 from autopilot.mavlink.statustext import Announcer
 from autopilot.mavlink.streams import DEFAULT_RATES_HZ, MIN_INTERVAL_USEC, default_interval_usec
 from autopilot.mavlink.view import StatusView
-from autopilot.output_tests import MOTOR_COUNT, SERVO_COUNT
 from autopilot.requests import (
     Arm,
     ChangeSpeed,
     Disarm,
-    FlightTermination,
     InjectFailure,
     Land,
     Orbit,
-    OutputTest,
     Reply,
     Reposition,
+    Request,
     RequestHandler,
     ReturnToLaunch,
     SetHome,
@@ -48,23 +48,14 @@ from autopilot.requests import (
     TurnTo,
 )
 from autopilot.vehicle_status import InjectionOutcome
-from transport.geodesy import Home, ned_from_geodetic
+from transport.geodesy import Home
 from transport.mavlink import mavlink as M
 
-Params = tuple[float, float, float, float, float, float, float]
-MIN_TARGET_HEIGHT_M = 1.0  # a go-to or orbit target lower than this above home would fly into the ground
 ORBIT_DEFAULT_RADIUS, ORBIT_MIN_RADIUS, ORBIT_MAX_RADIUS = 20.0, 1.0, 10000.0  # m (PX4: MC_ORBIT_RAD_MAX 1000)
 ORBIT_DEFAULT_SPEED = 5.0  # m/s
 ORBIT_YAW_DEFAULT = M.ORBIT_YAW_BEHAVIOUR_HOLD_FRONT_TO_CIRCLE_CENTER
 ORBIT_YAW_BEHAVIOURS = range(M.ORBIT_YAW_BEHAVIOUR_UNCHANGED)  # 0..4: front to centre ... RC controlled
 NO_STATE_YET = (M.MAV_RESULT_TEMPORARILY_REJECTED, "No vehicle state from the plant yet")
-
-
-def int_param(value: float) -> int | None:
-    """A command parameter that must be an integer: its value, or None if it is not one."""
-    if not math.isfinite(value) or value != int(value):
-        return None
-    return int(value)
 
 
 def for_us(system_id: int, target_system: int, target_component: int | None = None) -> bool:
@@ -91,6 +82,7 @@ class CommandService:
         self.announcer = announcer
         self.system_id = system_id
         self.origin = home  # of the local frame (home, which arming and DO_SET_HOME move, is the status's)
+        self.targets = GlobalTargets(home, view)  # command positions as NED targets
         self._tickets: dict[int, Origin] = {}  # failure injections awaiting the plant's answer
         self._next_ticket = 1
         self._commands: dict[int, Callable[[Origin, Params, int | None], Reply | None]] = {
@@ -116,9 +108,9 @@ class CommandService:
             M.MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET: self._region_of_interest,
             M.MAV_CMD_DO_SET_ROI_NONE: self._region_of_interest,
             M.MAV_CMD_DO_SET_ROI: self._region_of_interest,
-            M.MAV_CMD_DO_FLIGHTTERMINATION: self._flight_termination,
-            M.MAV_CMD_DO_MOTOR_TEST: self._motor_test,
-            M.MAV_CMD_ACTUATOR_TEST: self._actuator_test,
+            M.MAV_CMD_DO_FLIGHTTERMINATION: lambda origin, p, frame: self._parsed(flight_termination(p)),
+            M.MAV_CMD_DO_MOTOR_TEST: lambda origin, p, frame: self._parsed(motor_test(p)),
+            M.MAV_CMD_ACTUATOR_TEST: lambda origin, p, frame: self._parsed(actuator_test(p)),
         }
 
     # ---- messages ---------------------------------------------------------------------------------------------
@@ -174,6 +166,10 @@ class CommandService:
             self.announcer.say(M.MAV_SEVERITY_WARNING if accepted else M.MAV_SEVERITY_ERROR, outcome.text)
 
     # ---- the commands -----------------------------------------------------------------------------------------
+    def _parsed(self, parsed: Request | Reply) -> Reply | None:
+        """A request read from a command's parameters, handed to the flight stack; or the reply refusing them."""
+        return parsed if isinstance(parsed, tuple) else self.flight_stack.handle(parsed)
+
     def _arm(self, origin: Origin, p: Params, frame: int | None) -> Reply:
         force = p[1] == FORCE_MAGIC
         if p[0] == 1.0:
@@ -220,43 +216,6 @@ class CommandService:
             return M.MAV_RESULT_DENIED, "Transition: param1 must be 3 (MC) or 4 (FW)"
         return self.flight_stack.handle(Transition(target))
 
-    def _horizontal(self, p: Params, frame: int | None) -> tuple[float, float] | str:
-        """params 5 and 6 (lat, lon; COMMAND_INT: degE7) as north and east, or why not."""
-        lat, lon = (p[4] * 1e-7, p[5] * 1e-7) if frame is not None else (p[4], p[5])
-        if not (math.isfinite(lat) and math.isfinite(lon)) or abs(lat) > 90.0 or abs(lon) > 180.0:
-            return f"latitude/longitude {p[4]:g}, {p[5]:g} not valid"
-        north, east, _ = ned_from_geodetic(self.origin, lat, lon, self.origin.alt)
-        return north, east
-
-    def _position(self, p: Params, frame: int | None) -> tuple[float, float, float | None] | str:
-        """params 5-7 (lat, lon, alt; COMMAND_INT: degE7 and the frame's altitude) as north, east and down (None:
-        NaN altitude), or why not; NaN lat/lon are refused here (the callers treat them first)."""
-        horizontal = self._horizontal(p, frame)
-        if isinstance(horizontal, str):
-            return horizontal
-        if math.isinf(p[6]):
-            return "altitude infinite"
-        north, east = horizontal
-        down = self._down(p[6], frame)
-        if isinstance(down, str):
-            return down
-        return north, east, down
-
-    def _down(self, altitude: float, frame: int | None) -> float | None | str:
-        """A command's altitude (in `frame`: global_frames.altitude_amsl) as NED down, checked to be at least
-        MIN_TARGET_HEIGHT_M above home; None for NaN; why not, if not (call with a status)."""
-        home = self.view.home
-        if math.isnan(altitude) or home is None:
-            return None
-        amsl = altitude_amsl(frame, altitude, home.alt)
-        if isinstance(amsl, str):
-            return amsl
-        down = self.origin.alt - amsl
-        if home.down - down < MIN_TARGET_HEIGHT_M:
-            return (f"altitude {home.down - down:.1f} m above home: targets stay at least {MIN_TARGET_HEIGHT_M:g} m "
-                    "above it")  # fmt: skip
-        return down
-
     def _reposition(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
         """MAV_CMD_DO_REPOSITION (MAVSDK goto_location): param1 speed (-1/NaN default), param4 yaw (rad, as PX4 and
         MAVSDK take it; NaN: the controllers' own rule), params 5-7 lat, lon, alt (NaN lat/lon: here; NaN alt: the
@@ -269,10 +228,10 @@ class CommandService:
         here = status.estimate.position_ned
         target: tuple[float, float, float | None] | str
         if math.isnan(p[4]) or math.isnan(p[5]):
-            down = self._down(p[6], frame)
+            down = self.targets.down(p[6], frame)
             target = down if isinstance(down, str) else (float(here[0]), float(here[1]), down)
         else:
-            target = self._position(p, frame)
+            target = self.targets.position(p, frame)
         if isinstance(target, str):
             return M.MAV_RESULT_DENIED, f"Reposition denied: {target}"
         north, east, down = target
@@ -284,58 +243,21 @@ class CommandService:
         """MAV_CMD_DO_SET_ROI_LOCATION (params 5, 6 lat, lon; the altitude is not used: the nose only turns),
         DO_SET_ROI_WPNEXT_OFFSET (param7 the yaw offset, deg), DO_SET_ROI_NONE, and the older DO_SET_ROI (param1
         MAV_ROI mode; LOCATION at params 5, 6)."""
-        command = origin.command
-        mode = {M.MAV_CMD_DO_SET_ROI_LOCATION: M.MAV_ROI_LOCATION, M.MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET: M.MAV_ROI_WPNEXT,
-                M.MAV_CMD_DO_SET_ROI_NONE: M.MAV_ROI_NONE}.get(command, int_param(p[0]))  # fmt: skip
+        mode = roi_mode(origin.command, p[0])
         roi: RegionOfInterest | None = None
         if mode == M.MAV_ROI_LOCATION:
-            point = self._horizontal(p, frame)
+            point = self.targets.horizontal(p, frame)
             if isinstance(point, str):
                 return M.MAV_RESULT_DENIED, f"ROI denied: {point}"
             roi = RegionOfInterest(np.array(point))
         elif mode == M.MAV_ROI_WPNEXT:
-            offset = p[6] if command == M.MAV_CMD_DO_SET_ROI_WPNEXT_OFFSET else 0.0
+            offset = wpnext_offset_deg(origin.command, p[6])
             if not math.isfinite(offset):
                 return M.MAV_RESULT_DENIED, "ROI denied: param7 (yaw offset) not finite"
             roi = RegionOfInterest(None, math.radians(offset))
         elif mode not in (M.MAV_ROI_NONE, M.MAV_ROI_WPINDEX):
             return M.MAV_RESULT_DENIED, f"ROI denied: param1 (ROI mode) {p[0]:g} not 0..3"
         return self.flight_stack.handle(SetRegionOfInterest(roi))
-
-    def _flight_termination(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
-        """MAV_CMD_DO_FLIGHTTERMINATION (MAVSDK's action.terminate()): param1 > 0.5 terminates (PX4's 1, and its 2,
-        the lockdown test, likewise stop the motors here), otherwise clears a termination."""
-        if not math.isfinite(p[0]):
-            return M.MAV_RESULT_DENIED, "Flight termination denied: param1 not finite"
-        return self.flight_stack.handle(FlightTermination(p[0] > 0.5))
-
-    def _motor_test(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
-        """MAV_CMD_DO_MOTOR_TEST: param1 motor 1 ... 4, param2 throttle type (only MOTOR_TEST_THROTTLE_PERCENT, as
-        PX4), param3 throttle (%), param4 time-out (s, at most 3), param5 motor count (one at a time, as PX4)."""
-        motor, kind = int_param(p[0]), int_param(p[1])
-        count = int_param(p[4]) if math.isfinite(p[4]) else 0  # NaN: one
-        if kind != M.MOTOR_TEST_THROTTLE_PERCENT or count is None or count > 1:
-            return M.MAV_RESULT_UNSUPPORTED, "Motor test: only one motor at a time, throttle in percent"
-        if motor is None or not 1 <= motor <= MOTOR_COUNT:
-            return M.MAV_RESULT_DENIED, f"Motor test denied: param1 (motor) {p[0]:g} not 1..{MOTOR_COUNT}"
-        if not math.isfinite(p[2]):
-            return M.MAV_RESULT_DENIED, "Motor test denied: param3 (throttle) not finite"
-        value = p[2] / 100.0
-        return self.flight_stack.handle(OutputTest(True, motor - 1, value if value > 0.0 else None, p[3]))
-
-    def _actuator_test(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
-        """MAV_CMD_ACTUATOR_TEST (QGroundControl's Actuators page): param1 value (-1 ... 1), param2 time-out (s, at
-        most 3; 0 or less releases the output), param5 ACTUATOR_OUTPUT_FUNCTION (MOTOR1 ... 4, SERVO1 ... 8)."""
-        function = int_param(p[4])
-        motor = function is not None and 0 <= function - M.ACTUATOR_OUTPUT_FUNCTION_MOTOR1 < MOTOR_COUNT
-        servo = function is not None and 0 <= function - M.ACTUATOR_OUTPUT_FUNCTION_SERVO1 < SERVO_COUNT
-        if function is None or not (motor or servo):
-            return M.MAV_RESULT_UNSUPPORTED, (f"Actuator test: param5 (function) {p[4]:g} is no motor 1..{MOTOR_COUNT} "
-                                              f"or servo 1..{SERVO_COUNT} output here")  # fmt: skip
-        if math.isinf(p[0]) or not math.isfinite(p[1]):
-            return M.MAV_RESULT_DENIED, "Actuator test denied: param1 (value) infinite or param2 (time-out) not finite"
-        index = function - (M.ACTUATOR_OUTPUT_FUNCTION_MOTOR1 if motor else M.ACTUATOR_OUTPUT_FUNCTION_SERVO1)
-        return self.flight_stack.handle(OutputTest(motor, index, p[0] if p[1] > 0.0 else None, p[1]))
 
     def _change_speed(self, origin: Origin, p: Params, frame: int | None) -> Reply | None:
         """MAV_CMD_DO_CHANGE_SPEED: param2 the speed (> 0; -1, -2 or 0: back to the defaults, as PX4's navigator);
@@ -359,11 +281,11 @@ class CommandService:
         if self.view.status is None:
             return NO_STATE_YET
         if math.isnan(p[4]) or math.isnan(p[5]):
-            center, down = None, self._down(p[6], frame)
+            center, down = None, self.targets.down(p[6], frame)
             if isinstance(down, str):
                 return M.MAV_RESULT_DENIED, f"Orbit denied: {down}"
         else:
-            target = self._position(p, frame)
+            target = self.targets.position(p, frame)
             if isinstance(target, str):
                 return M.MAV_RESULT_DENIED, f"Orbit denied: {target}"
             center, down = np.array(target[0:2]), target[2]
@@ -421,7 +343,7 @@ class CommandService:
             return NO_STATE_YET
         if p[0] > 0.5:
             return self.flight_stack.handle(SetHome(home_here(self.origin, status.estimate.position_ned), True))
-        lat, lon = (p[4] * 1e-7, p[5] * 1e-7) if frame is not None else (p[4], p[5])
+        lat, lon = latitude_longitude(p, frame)
         alt = altitude_amsl(frame, p[6], status.home.alt)
         if isinstance(alt, str):
             return M.MAV_RESULT_DENIED, f"Set home denied: {alt}"
