@@ -267,7 +267,7 @@ class MissionFlight:
 
     def item_position(self, item: MissionItem) -> np.ndarray | None:
         """The item's NED position; None when it flies where the vehicle is then (latitude and longitude 0)."""
-        return None if item.x == 0 and item.y == 0 else self._position(np.zeros(3), item)
+        return None if item.x == 0 and item.y == 0 else self._place(item)
 
     def _place(self, item: MissionItem) -> np.ndarray:
         """A positional item's NED position from its latitude, longitude and altitude (relative to home or AMSL)."""
