@@ -23,7 +23,7 @@ from autopilot.mavlink.router import GroundLink, Router
 from autopilot.mavlink.services import MavlinkServices
 from autopilot.mission_store import MissionFileError, MissionStore, default_mission_path
 from autopilot.mpc_horizon import HORIZONS
-from autopilot.parameters import ParameterFileError, ParameterStore, default_parameter_path
+from autopilot.parameters import ParameterFileError, ParameterStore, default_parameter_path, vehicle_system_id
 from autopilot.pid_baseline import TransitionAirspeeds
 from autopilot.plant_loop import LoopOutputs, PlantLoop
 from scenarios.profiles import PROFILES
@@ -156,9 +156,7 @@ def main(argv: list[str] | None = None) -> int:
         missions.load()
     except MissionFileError as exc:
         fail(PROG, str(exc))
-    system_id = args.sysid if args.sysid is not None else params.get_int("MAV_SYS_ID")
-    if args.sysid is None and "MAV_SYS_ID" not in params.non_default():
-        system_id = ports.system_id  # PX4: instance + 1 unless MAV_SYS_ID was changed
+    system_id = args.sysid if args.sysid is not None else vehicle_system_id(params, args.instance)
     sim_port = args.sim_port if args.sim_port is not None else ports.plant
     router = Router([
         open_link("GCS", args.gcs_port or ports.gcs_bind, args.gcs_remote_port or ports.gcs_remote, system_id),
@@ -177,8 +175,8 @@ def main(argv: list[str] | None = None) -> int:
                                  sensors=False)  # fmt: skip
     except OSError as exc:
         fail(PROG, f"cannot bind the plant link to UDP {LOOPBACK}:{args.sim_bind_port}: {exc.strerror}")
-    injection = FailureInjection(send=lambda failure: client.send_command_long(mavlink.MAV_CMD_INJECT_FAILURE,
-                                                                              failure.as_params()),
+    injection = FailureInjection(send=lambda failure: client.command_plant(mavlink.MAV_CMD_INJECT_FAILURE,
+                                                                          failure.as_params()),
                                  note=lambda text: print(f"{PROG}: {text}", file=sys.stderr, flush=True),
                                  scheduled=args.failure)  # fmt: skip
     try:

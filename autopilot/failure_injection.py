@@ -43,7 +43,7 @@ class InjectionCounters:
 class FailureInjection:
     """The injections on their way to the plant and the failures the controllers know."""
 
-    send: Callable[[Failure], None]  # MAV_CMD_INJECT_FAILURE to the plant
+    send: Callable[[Failure], bool]  # MAV_CMD_INJECT_FAILURE to the plant; False: no plant to send it to
     note: Callable[[str], None]  # a line for the terminal
     scheduled: list[ScheduledFailure] = field(default_factory=list)
     known: list[Failure] = field(default_factory=list)  # in the order the controllers learnt them
@@ -57,8 +57,14 @@ class FailureInjection:
         self.scheduled = sorted(self.scheduled, key=lambda item: item.time_s)
 
     def request(self, failure: Failure, now_usec: int, ticket: int | None = None) -> None:
-        self.send(failure)
-        self._awaiting.append(PendingInjection(failure, now_usec, ticket))
+        pending = PendingInjection(failure, now_usec, ticket)
+        if not self.send(failure):
+            self.counters.refused += 1
+            text = failure.describe()
+            self.note(f"failure {text} not sent: no plant has completed the handshake")
+            self._outcome(pending, MAV_RESULT_FAILED, f"Failure {text}: no plant on the plant link")
+            return
+        self._awaiting.append(pending)
 
     def acknowledged(self, result: int, now_usec: int, delay_s: float) -> list[Failure]:
         """The plant's COMMAND_ACK for the oldest injection; the failures the controllers learn now."""

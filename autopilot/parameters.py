@@ -24,6 +24,7 @@ from typing import Any
 
 from autopilot.kept_file import BackgroundWriter, read_kept
 from autopilot.signing_key import SigningKey, SigningRefused, key_from_document, key_to_document
+from transport.ports import Ports
 
 FILE_FORMAT = "tiltrotor-sitl parameters"
 FILE_VERSION = 1
@@ -161,6 +162,14 @@ def default_parameter_path(instance: int) -> Path:
     """$XDG_STATE_HOME/tiltrotor-sitl/params-<instance>.json (~/.local/state when XDG_STATE_HOME is unset)."""
     base = os.environ.get("XDG_STATE_HOME") or os.path.join(os.path.expanduser("~"), ".local", "state")
     return Path(base) / "tiltrotor-sitl" / f"params-{instance}.json"
+
+
+def vehicle_system_id(params: ParameterStore, instance: int) -> int:
+    """The vehicle's MAVLink system id as PX4 picks it: MAV_SYS_ID when it was changed from its default, else the
+    instance's (instance + 1, transport.ports.Ports.system_id)."""
+    if "MAV_SYS_ID" in params.non_default():
+        return params.get_int("MAV_SYS_ID")
+    return Ports(instance).system_id
 
 
 def _format_value(definition: ParameterDefinition, value: float) -> str:

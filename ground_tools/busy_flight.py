@@ -81,7 +81,7 @@ def fly_profile(folder: Path, duration_s: float = 40.0, controller: Controller =
                      folder=folder / "vehicle") as vehicle:  # fmt: skip
             link = mavutil.mavlink_connection(vehicle.pymavlink, source_system=255, source_component=190)
             try:
-                errors, left = _fly(link, duration_s)
+                errors, left = _fly(link, vehicle.sysid, duration_s)
             finally:
                 link.close()
         autopilot, plant = vehicle.summary("vtol-autopilot"), vehicle.summary("vtol-sim")
@@ -96,7 +96,7 @@ def fly_profile(folder: Path, duration_s: float = 40.0, controller: Controller =
                       beside_ran)
 
 
-def _fly(link: mavutil.mavfile, duration_s: float) -> tuple[list[np.ndarray], bool]:
+def _fly(link: mavutil.mavfile, target: int, duration_s: float) -> tuple[list[np.ndarray], bool]:
     heartbeat = link.wait_heartbeat(timeout=60)
     if heartbeat is None:
         raise RuntimeError("no HEARTBEAT from the vehicle")
@@ -129,12 +129,12 @@ def _fly(link: mavutil.mavfile, duration_s: float) -> tuple[list[np.ndarray], bo
         if now >= next_setpoint:
             next_setpoint = now + SETPOINT_PERIOD_S
             vn, ve, vd = setpoint_at(max(0.0, (sim_ms - start_ms) / 1000.0), duration_s)
-            link.mav.set_position_target_local_ned_send(sim_ms, 1, 1, M.MAV_FRAME_LOCAL_NED, VELOCITY_ONLY,
+            link.mav.set_position_target_local_ned_send(sim_ms, target, 1, M.MAV_FRAME_LOCAL_NED, VELOCITY_ONLY,
                                                         0, 0, 0, vn, ve, vd, 0, 0, 0, 0, 0)  # fmt: skip
         if now >= next_heartbeat:
             next_heartbeat = now + 1.0
             link.mav.heartbeat_send(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0, 0)
         if not in_offboard and sim_ms >= start_ms and now >= next_mode_request:
             next_mode_request = now + 0.5  # until the HEARTBEAT says Offboard (a lost command is asked again)
-            link.mav.command_long_send(1, 1, M.MAV_CMD_DO_SET_MODE, 0, M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+            link.mav.command_long_send(target, 1, M.MAV_CMD_DO_SET_MODE, 0, M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
                                        OFFBOARD_MAIN_MODE, 0, 0, 0, 0, 0)  # fmt: skip

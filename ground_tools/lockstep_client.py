@@ -93,9 +93,9 @@ class LockstepClient:
         sock: socket.socket,
         scenario: Scenario,
         airframe: Airframe,
+        target_system: int,
         *,
         tlog: BinaryIO | None = None,
-        target_system: int = 1,
         on_progress: Callable[[int], None] = lambda time_boot_ms: None,
         on_first_hold: Callable[[int], None] = lambda time_boot_ms: None,
     ) -> None:

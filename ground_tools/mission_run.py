@@ -70,7 +70,9 @@ class MissionResult:
 class MissionGroundStation:
     """A pymavlink ground station on the vehicle's GCS link: uploads, commands, waits, says HEARTBEAT."""
 
-    def __init__(self, url: str) -> None:
+    def __init__(self, url: str, target: int) -> None:
+        """`url`: where the vehicle's GCS link sends; `target`: its system id, which the requests are addressed to."""
+        self.target = target
         self.conn = mavutil.mavlink_connection(url, source_system=GCS_SYSTEM, source_component=GCS_COMPONENT,
                                                dialect="common")  # fmt: skip
         self.armed = False
@@ -101,7 +103,7 @@ class MissionGroundStation:
                                f"{self.statustexts[-3:]}")  # fmt: skip
 
     def command(self, command: int, *params: float) -> None:
-        self.conn.mav.command_long_send(1, 1, command, 0, *params, *[0.0] * (7 - len(params)))
+        self.conn.mav.command_long_send(self.target, 1, command, 0, *params, *[0.0] * (7 - len(params)))
         while (ack := self.receive(("COMMAND_ACK",))).command != command:
             pass
         if ack.result != M.MAV_RESULT_ACCEPTED:
@@ -110,7 +112,7 @@ class MissionGroundStation:
     def upload(self, rows: list[MissionItem]) -> None:
         """The mission protocol's upload: MISSION_COUNT, each MISSION_REQUEST_INT answered, the MISSION_ACK."""
         kind = M.MAV_MISSION_TYPE_MISSION
-        self.conn.mav.mission_count_send(1, 1, len(rows), kind)
+        self.conn.mav.mission_count_send(self.target, 1, len(rows), kind)
         while True:
             message = self.receive(("MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"))
             if message.get_type() == "MISSION_ACK":
@@ -119,12 +121,12 @@ class MissionGroundStation:
                                            f"{self.statustexts[-3:]}")  # fmt: skip
                 return
             row = rows[message.seq]
-            self.conn.mav.mission_item_int_send(1, 1, message.seq, row.frame, row.command, int(message.seq == 0),
+            self.conn.mav.mission_item_int_send(self.target, 1, message.seq, row.frame, row.command, int(message.seq == 0),
                                                 row.autocontinue, row.param1, row.param2, row.param3, row.param4,
                                                 row.x, row.y, row.z, kind)  # fmt: skip
 
     def parameter(self, name: str) -> float:
-        self.conn.mav.param_request_read_send(1, 1, name.encode(), -1)
+        self.conn.mav.param_request_read_send(self.target, 1, name.encode(), -1)
         while (value := self.receive(("PARAM_VALUE",))).param_id != name:
             pass
         return float(value.param_value)
@@ -158,7 +160,7 @@ def fly_mission(rows: list[MissionItem], name: str, controller: Controller, out:
     vehicle = Vehicle(controller=controller, speed=None, truth=False, params=params, folder=run_dir / "vehicle",
                       autopilot_args=("--log", str(log_path), "--quiet"))  # fmt: skip
     with vehicle:
-        gs = MissionGroundStation(vehicle.pymavlink)
+        gs = MissionGroundStation(vehicle.pymavlink, vehicle.sysid)
         try:
             gs.receive(("HEARTBEAT",))
             acceptance = gs.parameter("NAV_ACC_RAD")

@@ -33,7 +33,7 @@ from ground_tools.processes import (AutopilotCommand, Controller, SimCommand, Ve
                                     deterministic_environment, die_with_parent)  # fmt: skip
 from scenarios.experiments import Scenario
 from transport.flight_log import read_flight_log, write_flight_log
-from transport.ports import LOOPBACK
+from transport.ports import LOOPBACK, Ports
 
 SPAWN_ALT_M = 100.0
 PLANT_LOCKSTEP_TIMEOUT_S = 120.0  # the plant waits this long for a held autopilot before it would step on
@@ -92,6 +92,7 @@ def run_scenario(
             raise FlightFailed(f"cannot bind UDP {LOOPBACK}:{ports.links.api_remote} for the ground station: "
                                f"{exc.strerror}") from None  # fmt: skip
     ports, gcs = block.ports, block.ground_station
+    sysid = Ports(instance).system_id if instance is not None else 1  # an instance's vehicle is I + 1, as in `vtol up`
     duration_s = START_MS / 1000.0 + scenario.duration_s
     airframe = load_airframe(None)
     plant_err, autopilot_err = open(run_dir / "plant.log", "w"), open(run_dir / "autopilot.log", "w")
@@ -102,7 +103,7 @@ def run_scenario(
         plant_command = SimCommand(
             port=ports.plant, spawn_alt=SPAWN_ALT_M, duration_s=duration_s, lockstep_timeout_s=PLANT_LOCKSTEP_TIMEOUT_S,
             summary=True, zenoh=Zenoh.listening(ports.zenoh_plant) if record else Zenoh.off(),
-            wind_ned=None if wind_ned == (0.0, 0.0, 0.0) else wind_ned, airframe=plant_airframe,
+            wind_ned=None if wind_ned == (0.0, 0.0, 0.0) else wind_ned, airframe=plant_airframe, sysid=sysid,
         )  # fmt: skip
         plant = subprocess.Popen(deterministic_argv(plant_command.argv()), stdout=subprocess.PIPE, stderr=plant_err, text=True,
                                  env=deterministic_environment(), preexec_fn=die_with_parent())  # fmt: skip
@@ -111,7 +112,7 @@ def run_scenario(
             sim_port=ports.plant, links=ports.links, spawn_alt=SPAWN_ALT_M, controller=controller,
             mpc_horizon=mpc_horizon,
             offboard_lockstep=True, duration_s=duration_s, log=run_dir / "autopilot_log.csv",
-            params=run_dir / "params.json", summary=True, quiet=True,
+            params=run_dir / "params.json", summary=True, quiet=True, sysid=sysid,
             zenoh=Zenoh.listening(ports.zenoh_autopilot) if record else Zenoh.off(),
         )  # fmt: skip
         autopilot = subprocess.Popen(deterministic_argv(autopilot_command.argv()), stdout=subprocess.PIPE, stderr=autopilot_err, text=True,
@@ -126,7 +127,7 @@ def run_scenario(
                 from ground_tools.telemetry_record import TelemetryRecorder
 
                 recorder = TelemetryRecorder([ports.zenoh_plant, ports.zenoh_autopilot], run_dir / "telemetry.jsonl.gz",
-                                             plant_states_from_s=(hold_ms + 1) / 1000.0)  # fmt: skip
+                                             sysid, plant_states_from_s=(hold_ms + 1) / 1000.0)  # fmt: skip
                 recorder.start()
                 if not recorder.wait_for_peers(2, ZENOH_CONNECT_TIMEOUT_S):
                     print("vtol: warning: the zenoh recorder did not connect to both processes; the recording may "
@@ -151,7 +152,7 @@ def run_scenario(
             return not running
 
         with open(run_dir / "flight.tlog", "wb") as tlog:
-            client = LockstepClient(gcs, scenario, airframe, tlog=tlog, on_first_hold=start_recording,
+            client = LockstepClient(gcs, scenario, airframe, sysid, tlog=tlog, on_first_hold=start_recording,
                                     on_progress=lambda ms: on_progress(ms / 1000.0))  # fmt: skip
             events = client.run(finished)
         problems = []

@@ -179,7 +179,7 @@ class TelemetryRecorder:
     the hold began, racing the subscription, so without it a recording would start at that step in some runs and
     at the next one in others (docs/telemetry.md)."""
 
-    def __init__(self, endpoints: list[str], path: Path, sysid: int | None = 1,
+    def __init__(self, endpoints: list[str], path: Path, sysid: int | None,
                  plant_states_from_s: float = -math.inf) -> None:  # fmt: skip
         self.endpoints = list(endpoints)
         self.path = Path(path)

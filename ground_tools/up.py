@@ -20,6 +20,7 @@ import sys
 import time
 from pathlib import Path
 
+from autopilot.parameters import ParameterFileError, ParameterStore, default_parameter_path, vehicle_system_id
 from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, die_with_parent, fleet_home
 from transport.cli import fail, stop_on_signals
 from transport.ports import LOOPBACK, Ports
@@ -28,19 +29,30 @@ PROG = "vtol"
 STOP_TIMEOUT_S = 10.0
 
 
-def commands(args: argparse.Namespace, index: int = 0) -> tuple[list[str], list[str]]:
-    """The vtol-sim and vtol-autopilot command lines of the `index`-th vehicle for `vtol up`'s arguments (the first
-    one at the default home, so a single vehicle is started as before)."""
+def commands(args: argparse.Namespace, index: int, sysid: int) -> tuple[list[str], list[str]]:
+    """The vtol-sim and vtol-autopilot command lines of the `index`-th vehicle (system id `sysid`) for `vtol up`'s
+    arguments (the first one at the default home, so a single vehicle is started as before)."""
     zenoh = Zenoh.off() if args.no_zenoh else Zenoh()
     instance = args.instance + index
     home = fleet_home(index) if index > 0 else None
     key = Path(args.plant_signing_key) if args.plant_signing_key else None
     plant = SimCommand(instance=instance, realtime_speed=args.speed, spawn_alt=args.spawn_alt, zenoh=zenoh, home=home,
-                       plant_signing_key=key)
+                       plant_signing_key=key, sysid=sysid)
     autopilot = AutopilotCommand(instance=instance, spawn_alt=args.spawn_alt, zenoh=zenoh, home=home,
                                  controller=args.controller, params=Path(args.params) if args.params else None,
                                  plant_signing_key=key)
     return plant.argv(), autopilot.argv()
+
+
+def system_id(args: argparse.Namespace, instance: int) -> int:
+    """The system id the autopilot of `instance` will take (MAV_SYS_ID from its parameter file when changed, else
+    instance + 1), given to its plant too, so both publish under the same zenoh keys."""
+    params = ParameterStore(Path(args.params) if args.params else default_parameter_path(instance))
+    try:
+        params.load()
+    except ParameterFileError as exc:
+        fail(PROG, str(exc))
+    return vehicle_system_id(params, instance)
 
 
 def stop(processes: list[subprocess.Popen], signum: int = signal.SIGTERM) -> None:
@@ -66,20 +78,21 @@ def up(args: argparse.Namespace) -> int:
         fail(PROG, "--params names one vehicle's parameter file: it does not go with --count")
     names: dict[int, str] = {}
     processes: list[subprocess.Popen] = []
-    for index in range(args.count):
+    sysids = [system_id(args, args.instance + index) for index in range(args.count)]
+    for index, sysid in enumerate(sysids):
         ports = Ports(args.instance + index)
-        plant_command, autopilot_command = commands(args, index)
+        plant_command, autopilot_command = commands(args, index, sysid)
         plant = subprocess.Popen(plant_command, preexec_fn=die_with_parent())
         autopilot = subprocess.Popen(autopilot_command, preexec_fn=die_with_parent())
         names[plant.pid], names[autopilot.pid] = "vtol-sim", "vtol-autopilot"
         processes += [autopilot, plant]
-        print(f"{PROG}: vehicle {ports.system_id} (instance {ports.instance}): plant pid {plant.pid} "
+        print(f"{PROG}: vehicle {sysid} (instance {ports.instance}): plant pid {plant.pid} "
               f"(real time x{args.speed:g}), autopilot pid {autopilot.pid}; "
               f"MAVSDK udpin://{LOOPBACK}:{ports.api_remote} (the vehicle listens on {ports.api_bind})",
               file=sys.stderr, flush=True)  # fmt: skip
     ports = Ports(args.instance)
     print(f"{PROG}: ground stations: QGroundControl or MAVProxy on udp {LOOPBACK}:{ports.gcs_remote} "
-          f"(system id {ports.system_id}{f' .. {ports.system_id + args.count - 1}' if args.count > 1 else ''}); "
+          f"(system id{'s' if args.count > 1 else ''} {', '.join(map(str, sysids))}); "
           f"Ctrl-C stops {'both' if args.count == 1 else 'all'}", file=sys.stderr, flush=True)  # fmt: skip
     code = 0
     while not stop_requested():

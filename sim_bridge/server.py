@@ -68,6 +68,7 @@ class PlantCounters:
     ignored: Counter[str] = field(default_factory=Counter)
     failures_applied: int = 0
     failures_rejected: int = 0
+    misaddressed_commands: int = 0  # COMMAND_LONGs from the peer for another system or component: DENIED
     slowdowns: int = 0  # paced: times the simulation fell behind the wall clock and slowed down
 
 
@@ -164,7 +165,14 @@ class PlantServer:
 
     def _handle_command(self, message: Any, sender: tuple[str, int]) -> None:
         if message.target_system not in (0, self.system_id) or message.target_component not in (0, self.component_id):
-            self.counters.ignored["command_for_other_component"] += 1
+            # The link is point to point: a command from our peer for other ids is a misaddressed one, refused
+            # aloud (a silent drop would look like a lost datagram to the sender, who waits and times out).
+            self.counters.misaddressed_commands += 1
+            text = (f"command {message.command} for {message.target_system}/{message.target_component} refused: "
+                    f"this plant is {self.system_id}/{self.component_id}")  # fmt: skip
+            print(f"vtol-sim: {text}", file=sys.stderr, flush=True)
+            self._acknowledge(message, MAV_RESULT_DENIED, sender)
+            self._announce(f"plant: {text}", mavlink.MAV_SEVERITY_ERROR, sender, event="refusal")
             return
         if message.command != mavlink.MAV_CMD_INJECT_FAILURE:
             self.counters.ignored["command_unsupported"] += 1
@@ -348,6 +356,7 @@ class PlantServer:
             "dropped": dict(self.link.dropped),
             "failures_applied": c.failures_applied,
             "failures_rejected": c.failures_rejected,
+            "misaddressed_commands": c.misaddressed_commands,
             "pacing": self.pacing.value,
             "speed": self.speed if self.pacing != Pacing.LOCKSTEP else None,
             "slowdowns": c.slowdowns,

@@ -19,16 +19,20 @@ LAND = (4 << 16) | (6 << 24)
 OFFBOARD = 6 << 16
 MODE_NAMES = {HOLD: "Hold", TAKEOFF: "Takeoff", LAND: "Land", OFFBOARD: "Offboard"}
 VELOCITY_MASK = 0x9C7  # what MAVSDK sends: velocity and yaw used
+MISSION_MESSAGES = ["MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK", "MISSION_COUNT", "MISSION_ITEM_INT",
+                    "MISSION_ITEM", "MISSION_CURRENT", "MISSION_ITEM_REACHED", "STATUSTEXT"]  # fmt: skip
 
 
 class GroundStation:
     """mavutil 'udpin' connection on 127.0.0.1:port: the vehicle sends there, we answer its address."""
 
-    def __init__(self, port: int, system_id: int = 255, component_id: int = 190, *, speaks_first: bool = False,
-                 vehicle: int | None = None) -> None:  # fmt: skip
-        """speaks_first: send to 127.0.0.1:port instead (a vehicle, or a proxy in front of one, that learns our
-        address from our HEARTBEATs), as MAVSDK and QGroundControl do when given the vehicle's address.
-        vehicle: hear only this system id (14550 is every vehicle's ground-station port, other test runs' too)."""
+    def __init__(self, port: int, vehicle: int, *, system_id: int = 255, component_id: int = 190,
+                 speaks_first: bool = False) -> None:  # fmt: skip
+        """vehicle: the system id of the vehicle we talk to: our commands, parameters and set-points are addressed
+        to it (component 1, the autopilot), and we hear only it (14550 is every vehicle's ground-station port, other
+        test runs' too). speaks_first: send to 127.0.0.1:port instead (a vehicle, or a proxy in front of one, that
+        learns our address from our HEARTBEATs), as MAVSDK and QGroundControl do when given the vehicle's
+        address."""
         url = f"udpout:127.0.0.1:{port}" if speaks_first else f"udpin:127.0.0.1:{port}"
         self.conn = mavutil.mavlink_connection(url, source_system=system_id, source_component=component_id,
                                                dialect="common")  # fmt: skip
@@ -51,7 +55,7 @@ class GroundStation:
     # ---- receiving ----------------------------------------------------------------------------------------
     def _note(self, message: Any) -> None:
         kind = message.get_type()
-        if kind == "BAD_DATA" or (self.vehicle is not None and message.get_srcSystem() != self.vehicle):
+        if kind == "BAD_DATA" or message.get_srcSystem() != self.vehicle:
             return
         self.latest[kind] = message
         if kind in TIMED:
@@ -139,12 +143,12 @@ class GroundStation:
         self.conn.mav.heartbeat_send(mavlink.MAV_TYPE_GCS, mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
 
     def command(self, command: int, *params: float, timeout_s: float = 10.0, retry_s: float | None = None) -> Any:
-        """COMMAND_LONG to 1/1; the COMMAND_ACK for it. retry_s: send it again (confirmation + 1) each retry_s wall
+        """COMMAND_LONG to the vehicle's autopilot; the COMMAND_ACK for it. retry_s: send it again (confirmation + 1) each retry_s wall
         seconds until acknowledged, as MAVSDK and QGroundControl do; `retries` counts the resends."""
         p = list(params) + [0.0] * (7 - len(params))
         start = len(self.acks)
         sent = [time.monotonic(), 0]  # when last sent, confirmation
-        self.conn.mav.command_long_send(1, 1, command, 0, *p)
+        self.conn.mav.command_long_send(self.vehicle, 1, command, 0, *p)
         found: list[Any] = []
 
         def acked() -> bool:
@@ -155,7 +159,7 @@ class GroundStation:
             if retry_s is not None and time.monotonic() - sent[0] > retry_s:
                 sent[0], sent[1] = time.monotonic(), min(sent[1] + 1, 255)
                 self.retries += 1
-                self.conn.mav.command_long_send(1, 1, command, sent[1], *p)
+                self.conn.mav.command_long_send(self.vehicle, 1, command, sent[1], *p)
 
         self.wait(acked, f"COMMAND_ACK for {command}", timeout_s, every=resend)
         return found[0]
@@ -166,13 +170,13 @@ class GroundStation:
 
     def velocity_setpoint(self, vn: float, ve: float, vd: float) -> None:
         self.conn.mav.set_position_target_local_ned_send(
-            self.time_boot_ms, 1, 1, mavlink.MAV_FRAME_LOCAL_NED, VELOCITY_MASK, 0, 0, 0, vn, ve, vd, 0, 0, 0, 0.0, 0
+            self.time_boot_ms, self.vehicle, 1, mavlink.MAV_FRAME_LOCAL_NED, VELOCITY_MASK, 0, 0, 0, vn, ve, vd, 0, 0, 0, 0.0, 0
         )
 
     def param_set(self, name: str, value: float, kind: int) -> Any:
         """PARAM_SET (value already in its wire encoding); the PARAM_VALUE that answers it."""
         start = len(self.param_values)
-        self.conn.mav.param_set_send(1, 1, name.encode(), value, kind)
+        self.conn.mav.param_set_send(self.vehicle, 1, name.encode(), value, kind)
         found: list[Any] = []
 
         def answered() -> bool:
@@ -181,6 +185,64 @@ class GroundStation:
 
         self.wait(answered, f"PARAM_VALUE {name}", 10.0)
         return found[0]
+
+
+class MissionClient:
+    """The mission side of a ground station: uploads and downloads, addressed to its vehicle, reading the mission
+    messages straight from its connection."""
+
+    def __init__(self, gs: GroundStation) -> None:
+        self.gs = gs
+        self.mav = gs.conn.mav
+        self.statustexts: list[str] = []
+        self.seen: list = []
+
+    def next(self, *kinds: str, timeout_s: float = 15.0):
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            message = self.gs.conn.recv_match(type=MISSION_MESSAGES, blocking=True, timeout=0.2)
+            if message is None:
+                continue
+            if message.get_type() == "STATUSTEXT":
+                self.statustexts.append(message.text)
+            self.seen.append(message)
+            if message.get_type() in kinds:
+                return message
+        raise AssertionError(f"no {kinds} within {timeout_s} s; STATUSTEXT {self.statustexts[-4:]}")
+
+    def send_item(self, seq: int, row: tuple, kind: int, *, current: int = 0) -> None:
+        frame, command, p1, p2, p3, p4, x, y, z = row
+        self.mav.mission_item_int_send(self.gs.vehicle, 1, seq, frame, command, current, 1, p1, p2, p3, p4, x, y, z, kind)
+
+    def upload(self, kind: int, rows: list[tuple]) -> int:
+        self.mav.mission_count_send(self.gs.vehicle, 1, len(rows), kind)
+        for seq, row in enumerate(rows):
+            request = self.next("MISSION_REQUEST_INT", "MISSION_ACK")
+            if request.get_type() == "MISSION_ACK":
+                return request.type
+            assert (request.seq, request.mission_type) == (seq, kind)
+            self.send_item(seq, row, kind, current=int(seq == 0))
+        return self.next("MISSION_ACK").type
+
+    def download(self, kind: int) -> list:
+        """As a ground station downloads: MISSION_REQUEST_LIST again every 2 s until the count comes (a request
+        sent while the autopilot is (re)starting is lost with its datagram)."""
+        for _ in range(7):
+            self.mav.mission_request_list_send(self.gs.vehicle, 1, kind)
+            try:
+                count = self.next("MISSION_COUNT", timeout_s=2.0)
+                break
+            except AssertionError:
+                continue
+        else:
+            raise AssertionError(f"no MISSION_COUNT for 7 requests; STATUSTEXT {self.statustexts[-4:]}")
+        assert count.mission_type == kind
+        items = []
+        for seq in range(count.count):
+            self.mav.mission_request_int_send(self.gs.vehicle, 1, seq, kind)
+            items.append(self.next("MISSION_ITEM_INT"))
+        self.mav.mission_ack_send(self.gs.vehicle, 1, mavlink.MAV_MISSION_ACCEPTED, kind)
+        return items
 
 
 def said(gs: GroundStation, text: str, since: int = 0, timeout_s: float = 30.0) -> str:

@@ -60,7 +60,7 @@ def start_sitl(params_path: Path, *, spawn_alt: float = 0.0, speed: float | None
                       folder=params_path.parent, params_file=params_path, autopilot_args=autopilot_args,
                       wait_ready=wait_ready).start()  # fmt: skip
     try:
-        gs = GroundStation(vehicle.gcs_port) if ground_station else None
+        gs = GroundStation(vehicle.gcs_port, vehicle.sysid) if ground_station else None
     except BaseException:
         vehicle.stop()
         raise

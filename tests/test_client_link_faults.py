@@ -21,7 +21,7 @@ def test_commands_and_offboard_through_a_lossy_link_then_the_link_lost(tmp_path)
     with Vehicle(spawn_alt=30.0, speed=1.0, truth=False, gcs_port=nobody, folder=tmp_path,
                  params={"COM_OF_LOSS_T": 5.0}) as vehicle:
         with FaultProxy(vehicle.ports.links.gcs_bind, upstream=LOSSY, downstream=LOSSY, seed=7) as proxy:
-            gs = GroundStation(proxy.port, speaks_first=True)
+            gs = GroundStation(proxy.port, vehicle.sysid, speaks_first=True)
             try:
                 gs.connect()
                 for _ in range(10):  # Hold asked 10 times: each acknowledged, with retries where the command or

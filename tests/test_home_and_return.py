@@ -13,7 +13,7 @@ import pymap3d
 import pytest
 
 from autopilot.parameters import BY_NAME, encode_value
-from tests.ground_station import HOLD, OFFBOARD, said
+from tests.ground_station import HOLD, OFFBOARD, MissionClient, said
 from tests.test_mavlink_failsafes import hovering, set_param
 from tests.test_mavlink_navigation import HOME as ORIGIN  # PX4 SITL's default: every vehicle's local origin here
 from tests.test_mavlink_navigation import REL, RETURN_MODE, latlon_e7
@@ -27,7 +27,7 @@ def command_int(gs, command: int, frame: int, x: int, y: int, z: float, *params:
     """COMMAND_INT to 1/1; the COMMAND_ACK for it."""
     p = list(params) + [0.0] * (4 - len(params))
     start = len(gs.acks)
-    gs.conn.mav.command_int_send(1, 1, frame, command, 0, 0, *p, x, y, z)
+    gs.conn.mav.command_int_send(gs.vehicle, 1, frame, command, 0, 0, *p, x, y, z)
     gs.wait(lambda: any(a.command == command for a in gs.acks[start:]), f"COMMAND_ACK for {command}")
     return next(a for a in gs.acks[start:] if a.command == command)
 
@@ -92,7 +92,7 @@ def test_relative_altitudes_are_above_home_and_terrain_altitudes_are_refused(tmp
         lat, lon = latlon_e7(0.0, 0.0)
 
         def stream(frame: int = REL) -> None:
-            gs.conn.mav.set_position_target_global_int_send(gs.time_boot_ms, 1, 1, frame, POSITION_MASK, lat, lon,
+            gs.conn.mav.set_position_target_global_int_send(gs.time_boot_ms, gs.vehicle, 1, frame, POSITION_MASK, lat, lon,
                                                             5.0, 0, 0, 0, 0, 0, 0, 0, 0)  # fmt: skip
 
         texts = len(gs.statustexts)
@@ -177,7 +177,6 @@ def mission_landing_rows(waypoint: tuple[float, float], landing: tuple[float, fl
 def test_rtl_type_1_returns_to_the_mission_landing_and_flies_it_from_do_land_start(tmp_path):
     # A mission (not flown) whose landing is 30 m north, 20 m east. With RTL_TYPE 1 and no rally point, Return
     # climbs to RTL_RETURN_ALT and flies the mission from DO_LAND_START: over the land item at that altitude, down.
-    from tests.test_mavlink_missions import Client
 
     with hovering(tmp_path, 8.0) as gs:
         texts = len(gs.statustexts)
@@ -188,7 +187,7 @@ def test_rtl_type_1_returns_to_the_mission_landing_and_flies_it_from_do_land_sta
         for name, value in (("RTL_TYPE", 1), ("RTL_RETURN_ALT", 12.0)):
             set_param(gs, name, value)
         rows = mission_landing_rows((60.0, 0.0), (30.0, 20.0))
-        assert Client(gs).upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
+        assert MissionClient(gs).upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
         texts = len(gs.statustexts)
         assert gs.command(M.MAV_CMD_NAV_RETURN_TO_LAUNCH).result == M.MAV_RESULT_ACCEPTED
         assert said(gs, "RTL: start return", texts).endswith("(12 m above mission landing)")
@@ -216,14 +215,13 @@ def test_rtl_type_1_returns_to_the_mission_landing_and_flies_it_from_do_land_sta
 
 def test_return_while_mission_flies_its_landing_goes_on_with_it(tmp_path):
     # PX4's navigator does not switch when Return comes during the mission's landing: no climb, the same landing.
-    from tests.test_mavlink_missions import Client
     from tests.test_mavlink_navigation import MISSION_MODE
 
     with hovering(tmp_path, 8.0) as gs:
         for name, value in (("RTL_TYPE", 1), ("RTL_RETURN_ALT", 30.0)):
             set_param(gs, name, value)
         rows = mission_landing_rows((0.0, 5.0), (12.0, 5.0))
-        assert Client(gs).upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
+        assert MissionClient(gs).upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
         assert gs.set_mode(MISSION_MODE).result == M.MAV_RESULT_ACCEPTED
         gs.wait(lambda: gs.latest["MISSION_CURRENT"].seq == 2 and gs.altitude < 7.0, "the mission's descent", 120)
         texts = len(gs.statustexts)

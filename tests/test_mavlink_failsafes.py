@@ -9,9 +9,8 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 
 from autopilot.parameters import BY_NAME, encode_value
-from tests.ground_station import HOLD, LAND, OFFBOARD, said
+from tests.ground_station import HOLD, LAND, OFFBOARD, MissionClient, said
 from tests.mavlink_sitl import start_sitl
-from tests.test_mavlink_missions import Client
 from tests.test_mavlink_navigation import RETURN_MODE, latlon_e7
 from tiltrotor_sitl import Controller
 from transport.geodesy import Home
@@ -77,7 +76,7 @@ def test_a_silent_ground_station_triggers_nav_dll_act_and_the_regained_link_is_s
 
 def test_flying_past_gf_max_hor_dist_returns_to_the_closer_rally_point_and_lands_there(tmp_path):
     with hovering(tmp_path, altitude=8.0) as gs:
-        client = Client(gs)
+        client = MissionClient(gs)
         rally = (REL, M.MAV_CMD_NAV_RALLY_POINT, 0, 0, 0, 0, *latlon_e7(20.0, 0.0), 0.0)
         assert client.upload(M.MAV_MISSION_TYPE_RALLY, [rally]) == M.MAV_MISSION_ACCEPTED
         set_param(gs, "GF_MAX_HOR_DIST", 25.0)
@@ -118,7 +117,7 @@ def test_gps_loss_in_a_hover_descends_and_ends_on_the_ground_disarmed(tmp_path):
 
 def test_a_go_to_into_an_uploaded_exclusion_zone_stops_in_hold_at_its_edge(tmp_path):
     with hovering(tmp_path, altitude=5.0) as gs:
-        client = Client(gs)
+        client = MissionClient(gs)
         zone = (REL, M.MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION, 10.0, 0, 0, 0, *latlon_e7(30.0, 0.0), 0.0)
         assert client.upload(M.MAV_MISSION_TYPE_FENCE, [zone]) == M.MAV_MISSION_ACCEPTED  # GF_ACTION 2: Hold
         lat, lon = latlon_e7(60.0, 0.0)

@@ -103,7 +103,7 @@ def test_identity_streams_and_requests(hovering):
     assert gs.command(M.MAV_CMD_REQUEST_MESSAGE, M.MAVLINK_MSG_ID_HOME_POSITION).result == M.MAV_RESULT_ACCEPTED
     home = gs.latest["HOME_POSITION"]
     assert (home.latitude, home.longitude, home.altitude) == (473977420, 85455940, 488000)  # PX4 SITL's
-    gs.conn.mav.mission_request_list_send(1, 1, M.MAV_MISSION_TYPE_MISSION)
+    gs.conn.mav.mission_request_list_send(gs.vehicle, 1, M.MAV_MISSION_TYPE_MISSION)
     gs.wait(lambda: "MISSION_COUNT" in gs.latest, "MISSION_COUNT")
     assert gs.latest["MISSION_COUNT"].count == 0
     gs.conn.mav.timesync_send(0, 12345)
@@ -233,23 +233,23 @@ def test_offboard_set_point_checks_and_frames(hovering):
     gs = hovering.gs
     mav = gs.conn.mav
     texts = len(gs.statustexts)
-    mav.set_position_target_local_ned_send(0, 1, 1, M.MAV_FRAME_LOCAL_NED, VELOCITY_MASK, 0, 0, 0, NAN, 0, 0, 0, 0, 0,
+    mav.set_position_target_local_ned_send(0, gs.vehicle, 1, M.MAV_FRAME_LOCAL_NED, VELOCITY_MASK, 0, 0, 0, NAN, 0, 0, 0, 0, 0,
                                            0, 0)  # fmt: skip
-    mav.set_position_target_local_ned_send(0, 1, 1, M.MAV_FRAME_LOCAL_NED, VELOCITY_MASK, 0, 0, 0, math.inf, 0, 0, 0, 0,
+    mav.set_position_target_local_ned_send(0, gs.vehicle, 1, M.MAV_FRAME_LOCAL_NED, VELOCITY_MASK, 0, 0, 0, math.inf, 0, 0, 0, 0,
                                            0, 0, 0)  # fmt: skip
-    mav.set_position_target_local_ned_send(0, 1, 1, M.MAV_FRAME_LOCAL_NED, 0b110000111111, 0, 0, 0, 0, 0, 0, 1, 0, 0,
+    mav.set_position_target_local_ned_send(0, gs.vehicle, 1, M.MAV_FRAME_LOCAL_NED, 0b110000111111, 0, 0, 0, 0, 0, 0, 1, 0, 0,
                                            0, 0)  # fmt: skip  (an acceleration set-point)
-    mav.set_position_target_local_ned_send(0, 1, 1, 99, VELOCITY_MASK, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0)
+    mav.set_position_target_local_ned_send(0, gs.vehicle, 1, 99, VELOCITY_MASK, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0)
     gs.wait(lambda: sum("Set-point dropped" in t for t in gs.statustexts[texts:]) >= 3, "the drops")
     assert gs.set_mode(OFFBOARD).result == M.MAV_RESULT_TEMPORARILY_REJECTED  # nothing valid received
-    mav.set_position_target_local_ned_send(0, 1, 1, M.MAV_FRAME_LOCAL_NED, VELOCITY_MASK, 0, 0, 0, 1e6, -1e6, 1e6, 0, 0,
+    mav.set_position_target_local_ned_send(0, gs.vehicle, 1, M.MAV_FRAME_LOCAL_NED, VELOCITY_MASK, 0, 0, 0, 1e6, -1e6, 1e6, 0, 0,
                                            0, 0, 0)  # fmt: skip
     gs.wait(lambda: any("clamped" in t for t in gs.statustexts[texts:]), "the clamp notice")
     gs.wait_sim(1.5)  # let that (clamped) set-point go stale
 
     # Body frame: 2 m/s forward is north at yaw 0; then global-frame velocity 2 m/s east.
     def body() -> None:
-        mav.set_position_target_local_ned_send(gs.time_boot_ms, 1, 1, M.MAV_FRAME_BODY_NED, VELOCITY_MASK, 0, 0, 0,
+        mav.set_position_target_local_ned_send(gs.time_boot_ms, gs.vehicle, 1, M.MAV_FRAME_BODY_NED, VELOCITY_MASK, 0, 0, 0,
                                                2.0, 0, 0, 0, 0, 0, 0, 0)  # fmt: skip
 
     body()
@@ -260,7 +260,7 @@ def test_offboard_set_point_checks_and_frames(hovering):
     assert gs.velocity[0] == pytest.approx(2.0 * math.cos(yaw), abs=0.3)
 
     def east() -> None:
-        mav.set_position_target_global_int_send(gs.time_boot_ms, 1, 1, M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+        mav.set_position_target_global_int_send(gs.time_boot_ms, gs.vehicle, 1, M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
                                                 VELOCITY_MASK, 0, 0, 0, 0, 2.0, 0, 0, 0, 0, 0, 0)  # fmt: skip
 
     gs.wait_sim(3.0, every=east)

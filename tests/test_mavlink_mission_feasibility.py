@@ -6,7 +6,8 @@ the mission or the fence allows it. GF_MAX_HOR_DIST counts as the fence does. Lo
 from __future__ import annotations
 
 from tests.mavlink_sitl import start_sitl
-from tests.test_mavlink_missions import REL, Client, rows_of, same
+from tests.ground_station import MissionClient
+from tests.test_mavlink_missions import REL, rows_of, same
 from tests.test_mavlink_navigation import MISSION_MODE, latlon_e7, waypoint
 from transport.mavlink import mavlink as M
 
@@ -21,7 +22,7 @@ def test_a_mission_outside_the_fence_is_kept_but_refused_at_start(tmp_path):
     try:
         gs = sitl.gs
         gs.connect()
-        client = Client(gs)
+        client = MissionClient(gs)
         assert client.upload(M.MAV_MISSION_TYPE_FENCE, FENCE) == M.MAV_MISSION_ACCEPTED
         assert client.upload(M.MAV_MISSION_TYPE_MISSION, OUTSIDE) == M.MAV_MISSION_ACCEPTED  # as PX4
         said = lambda: client.statustexts + gs.statustexts  # noqa: E731 (the Client reads some of them)

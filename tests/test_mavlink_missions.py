@@ -16,14 +16,12 @@ from autopilot.mission_feasibility import geofence_violation
 from autopilot.mission_flight import region_of_interest
 from autopilot.mission_items import PAYLOAD, MissionItem, check_item
 from autopilot.mission_store import MissionFileError, MissionStore, document, parse_document
-from tests.ground_station import GroundStation
+from tests.ground_station import GroundStation, MissionClient
 from tests.mavlink_sitl import Sitl, start_sitl
 from transport.mavlink import mavlink as M
 
 LAT, LON = 473977420, 85455940
 REL = M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
-MISSION_MESSAGES = ["MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK", "MISSION_COUNT", "MISSION_ITEM_INT",
-                    "MISSION_ITEM", "MISSION_CURRENT", "MISSION_ITEM_REACHED", "STATUSTEXT"]  # fmt: skip
 
 # (frame, command, p1, p2, p3, p4, x, y, z)
 SURVEY = [
@@ -167,63 +165,6 @@ def test_the_autopilot_refuses_a_broken_mission_file_with_one_line_and_exit_2(tm
 
 
 # ---- through the real processes -----------------------------------------------------------------------------------------
-class Client:
-    """The mission side of a pymavlink ground station (system 255, component 190)."""
-
-    def __init__(self, gs) -> None:
-        self.gs = gs
-        self.mav = gs.conn.mav
-        self.statustexts: list[str] = []
-        self.seen: list = []
-
-    def next(self, *kinds: str, timeout_s: float = 15.0):
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            message = self.gs.conn.recv_match(type=MISSION_MESSAGES, blocking=True, timeout=0.2)
-            if message is None:
-                continue
-            if message.get_type() == "STATUSTEXT":
-                self.statustexts.append(message.text)
-            self.seen.append(message)
-            if message.get_type() in kinds:
-                return message
-        raise AssertionError(f"no {kinds} within {timeout_s} s; STATUSTEXT {self.statustexts[-4:]}")
-
-    def send_item(self, seq: int, row: tuple, kind: int, *, current: int = 0) -> None:
-        frame, command, p1, p2, p3, p4, x, y, z = row
-        self.mav.mission_item_int_send(1, 1, seq, frame, command, current, 1, p1, p2, p3, p4, x, y, z, kind)
-
-    def upload(self, kind: int, rows: list[tuple]) -> int:
-        self.mav.mission_count_send(1, 1, len(rows), kind)
-        for seq, row in enumerate(rows):
-            request = self.next("MISSION_REQUEST_INT", "MISSION_ACK")
-            if request.get_type() == "MISSION_ACK":
-                return request.type
-            assert (request.seq, request.mission_type) == (seq, kind)
-            self.send_item(seq, row, kind, current=int(seq == 0))
-        return self.next("MISSION_ACK").type
-
-    def download(self, kind: int) -> list:
-        """As a ground station downloads: MISSION_REQUEST_LIST again every 2 s until the count comes (a request
-        sent while the autopilot is (re)starting is lost with its datagram)."""
-        for _ in range(7):
-            self.mav.mission_request_list_send(1, 1, kind)
-            try:
-                count = self.next("MISSION_COUNT", timeout_s=2.0)
-                break
-            except AssertionError:
-                continue
-        else:
-            raise AssertionError(f"no MISSION_COUNT for 7 requests; STATUSTEXT {self.statustexts[-4:]}")
-        assert count.mission_type == kind
-        items = []
-        for seq in range(count.count):
-            self.mav.mission_request_int_send(1, 1, seq, kind)
-            items.append(self.next("MISSION_ITEM_INT"))
-        self.mav.mission_ack_send(1, 1, M.MAV_MISSION_ACCEPTED, kind)
-        return items
-
-
 def rows_of(items: list) -> list[tuple]:
     return [(i.frame, i.command, i.param1, i.param2, i.param3, i.param4, i.x, i.y, i.z) for i in items]
 
@@ -238,7 +179,7 @@ def vehicle(tmp_path_factory):
     sitl = start_sitl(tmp_path_factory.mktemp("missions") / "params.json", speed=4.0)
     try:
         sitl.gs.connect()
-        yield sitl, Client(sitl.gs)
+        yield sitl, MissionClient(sitl.gs)
     finally:
         sitl.kill()
 
@@ -252,16 +193,16 @@ def test_round_trip_of_each_type_clear_and_current(vehicle):
     current = client.next("MISSION_CURRENT")
     assert current.total == len(SURVEY) and current.mission_state == M.MISSION_STATE_NOT_STARTED
 
-    client.mav.mission_set_current_send(1, 1, 4)
+    client.mav.mission_set_current_send(client.gs.vehicle, 1, 4)
     deadline = time.monotonic() + 10
     while client.next("MISSION_CURRENT").seq != 4:
         assert time.monotonic() < deadline
-    client.mav.mission_set_current_send(1, 1, 99)
+    client.mav.mission_set_current_send(client.gs.vehicle, 1, 99)
     while not any("99" in t for t in client.statustexts):
         client.next("STATUSTEXT")
     assert [i.current for i in client.download(M.MAV_MISSION_TYPE_MISSION)] == [0, 0, 0, 0, 1, 0, 0, 0, 0]
 
-    client.mav.mission_clear_all_send(1, 1, M.MAV_MISSION_TYPE_RALLY)
+    client.mav.mission_clear_all_send(client.gs.vehicle, 1, M.MAV_MISSION_TYPE_RALLY)
     assert client.next("MISSION_ACK").type == M.MAV_MISSION_ACCEPTED
     assert client.download(M.MAV_MISSION_TYPE_RALLY) == []
     assert len(client.download(M.MAV_MISSION_TYPE_FENCE)) == len(FENCE)
@@ -271,9 +212,9 @@ def test_round_trip_of_each_type_clear_and_current(vehicle):
 def test_legacy_mission_item_is_accepted_and_served(vehicle):
     sitl, client = vehicle
     rows = [(M.MAV_FRAME_GLOBAL_RELATIVE_ALT, M.MAV_CMD_NAV_RALLY_POINT, 0, 0, 0, 0, 47.3977, 8.5456, 15.0)]
-    client.mav.mission_count_send(1, 1, 1, M.MAV_MISSION_TYPE_RALLY)
+    client.mav.mission_count_send(client.gs.vehicle, 1, 1, M.MAV_MISSION_TYPE_RALLY)
     assert client.next("MISSION_REQUEST_INT").seq == 0
-    client.mav.mission_item_send(1, 1, 0, *rows[0][:2], 0, 1, *rows[0][2:], M.MAV_MISSION_TYPE_RALLY)
+    client.mav.mission_item_send(client.gs.vehicle, 1, 0, *rows[0][:2], 0, 1, *rows[0][2:], M.MAV_MISSION_TYPE_RALLY)
     assert client.next("MISSION_ACK").type == M.MAV_MISSION_ACCEPTED
     stored = client.download(M.MAV_MISSION_TYPE_RALLY)
     # float32 degrees (why MISSION_ITEM is deprecated): about 0.5 m of resolution
@@ -284,7 +225,7 @@ def test_legacy_mission_item_is_accepted_and_served(vehicle):
 def bad_upload(client, rows: list[tuple], bad_seq: int, bad) -> int:
     """Upload `rows`, answering request `bad_seq` with bad(client); the ACK's result."""
     kind = M.MAV_MISSION_TYPE_MISSION
-    client.mav.mission_count_send(1, 1, len(rows), kind)
+    client.mav.mission_count_send(client.gs.vehicle, 1, len(rows), kind)
     for seq, row in enumerate(rows):
         request = client.next("MISSION_REQUEST_INT", "MISSION_ACK")
         if request.get_type() == "MISSION_ACK":
@@ -324,9 +265,9 @@ def test_bad_input_is_refused_with_px4s_ack_and_the_mission_stays(vehicle, case)
 def test_counts_other_clients_and_other_systems(vehicle):
     sitl, client = vehicle
     before = rows_of(client.download(M.MAV_MISSION_TYPE_MISSION))
-    client.mav.mission_count_send(1, 1, 501, M.MAV_MISSION_TYPE_MISSION)
+    client.mav.mission_count_send(client.gs.vehicle, 1, 501, M.MAV_MISSION_TYPE_MISSION)
     assert client.next("MISSION_ACK").type == M.MAV_MISSION_NO_SPACE
-    client.mav.mission_count_send(1, 1, 9, M.MAV_MISSION_TYPE_RALLY)
+    client.mav.mission_count_send(client.gs.vehicle, 1, 9, M.MAV_MISSION_TYPE_RALLY)
     assert client.next("MISSION_ACK").type == M.MAV_MISSION_NO_SPACE
     # For another system: no answer at all.
     client.mav.mission_count_send(7, 1, 1, M.MAV_MISSION_TYPE_MISSION)
@@ -334,23 +275,23 @@ def test_counts_other_clients_and_other_systems(vehicle):
     with pytest.raises(AssertionError):
         client.next("MISSION_ACK", "MISSION_REQUEST_INT", timeout_s=1.5)
     # A second client (another system id) while an upload runs: DENIED; the first goes on.
-    client.mav.mission_count_send(1, 1, 1, M.MAV_MISSION_TYPE_MISSION)
+    client.mav.mission_count_send(client.gs.vehicle, 1, 1, M.MAV_MISSION_TYPE_MISSION)
     assert client.next("MISSION_REQUEST_INT").seq == 0
     client.mav.srcSystem = 254
     try:
-        client.mav.mission_count_send(1, 1, 2, M.MAV_MISSION_TYPE_MISSION)
+        client.mav.mission_count_send(client.gs.vehicle, 1, 2, M.MAV_MISSION_TYPE_MISSION)
         denied = client.next("MISSION_ACK")
         assert denied.type == M.MAV_MISSION_DENIED and denied.target_system == 254
     finally:
         client.mav.srcSystem = 255
-    client.mav.mission_ack_send(1, 1, M.MAV_MISSION_OPERATION_CANCELLED, M.MAV_MISSION_TYPE_MISSION)
+    client.mav.mission_ack_send(client.gs.vehicle, 1, M.MAV_MISSION_OPERATION_CANCELLED, M.MAV_MISSION_TYPE_MISSION)
     assert same(rows_of(client.download(M.MAV_MISSION_TYPE_MISSION)), before)
 
 
 def test_an_abandoned_upload_is_retried_then_cancelled_and_the_mission_stays(vehicle):
     sitl, client = vehicle
     before = rows_of(client.download(M.MAV_MISSION_TYPE_MISSION))
-    client.mav.mission_count_send(1, 1, 3, M.MAV_MISSION_TYPE_MISSION)
+    client.mav.mission_count_send(client.gs.vehicle, 1, 3, M.MAV_MISSION_TYPE_MISSION)
     assert client.next("MISSION_REQUEST_INT").seq == 0
     client.send_item(0, SURVEY[0], 0)
     assert client.next("MISSION_REQUEST_INT").seq == 1
@@ -371,16 +312,16 @@ def count_asked_while_starting(sitl: Sitl) -> Any:
     """Restart the autopilot, asking for the mission's count (MISSION_REQUEST_LIST every 50 ms, on the API link
     from a socket of its own) from the moment it is started: the first MISSION_COUNT, which must come before the
     new autopilot's first HEARTBEAT (the request was answered before its first status went out)."""
-    probe = GroundStation(sitl.ports["api"], speaks_first=True)
+    probe = GroundStation(sitl.ports["api"], sitl.vehicle.sysid, speaks_first=True)
     try:
         sitl.restart_autopilot()
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline:
-            probe.conn.mav.mission_request_list_send(1, 1, M.MAV_MISSION_TYPE_MISSION)
+            probe.conn.mav.mission_request_list_send(probe.vehicle, 1, M.MAV_MISSION_TYPE_MISSION)
             first = probe.conn.recv_match(type=["MISSION_COUNT", "HEARTBEAT"], blocking=True, timeout=0.05)
             if first is not None:
                 # after every request sent: it ends the download they started, which would refuse the GCS client's
-                probe.conn.mav.mission_ack_send(1, 1, M.MAV_MISSION_ACCEPTED, M.MAV_MISSION_TYPE_MISSION)
+                probe.conn.mav.mission_ack_send(probe.vehicle, 1, M.MAV_MISSION_ACCEPTED, M.MAV_MISSION_TYPE_MISSION)
                 assert first.get_type() == "MISSION_COUNT", "no request reached the autopilot before its first status"
                 return first
         raise AssertionError("no answer from the restarted autopilot within 60 s")
@@ -391,7 +332,7 @@ def count_asked_while_starting(sitl: Sitl) -> Any:
 def test_missions_survive_an_autopilot_restart(vehicle):
     sitl, client = vehicle
     assert client.upload(M.MAV_MISSION_TYPE_MISSION, SURVEY) == M.MAV_MISSION_ACCEPTED
-    client.mav.mission_set_current_send(1, 1, 3)
+    client.mav.mission_set_current_send(client.gs.vehicle, 1, 3)
     while client.next("MISSION_CURRENT").seq != 3:
         pass
     stored = {kind: rows_of(client.download(kind)) for kind in TYPES}

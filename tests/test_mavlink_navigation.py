@@ -12,9 +12,8 @@ import pytest
 
 from autopilot.guidance import circle_velocity, leg_cruise_speed, leg_velocity
 from autopilot.mission_flight import takeoff_down
-from tests.ground_station import HOLD
+from tests.ground_station import HOLD, MissionClient
 from tests.mavlink_sitl import start_sitl
-from tests.test_mavlink_missions import Client
 from transport.geodesy import Home
 from transport.mavlink import mavlink as M
 
@@ -72,7 +71,7 @@ def vehicle_with_mission(tmp_path, rows: list[tuple]):
     sitl = start_sitl(tmp_path / "params.json", speed=None)
     try:
         sitl.gs.connect()
-        assert Client(sitl.gs).upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
+        assert MissionClient(sitl.gs).upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
     except BaseException:
         sitl.kill()
         raise

@@ -46,7 +46,7 @@ def test_offboard_attitude_lifts_off_rolls_turns_and_hands_back_to_the_mpc(tmp_p
                   "thrust": 0.0}  # fmt: skip
 
         def send() -> None:
-            mav.set_attitude_target_send(gs.time_boot_ms, 1, 1, target["mask"], target["q"], *target["rates"],
+            mav.set_attitude_target_send(gs.time_boot_ms, gs.vehicle, 1, target["mask"], target["q"], *target["rates"],
                                          target["thrust"])  # fmt: skip
 
         set_param(gs, "COM_OF_LOSS_T", 5.0)  # lockstep runs faster than the wall clock the set-points are sent on
@@ -71,8 +71,8 @@ def test_offboard_attitude_lifts_off_rolls_turns_and_hands_back_to_the_mpc(tmp_p
         print(f"turned {math.degrees(turned):.1f} deg in 2 s at 0.3 rad/s")
         assert 0.3 < turned < 0.9
         # Bad input: a NaN quaternion is dropped, a thrust above 1 clamped, both said.
-        mav.set_attitude_target_send(gs.time_boot_ms, 1, 1, ATTITUDE_MASK, [math.nan, 0, 0, 0], 0, 0, 0, 0.5)
-        mav.set_attitude_target_send(gs.time_boot_ms, 1, 1, ATTITUDE_MASK, [1, 0, 0, 0], 0, 0, 0, 1.5)
+        mav.set_attitude_target_send(gs.time_boot_ms, gs.vehicle, 1, ATTITUDE_MASK, [math.nan, 0, 0, 0], 0, 0, 0, 0.5)
+        mav.set_attitude_target_send(gs.time_boot_ms, gs.vehicle, 1, ATTITUDE_MASK, [1, 0, 0, 0], 0, 0, 0, 1.5)
         gs.wait(lambda: any("quaternion not finite" in text for text in gs.statustexts)
                 and any("Attitude set-point clamped" in text for text in gs.statustexts), "the refusals", 20)
         assert gs.set_mode(HOLD).result == M.MAV_RESULT_ACCEPTED

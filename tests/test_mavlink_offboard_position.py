@@ -51,7 +51,7 @@ def test_offboard_position_in_local_body_and_global_frames(hovering):
     gs = hovering.gs
     mav = gs.conn.mav
     local = (30.0, -20.0, -60.0)
-    fly_to(gs, lambda: mav.set_position_target_local_ned_send(gs.time_boot_ms, 1, 1, M.MAV_FRAME_LOCAL_NED,
+    fly_to(gs, lambda: mav.set_position_target_local_ned_send(gs.time_boot_ms, gs.vehicle, 1, M.MAV_FRAME_LOCAL_NED,
                                                               POSITION_MASK, *local, 0, 0, 0, 0, 0, 0, 0, 0), local)
     assert gs.mode == OFFBOARD
 
@@ -60,7 +60,7 @@ def test_offboard_position_in_local_body_and_global_frames(hovering):
     assert gs.param_set("COM_OF_LOSS_T", 60.0, M.MAV_PARAM_TYPE_REAL32).param_value == 60.0
     start, yaw = here(gs), gs.latest["ATTITUDE"].yaw
     target = (start[0] + 10.0 * math.cos(yaw), start[1] + 10.0 * math.sin(yaw), start[2] + 5.0)
-    mav.set_position_target_local_ned_send(gs.time_boot_ms, 1, 1, M.MAV_FRAME_BODY_OFFSET_NED, POSITION_MASK,
+    mav.set_position_target_local_ned_send(gs.time_boot_ms, gs.vehicle, 1, M.MAV_FRAME_BODY_OFFSET_NED, POSITION_MASK,
                                            10.0, 0.0, 5.0, 0, 0, 0, 0, 0, 0, 0, 0)  # fmt: skip
     fly_to(gs, lambda: None, target)
     assert gs.param_set("COM_OF_LOSS_T", 1.0, M.MAV_PARAM_TYPE_REAL32).param_value == 1.0
@@ -69,7 +69,7 @@ def test_offboard_position_in_local_body_and_global_frames(hovering):
     home = gs.latest["HOME_POSITION"]
     lat, lon, _ = pymap3d.ned2geodetic(0.0, 0.0, 0.0, home.latitude * 1e-7, home.longitude * 1e-7, home.altitude * 1e-3)
     fly_to(gs, lambda: mav.set_position_target_global_int_send(
-        gs.time_boot_ms, 1, 1, M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, POSITION_MASK, int(round(lat * 1e7)),
+        gs.time_boot_ms, gs.vehicle, 1, M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, POSITION_MASK, int(round(lat * 1e7)),
         int(round(lon * 1e7)), ALTITUDE, 0, 0, 0, 0, 0, 0, 0, 0), (0.0, 0.0, -ALTITUDE), within_m=1.5)  # fmt: skip
 
     # The stream stops: Hold where it is, as for velocity set-points (COM_OF_LOSS_T).
@@ -81,13 +81,13 @@ def test_offboard_position_with_velocity_feed_forward_and_bad_ones(hovering):
     mav = gs.conn.mav
     texts = len(gs.statustexts)
     for x, vx in ((math.nan, 0.0), (0.0, math.inf)):
-        mav.set_position_target_local_ned_send(gs.time_boot_ms, 1, 1, M.MAV_FRAME_LOCAL_NED, POSITION_VELOCITY_MASK,
+        mav.set_position_target_local_ned_send(gs.time_boot_ms, gs.vehicle, 1, M.MAV_FRAME_LOCAL_NED, POSITION_VELOCITY_MASK,
                                                x, 0, -50, vx, 0, 0, 0, 0, 0, 0, 0)  # fmt: skip
-    mav.set_position_target_local_ned_send(gs.time_boot_ms, 1, 1, M.MAV_FRAME_LOCAL_NED, 0b110111111011,
+    mav.set_position_target_local_ned_send(gs.time_boot_ms, gs.vehicle, 1, M.MAV_FRAME_LOCAL_NED, 0b110111111011,
                                            0, 0, -50, 0, 0, 0, 0, 0, 0, 0, 0)  # fmt: skip  (z alone)
     for why in ("not finite", "all three of x y z"):
         gs.wait(lambda: any(why in t for t in gs.statustexts[texts:]), f"the drop: {why}")
     target = (-20.0, 15.0, -55.0)
-    fly_to(gs, lambda: mav.set_position_target_local_ned_send(gs.time_boot_ms, 1, 1, M.MAV_FRAME_LOCAL_NED,
+    fly_to(gs, lambda: mav.set_position_target_local_ned_send(gs.time_boot_ms, gs.vehicle, 1, M.MAV_FRAME_LOCAL_NED,
                                                               POSITION_VELOCITY_MASK, *target, 0, 0, 0, 0, 0, 0, 0,
                                                               0), target)  # fmt: skip

@@ -174,22 +174,22 @@ def test_parameters_over_mavlink_survive_a_restart_and_a_kill_9(tmp_path):
         assert echo.param_value == 1.0
         echo = gs.param_set("COM_OF_LOSS_T", math.nan, MAV_PARAM_TYPE_REAL32)
         assert echo.param_value == 1.0
-        gs.conn.mav.param_set_send(1, 1, b"NO_SUCH_PARAM", 1.0, MAV_PARAM_TYPE_REAL32)
+        gs.conn.mav.param_set_send(gs.vehicle, 1, b"NO_SUCH_PARAM", 1.0, MAV_PARAM_TYPE_REAL32)
         gs.wait(lambda: any("NO_SUCH_PARAM" in t for t in gs.statustexts), "the unknown-name refusal")
         assert any("SYS_FAILURE_EN: type 9" in t for t in gs.statustexts)
         assert any("COM_OF_LOSS_T" in t and "outside" in t for t in gs.statustexts)
 
         # Read by name and by index.
         count = len(gs.param_values)
-        gs.conn.mav.param_request_read_send(1, 1, b"MIS_TAKEOFF_ALT", -1)
-        gs.conn.mav.param_request_read_send(1, 1, b"", values["SYS_FAILURE_EN"].param_index)
+        gs.conn.mav.param_request_read_send(gs.vehicle, 1, b"MIS_TAKEOFF_ALT", -1)
+        gs.conn.mav.param_request_read_send(gs.vehicle, 1, b"", values["SYS_FAILURE_EN"].param_index)
         gs.wait(lambda: len(gs.param_values) >= count + 2, "two PARAM_VALUEs")
         read = {p.param_id: p.param_value for p in gs.param_values[count:]}
         assert read == {"MIS_TAKEOFF_ALT": 12.5, "SYS_FAILURE_EN": as_int32_bytes(1)}
 
         # A burst of changes, then kill -9 while the file is being rewritten: the file is whole.
         for i in range(300):
-            gs.conn.mav.param_set_send(1, 1, b"MPC_XY_CRUISE", 2.0 + (i % 7), MAV_PARAM_TYPE_REAL32)
+            gs.conn.mav.param_set_send(gs.vehicle, 1, b"MPC_XY_CRUISE", 2.0 + (i % 7), MAV_PARAM_TYPE_REAL32)
         gs.pump(0.05)
         sitl.autopilot.send_signal(signal.SIGKILL)
         sitl.autopilot.wait(timeout=20)
@@ -201,10 +201,10 @@ def test_parameters_over_mavlink_survive_a_restart_and_a_kill_9(tmp_path):
         gs.param_values.clear()
         gs.latest.pop("HEARTBEAT", None)
         gs.wait(lambda: "HEARTBEAT" in gs.latest, "the restarted autopilot", timeout_s=60)
-        gs.conn.mav.param_request_read_send(1, 1, b"MIS_TAKEOFF_ALT", -1)
-        gs.conn.mav.param_request_read_send(1, 1, b"SYS_FAILURE_EN", -1)
+        gs.conn.mav.param_request_read_send(gs.vehicle, 1, b"MIS_TAKEOFF_ALT", -1)
+        gs.conn.mav.param_request_read_send(gs.vehicle, 1, b"SYS_FAILURE_EN", -1)
         gs.wait(lambda: {p.param_id for p in gs.param_values} >= {"MIS_TAKEOFF_ALT", "SYS_FAILURE_EN"}, "values",
-                every=lambda: gs.conn.mav.param_request_read_send(1, 1, b"MIS_TAKEOFF_ALT", -1))  # fmt: skip
+                every=lambda: gs.conn.mav.param_request_read_send(gs.vehicle, 1, b"MIS_TAKEOFF_ALT", -1))  # fmt: skip
         read = {p.param_id: p.param_value for p in gs.param_values}
         assert read["MIS_TAKEOFF_ALT"] == 12.5 and read["SYS_FAILURE_EN"] == as_int32_bytes(1)
     finally:

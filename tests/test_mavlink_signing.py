@@ -15,7 +15,7 @@ KEY = bytes(range(1, 33))
 
 
 def setup_signing(gs: GroundStation, key: bytes, timestamp: int) -> None:
-    gs.conn.mav.setup_signing_send(1, 1, list(key), timestamp)
+    gs.conn.mav.setup_signing_send(gs.vehicle, 1, list(key), timestamp)
 
 
 def saved_key(params_path) -> str | None:
@@ -29,7 +29,7 @@ def test_a_keyed_client_flies_an_unkeyed_one_is_refused_and_the_key_survives_a_r
     params_path = tmp_path / "params.json"
     sitl = start_sitl(params_path, speed=4.0, controller="pid", autopilot_args=("--quiet",))
     keyed = sitl.gs
-    unkeyed = GroundStation(sitl.ports["api_remote"])  # the API link: same vehicle, no key
+    unkeyed = GroundStation(sitl.ports["api_remote"], sitl.vehicle.sysid)  # the API link: same vehicle, no key
     try:
         keyed.connect()
         setup_signing(keyed, bytes(32), 5)  # malformed: an all-zero key with a timestamp
@@ -47,8 +47,8 @@ def test_a_keyed_client_flies_an_unkeyed_one_is_refused_and_the_key_survives_a_r
         assert unkeyed.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0).result == MAV_RESULT_DENIED
         assert unkeyed.command(mavlink.MAV_CMD_NAV_LAND).result == MAV_RESULT_DENIED
         assert unkeyed.set_mode((4 << 16) | (6 << 24)).result == MAV_RESULT_DENIED
-        unkeyed.conn.mav.command_int_send(1, 1, 0, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, 0, 0, 0, 0, 0, 0, 0, 0)
-        unkeyed.conn.mav.param_set_send(1, 1, b"MIS_TAKEOFF_ALT", 50.0, mavlink.MAV_PARAM_TYPE_REAL32)
+        unkeyed.conn.mav.command_int_send(unkeyed.vehicle, 1, 0, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, 0, 0, 0, 0, 0, 0, 0, 0)
+        unkeyed.conn.mav.param_set_send(unkeyed.vehicle, 1, b"MIS_TAKEOFF_ALT", 50.0, mavlink.MAV_PARAM_TYPE_REAL32)
         unkeyed.conn.mav.set_mode_send(1, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 6 << 16)
         unkeyed.velocity_setpoint(0, 0, 5)
         unkeyed.conn.mav.mission_clear_all_send(1, 1)
@@ -56,7 +56,7 @@ def test_a_keyed_client_flies_an_unkeyed_one_is_refused_and_the_key_survives_a_r
         unkeyed.wait(lambda: sum(a.result == MAV_RESULT_DENIED for a in unkeyed.acks) >= 4, "the COMMAND_INT refusal")
         keyed.wait(lambda: keyed.altitude > 2.0, "the keyed client's takeoff", timeout_s=60)
         assert keyed.armed
-        unkeyed.conn.mav.param_request_read_send(1, 1, b"MIS_TAKEOFF_ALT", -1)  # reading is allowed
+        unkeyed.conn.mav.param_request_read_send(unkeyed.vehicle, 1, b"MIS_TAKEOFF_ALT", -1)  # reading is allowed
         unkeyed.wait(lambda: any(p.param_id == "MIS_TAKEOFF_ALT" for p in unkeyed.param_values), "a read")
         assert unkeyed.param_values[-1].param_value == 2.5
         assert keyed.command(mavlink.MAV_CMD_NAV_LAND).result == MAV_RESULT_ACCEPTED

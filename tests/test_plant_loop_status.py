@@ -34,7 +34,7 @@ def loop(tmp_path):
     events = EventOutbox()
     commander = Commander(params, 0.5, armed=True, in_air=True, say=events.say, missions=missions, home=Home())
     client = PlantLinkClient(9, sensors=False)  # never used: the test calls the loop's status steps itself
-    injection = FailureInjection(send=lambda failure: None, note=lambda text: None)
+    injection = FailureInjection(send=lambda failure: True, note=lambda text: None)
     loop = PlantLoop(airframe, lambda: build_flight_controller(airframe, PID), client, commander, params, injection,
                      events, services=None, home=Home(), missions=missions)  # fmt: skip
     yield loop

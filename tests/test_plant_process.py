@@ -155,10 +155,12 @@ def acks(plant):
     return [m for m in plant.client.received_other if m.get_type() == "COMMAND_ACK"]
 
 
-def test_failure_injection_over_the_link(start_plant, airframe):
-    plant = start_plant("--spawn-alt", "100")
+@pytest.mark.parametrize("sysid", [1, 4])
+def test_failure_injection_over_the_link(start_plant, airframe, sysid):
+    plant = start_plant("--spawn-alt", "100", "--sysid", str(sysid))
     sample = plant.first_sample()
-    plant.client.send_command_long(mavlink.MAV_CMD_INJECT_FAILURE, (101, 1, 1, float("nan")))
+    assert plant.client.plant_ids == (sysid, 200)  # from the handshake's CHALLENGE
+    assert plant.client.command_plant(mavlink.MAV_CMD_INJECT_FAILURE, (101, 1, 1, float("nan")))
     samples = fly(plant, lambda s: hover_pwm(airframe), 80, first=sample)
     ack = acks(plant)[-1]
     assert (ack.command, ack.result) == (mavlink.MAV_CMD_INJECT_FAILURE, MAV_RESULT_ACCEPTED)
@@ -167,17 +169,26 @@ def test_failure_injection_over_the_link(start_plant, airframe):
     # One rotor fewer: the vehicle accelerates down at about g/4 and rolls (rotor 1 is front right).
     assert samples[-1].sensor.zacc == pytest.approx(-0.75 * G, abs=0.3)
     assert samples[-1].state.rollspeed > 0.1
-    plant.client.send_command_long(mavlink.MAV_CMD_INJECT_FAILURE, (101, 0, 1, float("nan")))
+    plant.client.command_plant(mavlink.MAV_CMD_INJECT_FAILURE, (101, 0, 1, float("nan")))
     samples = fly(plant, lambda s: hover_pwm(airframe), 80, first=samples[-1])
     assert acks(plant)[-1].result == MAV_RESULT_ACCEPTED
     assert samples[-1].sensor.zacc == pytest.approx(-G, abs=0.3)
-    plant.client.send_command_long(mavlink.MAV_CMD_INJECT_FAILURE, (101, 1, 7, 0))
-    plant.client.send_command_long(mavlink.MAV_CMD_INJECT_FAILURE, (5, 1, 1, 0))
-    plant.client.send_command_long(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, (1,))
-    fly(plant, lambda s: hover_pwm(airframe), 4, first=samples[-1])
-    assert [a.result for a in acks(plant)[-3:]] == [MAV_RESULT_DENIED, MAV_RESULT_UNSUPPORTED, MAV_RESULT_UNSUPPORTED]
+    plant.client.command_plant(mavlink.MAV_CMD_INJECT_FAILURE, (101, 1, 7, 0))
+    plant.client.command_plant(mavlink.MAV_CMD_INJECT_FAILURE, (5, 1, 1, 0))
+    plant.client.command_plant(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, (1,))
+    other = 3 if sysid != 3 else 2  # a misaddressed command is refused aloud, not dropped
+    plant.client.send_command_long(mavlink.MAV_CMD_INJECT_FAILURE, (101, 1, 1, float("nan")), (other, 200))
+    plant.client.send_command_long(mavlink.MAV_CMD_INJECT_FAILURE, (101, 1, 1, float("nan")), (sysid, 1))
+    samples = fly(plant, lambda s: hover_pwm(airframe), 4, first=samples[-1])
+    assert [a.result for a in acks(plant)[-5:]] == [MAV_RESULT_DENIED, MAV_RESULT_UNSUPPORTED, MAV_RESULT_UNSUPPORTED,
+                                                     MAV_RESULT_DENIED, MAV_RESULT_DENIED]  # fmt: skip
+    texts = [m.text for m in plant.client.received_other if m.get_type() == "STATUSTEXT"]
+    assert any(text.startswith(f"plant: command 420 for {other}/200 refused") for text in texts)
+    assert samples[-1].sensor.zacc == pytest.approx(-G, abs=0.3)  # neither reached rotor 1
     summary = plant.stop()
     assert (summary["failures_applied"], summary["failures_rejected"]) == (2, 2)
+    assert summary["misaddressed_commands"] == 2
+    assert f"command 420 for {sysid}/1 refused: this plant is {sysid}/200" in plant.vehicle.stderr("vtol-sim")
 
 
 def test_stuck_servo_over_the_link_seen_in_zenoh_truth(start_plant, airframe):
@@ -186,16 +197,16 @@ def test_stuck_servo_over_the_link_seen_in_zenoh_truth(start_plant, airframe):
     from transport.telemetry import decode_plant_states, plant_state_key
     from transport.zenoh_bus import session_config
 
-    plant = start_plant("--spawn-alt", "100", zenoh=True)
+    plant = start_plant("--spawn-alt", "100", "--sysid", "5", zenoh=True)
     received = []
     session = zenoh.open(session_config(listen=[], connect=[plant.zenoh_endpoint]))
     try:
-        subscriber = session.declare_subscriber(plant_state_key(1), lambda s: received.append(bytes(s.payload)))
+        subscriber = session.declare_subscriber(plant_state_key(5), lambda s: received.append(bytes(s.payload)))
         sample = plant.first_sample()
         deadline = time.monotonic() + 20
         while not received and time.monotonic() < deadline:  # wait until the subscription is live
             sample = fly(plant, lambda s: hover_pwm(airframe), 1, first=sample)[-1]
-        plant.client.send_command_long(mavlink.MAV_CMD_INJECT_FAILURE, (102, 2, 1, 30.0))
+        plant.client.command_plant(mavlink.MAV_CMD_INJECT_FAILURE, (102, 2, 1, 30.0))
         command = hover_command(airframe)
         command[4:8] = math.radians(80)
         fly(plant, lambda s: command_to_pwm(airframe, command), 800, first=sample)

@@ -31,7 +31,7 @@ def assert_hovering_in_hold(gs: GroundStation) -> None:
 
 def test_a_killed_autopilot_restarts_takes_the_plant_back_and_keeps_its_parameters(tmp_path):
     with Vehicle(spawn_alt=ALTITUDE, speed=2.0, truth=False, folder=tmp_path) as vehicle:
-        gs = GroundStation(vehicle.gcs_port)
+        gs = GroundStation(vehicle.gcs_port, vehicle.sysid)
         try:
             gs.connect()
             assert gs.param_set("COM_OF_LOSS_T", 2.5, REAL32).param_value == 2.5
@@ -45,7 +45,7 @@ def test_a_killed_autopilot_restarts_takes_the_plant_back_and_keeps_its_paramete
             heartbeat_from_a_new_process(gs, heard)
             gs.wait_sim(2.0, every=gs.heartbeat)
             assert_hovering_in_hold(gs)
-            gs.conn.mav.param_request_read_send(1, 1, b"COM_OF_LOSS_T", -1)
+            gs.conn.mav.param_request_read_send(gs.vehicle, 1, b"COM_OF_LOSS_T", -1)
             gs.wait(lambda: any(p.param_id == "COM_OF_LOSS_T" for p in gs.param_values[-3:]), "COM_OF_LOSS_T")
             assert gs.param_values[-1].param_value == 2.5
         finally:
@@ -56,7 +56,7 @@ def test_a_killed_autopilot_restarts_takes_the_plant_back_and_keeps_its_paramete
 
 def test_a_killed_plant_restarts_and_the_autopilot_flies_on(tmp_path):
     with Vehicle(spawn_alt=ALTITUDE, speed=2.0, truth=False, folder=tmp_path) as vehicle:
-        gs = GroundStation(vehicle.gcs_port)
+        gs = GroundStation(vehicle.gcs_port, vehicle.sysid)
         try:
             gs.connect()
             gs.wait_sim(1.0, every=gs.heartbeat)
@@ -81,15 +81,16 @@ link = mavutil.mavlink_connection(sys.argv[1], source_system=245)
 link.wait_heartbeat(timeout=60)
 print("streaming", flush=True)
 while True:
-    link.mav.set_position_target_local_ned_send(0, 1, 1, 1, 0x9C7, 0, 0, 0, 2.0, 0, 0, 0, 0, 0, 0, 0)
+    link.mav.set_position_target_local_ned_send(0, int(sys.argv[2]), 1, 1, 0x9C7, 0, 0, 0, 2.0, 0, 0, 0, 0, 0, 0, 0)
     time.sleep(0.05)
 """
 
 
 def test_a_killed_offboard_client_leaves_the_vehicle_in_hold_after_com_of_loss_t(tmp_path):
     with Vehicle(spawn_alt=ALTITUDE, speed=2.0, truth=False, folder=tmp_path) as vehicle:
-        gs = GroundStation(vehicle.gcs_port)
-        client = subprocess.Popen([sys.executable, "-c", CLIENT, vehicle.mavsdk.replace("udpin://", "udpin:")],
+        gs = GroundStation(vehicle.gcs_port, vehicle.sysid)
+        client = subprocess.Popen([sys.executable, "-c", CLIENT, vehicle.mavsdk.replace("udpin://", "udpin:"),
+                                   str(vehicle.sysid)],
                                   stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)  # fmt: skip
         try:
             gs.connect()

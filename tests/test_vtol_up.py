@@ -60,7 +60,7 @@ def alive(pid: int) -> bool:
 def test_vtol_up_serves_a_ground_station_and_stops_both_processes(tmp_path, how):
     instance = free_instance()
     ports = Ports(instance)
-    gs = GroundStation(ports.gcs_remote, vehicle=ports.system_id)
+    gs = GroundStation(ports.gcs_remote, ports.system_id)
     errors = tmp_path / "vtol.stderr"
     signing = []
     if how == "sigterm":  # and the plant link signed: the pair flies only if vtol up gave both the key

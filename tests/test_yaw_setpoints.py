@@ -13,10 +13,10 @@ import pytest
 from autopilot.attitude import wrap
 from autopilot.auto_flight import ORBIT_FRONT_TO_CENTER, ORBIT_INITIAL_HEADING, ORBIT_TANGENT, Circle, orbit_yaw
 from autopilot.yaw_setpoint import YAW_STOPPED, StickYaw, YawSetpoint, YawShaper, multicopter_speed
-from tests.ground_station import HOLD, OFFBOARD
+from tests.ground_station import HOLD, OFFBOARD, MissionClient
 from tests.test_mavlink_failsafes import hovering, set_param
 from tests.test_mavlink_manual_control import POSCTL
-from tests.test_mavlink_missions import Client, rows_of
+from tests.test_mavlink_missions import rows_of
 from tests.test_mavlink_navigation import MISSION_MODE, ORBIT_MODE, latlon_e7
 from transport.mavlink import mavlink as M
 
@@ -106,7 +106,7 @@ def test_offboard_yaw_turns_the_hover_to_it_and_a_yaw_rate_turns_at_that_rate(tm
         mav = gs.conn.mav
 
         def heading(yaw: float):
-            return lambda: mav.set_position_target_local_ned_send(gs.time_boot_ms, 1, 1, M.MAV_FRAME_LOCAL_NED,
+            return lambda: mav.set_position_target_local_ned_send(gs.time_boot_ms, gs.vehicle, 1, M.MAV_FRAME_LOCAL_NED,
                                                                   VELOCITY_YAW, 0, 0, 0, 0, 0, 0, 0, 0, 0, yaw, 0)
 
         offboard(gs, heading(math.radians(90.0)))
@@ -116,7 +116,7 @@ def test_offboard_yaw_turns_the_hover_to_it_and_a_yaw_rate_turns_at_that_rate(tm
         south_west = yaw_deg(gs)
 
         def spin():
-            mav.set_position_target_local_ned_send(gs.time_boot_ms, 1, 1, M.MAV_FRAME_BODY_NED, VELOCITY_YAW_RATE,
+            mav.set_position_target_local_ned_send(gs.time_boot_ms, gs.vehicle, 1, M.MAV_FRAME_BODY_NED, VELOCITY_YAW_RATE,
                                                    0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0.5)  # fmt: skip
 
         gs.wait_sim(1.0, every=spin)  # spinning up
@@ -134,12 +134,12 @@ def test_a_yaw_in_forward_flight_is_not_honoured_and_bad_yaws_are_refused(mpc_gs
     mav = gs.conn.mav
 
     def fast_north():  # 14 m/s north, asking the nose to point east
-        mav.set_position_target_local_ned_send(gs.time_boot_ms, 1, 1, M.MAV_FRAME_LOCAL_NED, VELOCITY_YAW, 0, 0,
+        mav.set_position_target_local_ned_send(gs.time_boot_ms, gs.vehicle, 1, M.MAV_FRAME_LOCAL_NED, VELOCITY_YAW, 0, 0,
                                                0, 14.0, 0, 0, 0, 0, 0, math.radians(90.0), 0)  # fmt: skip
 
     texts = len(gs.statustexts)
     for yaw, rate in ((math.inf, 0.0), (0.0, -math.inf), (math.nan, 10.0)):  # dropped, dropped, clamped to pi rad/s
-        mav.set_position_target_local_ned_send(gs.time_boot_ms, 1, 1, M.MAV_FRAME_LOCAL_NED, 0b000111000111, 0, 0, 0,
+        mav.set_position_target_local_ned_send(gs.time_boot_ms, gs.vehicle, 1, M.MAV_FRAME_LOCAL_NED, 0b000111000111, 0, 0, 0,
                                                0, 0, 0, 0, 0, 0, yaw, rate)  # fmt: skip
     for why in ("yaw or yaw rate infinite", "|yaw rate| <= 180 deg/s"):
         gs.wait(lambda: any(why in text for text in gs.statustexts[texts:]), f"the answer: {why}")
@@ -153,7 +153,7 @@ def test_a_hover_waypoint_with_a_yaw_arrives_with_that_heading_and_holds_it(mpc_
     north, east = latlon_e7(15.0, 5.0)
     rows = [(M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, M.MAV_CMD_NAV_WAYPOINT, 0, 2.0, 0, -120.0, north, east, ALTITUDE)]
     gs = mpc_gs
-    assert Client(gs).upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
+    assert MissionClient(gs).upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
     assert gs.set_mode(MISSION_MODE).result == M.MAV_RESULT_ACCEPTED
     gs.wait(lambda: "MISSION_ITEM_REACHED" in gs.latest, "the waypoint reached", 120)
     reached = yaw_deg(gs)
@@ -170,7 +170,7 @@ def test_with_a_yaw_timeout_a_waypoint_is_reached_on_its_position_and_then_turns
     set_param(gs, "MIS_YAW_TMT", 5.0)
     north, east = latlon_e7(0.0, 3.0)
     rows = [(M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, M.MAV_CMD_NAV_WAYPOINT, 0, 2.0, 0, 180.0, north, east, ALTITUDE)]
-    assert Client(gs).upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
+    assert MissionClient(gs).upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
     start = gs.sim_time
     assert gs.set_mode(MISSION_MODE).result == M.MAV_RESULT_ACCEPTED
     gs.wait(lambda: "MISSION_ITEM_REACHED" in gs.latest, "the waypoint reached", 120)
@@ -335,7 +335,7 @@ def test_a_region_of_interest_turns_the_nose_on_a_missions_legs_and_payload_item
         (mission, M.MAV_CMD_IMAGE_STOP_CAPTURE, 0, math.nan, math.nan, math.nan, 0, 0, 0.0),
         (M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, M.MAV_CMD_NAV_LOITER_TO_ALT, 0, 25.0, 0, 0, north, east, ALTITUDE + 8),
     ]  # fmt: skip
-    client = Client(gs)
+    client = MissionClient(gs)
     assert client.upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
     assert as_text(rows_of(client.download(M.MAV_MISSION_TYPE_MISSION))) == as_text(rows)
     fly_mission(gs)

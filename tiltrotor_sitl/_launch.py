@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
-from autopilot.parameters import ParameterRejected, ParameterStore
+from autopilot.parameters import ParameterFileError, ParameterRejected, ParameterStore, vehicle_system_id
 from ground_tools.free_ports import bind_error, free_udp_port, protocol
 from ground_tools.processes import (AutopilotCommand, LinkPorts, SimCommand, VehiclePorts, Zenoh,
                                     deterministic_argv, fleet_home)  # fmt: skip
@@ -118,12 +118,18 @@ class Options:
         return self.plant_port is None
 
     def first_sysid(self) -> int:
-        """The first vehicle's system id: sysid, else MAV_SYS_ID in params, else the instance's (I + 1), else 1."""
+        """The first vehicle's system id: sysid, else MAV_SYS_ID as params or an existing params_file set it,
+        else the instance's (I + 1), else 1 (free ports)."""
         if self.sysid is not None:
             return self.sysid
-        if "MAV_SYS_ID" in self.params:
-            return int(self.params["MAV_SYS_ID"])
-        return Ports(self.instance).system_id if self.instance is not None else 1
+        store = ParameterStore(self.params_file)
+        try:
+            store.load()
+        except ParameterFileError as exc:
+            raise ValueError(f"params_file: {exc}") from None
+        for name, value in self.params.items():
+            store.set(name, float(value))
+        return vehicle_system_id(store, self.instance or 0)
 
 
 @dataclass

@@ -56,6 +56,7 @@ class PlantLinkClient:
         self.sensors = sensors
         self.received_other: list[Any] = []
         self.confirmed = 0  # handshake challenges answered (docs/plant-link.md#the-handshake)
+        self.plant_ids: tuple[int, int] | None = None  # (system, component) of the plant that challenged us last
         self.foreign = 0  # datagrams from anyone but the plant's address, ignored
         self._nonce = new_client_nonce()
         self._spin_s = SPIN_WINDOW_S
@@ -80,6 +81,7 @@ class PlantLinkClient:
             return False
         self.send(confirm_message(self.link.mav, message))
         self.confirmed += 1
+        self.plant_ids = (message.get_srcSystem(), message.get_srcComponent())
         return True
 
     def receive_step(self, timeout_s: float = 2.0) -> PlantSample | None:
@@ -125,8 +127,15 @@ class PlantLinkClient:
         """SERVO_OUTPUT_RAW for step time_usec with 12 channels (port 0)."""
         self.send_raw(self.link.pack_fields(SERVO_OUTPUT_RAW, time_usec % USEC_WRAP, 0, *pwm))
 
-    def send_command_long(
-        self, command: int, params: tuple[float, ...], target_system: int = 1, target_component: int = 200
-    ) -> None:
+    def send_command_long(self, command: int, params: tuple[float, ...], target: tuple[int, int]) -> None:
+        """COMMAND_LONG to `target` (system, component)."""
         p = list(params) + [0.0] * (7 - len(params))
-        self.send(self.link.mav.command_long_encode(target_system, target_component, command, 0, *p))
+        self.send(self.link.mav.command_long_encode(target[0], target[1], command, 0, *p))
+
+    def command_plant(self, command: int, params: tuple[float, ...]) -> bool:
+        """COMMAND_LONG to the plant this client shook hands with, addressed by the ids it challenged us with;
+        False (nothing sent) before any handshake."""
+        if self.plant_ids is None:
+            return False
+        self.send_command_long(command, params, self.plant_ids)
+        return True
