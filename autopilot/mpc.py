@@ -16,7 +16,7 @@ import enum
 import math
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import casadi as ca
 import numpy as np
@@ -74,12 +74,6 @@ class MpcSolution:
     x: np.ndarray  # (N+1, NX) predicted states
     u: np.ndarray  # (N, NU) planned inputs
     cost: float = math.nan
-
-
-@dataclass
-class MpcStatistics:
-    solve_times_s: list[float] = field(default_factory=list)
-    failed: int = 0
 
 
 @dataclass(frozen=True)

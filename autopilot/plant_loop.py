@@ -24,7 +24,7 @@ from __future__ import annotations
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -63,7 +63,7 @@ class LoopCounters:
     status_snapshots: int = 0
     busy_s: float = 0.0
     wall_s: float = 0.0
-    notices: list[str] = field(default_factory=list)
+    notices: int = 0
 
 
 @dataclass
@@ -128,7 +128,7 @@ class PlantLoop:
 
     def note(self, text: str) -> None:
         """A line for the terminal only (plant-link matters a ground station cannot act on)."""
-        self.counters.notices.append(text)
+        self.counters.notices += 1
         print(f"vtol-autopilot: {text}", file=sys.stderr, flush=True)
 
     # ---- the plant link ---------------------------------------------------------------------------------------

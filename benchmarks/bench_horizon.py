@@ -53,8 +53,10 @@ def velocity_ticks(
 
 def fly(horizon: MpcHorizon, profile: Callable[[float], np.ndarray], seconds: float,
         braking_s: tuple[float, float] = BRAKING_S) -> dict:
-    rows = []
+    rows, solve_ms = [], []
     for state, controller, v_sp in velocity_ticks(horizon, profile, seconds):
+        if controller.mpc is not None and controller.mpc.solve_times.count > len(solve_ms):
+            solve_ms.append(controller.mpc.solve_times.last_s * 1e3)
         rows.append((state.time_s, *state.velocity_ned, *v_sp, *np.degrees(state.euler),
                      np.degrees(controller.velocity_command.euler_sp[1])))  # fmt: skip
     t, vx, vy, vz, sx, sy, sz, roll, pitch, yaw, pitch_sp = np.array(rows).T
@@ -72,7 +74,7 @@ def fly(horizon: MpcHorizon, profile: Callable[[float], np.ndarray], seconds: fl
         "braking_pitch_sp_step_max": float(np.abs(np.diff(pitch_sp))[braking[1:]].max()) if braking.any() else 0.0,
         "failed": mpc.solves_failed if mpc else -1,
         "fell_back": controller.fell_back_to_pid,
-        "ms": [s * 1e3 for s in mpc.solve_times_s] if mpc else [],
+        "ms": solve_ms,
     }
 
 

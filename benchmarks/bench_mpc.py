@@ -70,23 +70,26 @@ class Record:
 
 
 def closed_loop(seconds: float, horizon: MpcHorizon = PAPER):
-    """Fly the acceleration profile; returns the controller and the MPC's (x0, parameters) of every solve."""
+    """Fly the acceleration profile; returns the controller, the MPC's (x0, parameters) of every solve and every
+    solve's time (ms)."""
     airframe = load_airframe()
     plant = Plant(airframe, Spawn(altitude=100.0))
     controller = build_flight_controller(airframe, MPC, mpc_horizon=horizon)
     state = VehicleState()
     records: list[Record] = []
+    times_ms: list[float] = []
     for _ in range(int(seconds * 400)):
         vehicle_state(plant, state)
         if controller.velocity_due(state.time_usec):
             controller.set_velocity_setpoint(accel(state.time_s))
         controller.step(state)
         mpc = controller.mpc
-        if len(mpc.solve_times_s) > len(records):
+        if mpc.solve_times.count > len(records):
             records.append(Record(mpc.last_x0.copy(), mpc.params.copy()))
+            times_ms.append(mpc.solve_times.last_s * 1e3)
         plant.set_command(controller.command)
         plant.step()
-    return controller, records
+    return controller, records, times_ms
 
 
 def replay(solver: RtiSolver, records: list[Record]) -> dict:
@@ -145,9 +148,8 @@ def main() -> None:
     parser.add_argument("--scaling-seconds", type=float, default=4.0)
     parser.add_argument("--levers", action="store_true", help="replay the run through each solver variant")
     args = parser.parse_args()
-    controller, records = closed_loop(args.seconds)
+    controller, records, times_ms = closed_loop(args.seconds)
     mpc = controller.mpc
-    times_ms = [t * 1e3 for t in mpc.solve_times_s]
     median = statistics.median(times_ms)
     print(f"acceleration profile, {args.seconds:g} s closed loop, N = 25, dt = 0.01 s: {len(times_ms)} solves, "
           f"{mpc.solves_failed} failed, fell back to PID: {controller.fell_back_to_pid}, back-end "
@@ -171,8 +173,7 @@ def main() -> None:
         again = statistics.median(rebuilt)
         print(f"IPOPT, NLP rebuilt every call (the paper)    median {again:7.1f} ms over {len(rebuilt)} states; "
               f"ratio {again / median:5.0f}x")  # fmt: skip
-    long_controller, _ = closed_loop(args.seconds, LONG)
-    long_ms = [t * 1e3 for t in long_controller.mpc.solve_times_s]
+    long_controller, _, long_ms = closed_loop(args.seconds, LONG)
     grid = LONG.grid
     print(f"RTI, the long horizon ({grid.stages} stages, {grid.span_s:g} s, {LONG.gauss_newton_steps} QPs per tick) "
           f"{spread(long_ms)}   {long_controller.mpc.solves_failed} failed; ratio of medians "
@@ -182,8 +183,7 @@ def main() -> None:
     if args.horizons:
         print("horizon scaling (closed loop, first seconds of the profile):")
     for horizon in (int(h) for h in args.horizons.split(",") if h):
-        scaled, _ = closed_loop(args.scaling_seconds, MpcHorizon(f"N = {horizon}", StageGrid.uniform(horizon)))
-        values = [t * 1e3 for t in scaled.mpc.solve_times_s]
+        scaled, _, values = closed_loop(args.scaling_seconds, MpcHorizon(f"N = {horizon}", StageGrid.uniform(horizon)))
         print(f"  N = {horizon:3d}: {spread(values)}, {scaled.mpc.solves_failed} failed")
 
 
