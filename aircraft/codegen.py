@@ -1,5 +1,5 @@
 """Compile C once and cache the shared library: CasADi functions (the plant's RK4 step, the allocator's model)
-and generated C built together with hand-written C (the MPC's QP driver, autopilot/mpc_rti.c).
+and generated C built together with hand-written C (the MPC's QP driver, autopilot/mpc/rti.c).
 
 The plant's step costs 15 us in CasADi's virtual machine and 2 us compiled (docs/performance.md). The
 library is keyed by a hash of its sources and flags, so a different airframe or model gives a different file;

@@ -12,13 +12,13 @@ import numpy as np
 
 from aircraft.actuators import ALLOCATED_COUNT, ALLOCATED_ROTORS
 from aircraft.airframe import Airframe
-from autopilot.actuator_health import ServoEstimate
-from autopilot.allocation import ControlAllocator
-from autopilot.flight_controller import MPC, PID, VELOCITY_PERIOD_USEC, ControllerKind, FlightController
-from autopilot.mpc_controller import DEFAULT_HORIZON, MpcVelocityController
-from autopilot.mpc_horizon import HORIZONS, LONG, PAPER, MpcHorizon
-from autopilot.mpc_overlap import OverlappedMpc
-from autopilot.pid_baseline import PidVelocityController, TransitionAirspeeds
+from autopilot.control.actuator_health import ServoEstimate
+from autopilot.control.allocation import ControlAllocator
+from autopilot.control.flight_controller import MPC, PID, VELOCITY_PERIOD_USEC, ControllerKind, FlightController
+from autopilot.mpc.controller import DEFAULT_HORIZON, MpcVelocityController
+from autopilot.mpc.horizon import HORIZONS, LONG, PAPER, MpcHorizon
+from autopilot.mpc.overlap import OverlappedMpc
+from autopilot.control.pid_baseline import PidVelocityController, TransitionAirspeeds
 
 KINDS: tuple[ControllerKind, ...] = (MPC, PID)
 VT_CTRL_MPC = 1  # VT_CTRL: 0 the PID baseline, 1 the MPC
@@ -54,8 +54,8 @@ def build_flight_controller(
     mpc_overlap: bool = False,
 ) -> FlightController:
     """A fresh flight controller of `kind` ("mpc" or "pid"); transition_airspeeds: VT_ARSP_BLEND / VT_ARSP_TRANS
-    for the PID (None: PidParameters' defaults); mpc_horizon: the MPC's horizon (autopilot/mpc_horizon.py);
-    mpc_overlap: solve one tick ahead on the solver's worker thread (autopilot/mpc_overlap.py, VT_MPC_OVERLAP)
+    for the PID (None: PidParameters' defaults); mpc_horizon: the MPC's horizon (autopilot/mpc/horizon.py);
+    mpc_overlap: solve one tick ahead on the solver's worker thread (autopilot/mpc/overlap.py, VT_MPC_OVERLAP)
     instead of the paper's synchronous solve. Raises ValueError for another kind."""
     if kind not in KINDS:
         raise ValueError(f"controller must be one of {', '.join(KINDS)}, got {kind!r}")

@@ -32,17 +32,17 @@ import numpy as np
 from aircraft.actuators import ROTORS, ROTOR_COUNT, TILTS, command_to_pwm
 from aircraft.airframe import Airframe
 from aircraft.failures import Failure
-from autopilot.commander import Commander
-from autopilot.control_telemetry import ControlTelemetry
-from autopilot.failure_injection import FailureInjection
-from autopilot.flight_controller import FlightController
-from autopilot.flight_logger import FlightLogger
-from autopilot.home_position import HomePosition
+from autopilot.commander.commander import Commander
+from autopilot.logger.control_telemetry import ControlTelemetry
+from autopilot.commander.failure_injection import FailureInjection
+from autopilot.control.flight_controller import FlightController
+from autopilot.logger.flight_log import FlightLogger
+from autopilot.topics.home_position import HomePosition
 from autopilot.mavlink.services import MavlinkServices
-from autopilot.mission_store import Missions, MissionStore
-from autopilot.parameters import ParameterStore
-from autopilot.vehicle_state import VehicleState, update_from_hil_state
-from autopilot.vehicle_status import EventOutbox, GlobalPosition, VehicleStatus, copy_state, vtol_state
+from autopilot.storage.mission_store import Missions, MissionStore
+from autopilot.storage.parameters import ParameterStore
+from autopilot.topics.vehicle_state import VehicleState, update_from_hil_state
+from autopilot.topics.vehicle_status import EventOutbox, GlobalPosition, VehicleStatus, copy_state, vtol_state
 from transport.geodesy import Home, LocalGeodetic
 from transport.mavlink import mavlink
 from transport.plant_link import PlantLinkClient, PlantSample

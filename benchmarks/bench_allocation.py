@@ -24,7 +24,7 @@ import proxsuite
 
 from aircraft.airframe import Airframe, load_airframe
 from aircraft.wrench import actuator_wrench
-from autopilot.allocation import ControlAllocator
+from autopilot.control.allocation import ControlAllocator
 
 RATE_HZ = 250.0
 

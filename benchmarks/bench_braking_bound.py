@@ -26,9 +26,9 @@ import casadi as ca
 import numpy as np
 
 from aircraft.airframe import load_airframe
-from autopilot.attitude import DEFAULT_GAINS
-from autopilot.mpc_horizon import HORIZONS
-from autopilot.mpc_model import CHI, CHI_DOT, NU, NX, PSI, PSI_D, THRUST, MpcLimits, discrete_dynamics
+from autopilot.control.attitude import DEFAULT_GAINS
+from autopilot.mpc.horizon import HORIZONS
+from autopilot.mpc.model import CHI, CHI_DOT, NU, NX, PSI, PSI_D, THRUST, MpcLimits, discrete_dynamics
 from bench_horizon import BRAKING_S, velocity_ticks
 from scenarios.profiles import PROFILES, accel_decel_braking_at
 

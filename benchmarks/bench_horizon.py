@@ -19,9 +19,9 @@ import numpy as np
 
 from aircraft.airframe import load_airframe
 from autopilot.controllers import MPC, build_flight_controller
-from autopilot.flight_controller import FlightController
-from autopilot.mpc_horizon import HORIZONS, LONG, MpcHorizon, StageGrid
-from autopilot.vehicle_state import VehicleState
+from autopilot.control.flight_controller import FlightController
+from autopilot.mpc.horizon import HORIZONS, LONG, MpcHorizon, StageGrid
+from autopilot.topics.vehicle_state import VehicleState
 from ground_tools.metrics import heading_error_max_deg
 from bench_mpc import spread, vehicle_state
 from scenarios.profiles import DECEL_CRUISE, DECEL_START_S, PROFILES, accel_decel_braking_at

@@ -16,7 +16,7 @@ import statistics
 import tempfile
 from pathlib import Path
 
-from autopilot.parameters import ParameterStore
+from autopilot.storage.parameters import ParameterStore
 from ground_tools.lockstep_flight import fly_lockstep
 from scenarios.profiles import PROFILES
 

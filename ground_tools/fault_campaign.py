@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from autopilot.mission_store import MissionStore
-from autopilot.parameters import ParameterStore
+from autopilot.storage.mission_store import MissionStore
+from autopilot.storage.parameters import ParameterStore
 from ground_tools.fault_proxy import FaultProxy, Faults
 from ground_tools.free_ports import free_udp_port
 from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, die_with_parent, free_link_ports

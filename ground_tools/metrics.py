@@ -52,7 +52,7 @@ def heading_error_max_deg(yaw: np.ndarray, vn_sp: np.ndarray, ve_sp: np.ndarray)
     if not np.any(moving):
         return None
     difference = yaw[moving] - np.arctan2(ve_sp[moving], vn_sp[moving])
-    error = np.arctan2(np.sin(difference), np.cos(difference))  # wrapped, as autopilot.attitude.wrap
+    error = np.arctan2(np.sin(difference), np.cos(difference))  # wrapped, as autopilot.control.attitude.wrap
     return float(np.degrees(np.abs(error)).max())
 
 

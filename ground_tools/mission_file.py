@@ -1,6 +1,6 @@
 """Mission files as users have them (docs/mavlink.md, "Mission"): QGroundControl's .plan (JSON, its SimpleItems)
 and the QGC WPL 110 text format (.waypoints, as QGroundControl, Mission Planner and MAVProxy write it), read into
-the items a MISSION_ITEM_INT upload sends (autopilot/mission_items.py's MissionItem). Pure functions; a file that cannot be flown is a MissionFileError.
+the items a MISSION_ITEM_INT upload sends (autopilot/topics/mission_items.py's MissionItem). Pure functions; a file that cannot be flown is a MissionFileError.
 """
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import json
 import math
 from pathlib import Path
 
-from autopilot.mission_items import FLOAT_FRAME_OF, GLOBAL_FRAMES, MissionItem
+from autopilot.topics.mission_items import FLOAT_FRAME_OF, GLOBAL_FRAMES, MissionItem
 
 # MISSION_ITEM_INT carries latitude and longitude as integers (deg * 1e7): the float frames map to their _INT twins.
 INT_FRAME_OF = {float_frame: int_frame for int_frame, float_frame in FLOAT_FRAME_OF.items()}

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 from pymavlink import mavutil
 
-from autopilot.mission_items import MissionItem
+from autopilot.topics.mission_items import MissionItem
 from ground_tools.processes import Controller
 from tiltrotor_sitl import Vehicle
 from transport import flight_log

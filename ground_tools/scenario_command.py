@@ -14,7 +14,7 @@ import sys
 import time
 from pathlib import Path
 
-from autopilot.mpc_horizon import HORIZONS
+from autopilot.mpc.horizon import HORIZONS
 from ground_tools.processes import Controller
 from ground_tools.scenario_flights import FlightQueue
 from ground_tools.scenario_run import RunResult

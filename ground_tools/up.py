@@ -20,7 +20,7 @@ import sys
 import time
 from pathlib import Path
 
-from autopilot.parameters import ParameterFileError, ParameterStore, default_parameter_path, vehicle_system_id
+from autopilot.storage.parameters import ParameterFileError, ParameterStore, default_parameter_path, vehicle_system_id
 from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, die_with_parent, fleet_home
 from transport.cli import fail, stop_on_signals
 from transport.ports import LOOPBACK, Ports

@@ -11,20 +11,20 @@ import pymap3d
 import pytest
 
 from aircraft.failures import Failure, FailureRejected, FailureType, FailureUnit
-from autopilot.commander import HOLD, LAND, OFFBOARD, RETURN, Commander
-from autopilot.failsafe import Decision
-from autopilot.failsafe_reaction import Reaction, reaction
-from autopilot.geofence import breach, fence_from_items, inside_polygon
-from autopilot.guided_requests import GuidedRequests
-from autopilot.manual_modes import ALTITUDE, POSITION
-from autopilot.mission_feasibility import geofence_violation
-from autopilot.mission_items import MissionItem
-from autopilot.mission_store import MissionStore
-from autopilot.parameters import ParameterRejected, ParameterStore
-from autopilot.requests import ManualControlInput, Reposition
-from autopilot.return_route import (MissionLanding, closest_safe_point, mission_landing, return_destination,
+from autopilot.commander.commander import HOLD, LAND, OFFBOARD, RETURN, Commander
+from autopilot.commander.failsafe import Decision
+from autopilot.commander.failsafe_reaction import Reaction, reaction
+from autopilot.navigator.geofence import breach, fence_from_items, inside_polygon
+from autopilot.commander.guided_requests import GuidedRequests
+from autopilot.navigator.manual_modes import ALTITUDE, POSITION
+from autopilot.navigator.mission_feasibility import geofence_violation
+from autopilot.topics.mission_items import MissionItem
+from autopilot.storage.mission_store import MissionStore
+from autopilot.storage.parameters import ParameterRejected, ParameterStore
+from autopilot.topics.requests import ManualControlInput, Reposition
+from autopilot.navigator.return_route import (MissionLanding, closest_safe_point, mission_landing, return_destination,
                                     return_height)  # fmt: skip
-from autopilot.vehicle_state import VehicleState
+from autopilot.topics.vehicle_state import VehicleState
 from transport.geodesy import Home
 from transport.mavlink import mavlink as M
 

@@ -12,7 +12,7 @@ import math
 import pymap3d
 import pytest
 
-from autopilot.parameters import BY_NAME, encode_value
+from autopilot.storage.parameters import BY_NAME, encode_value
 from tests.ground_station import HOLD, OFFBOARD, MissionClient, said
 from tests.test_mavlink_failsafes import hovering, set_param
 from tests.test_mavlink_navigation import HOME as ORIGIN  # PX4 SITL's default: every vehicle's local origin here

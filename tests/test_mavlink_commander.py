@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from autopilot.commander import (
+from autopilot.commander.commander import (
     ACCEPTED,
     DENIED,
     HOLD,
@@ -18,10 +18,10 @@ from autopilot.commander import (
     TEMPORARILY_REJECTED,
     Commander,
 )
-from autopilot.guided_requests import GuidedRequests
+from autopilot.commander.guided_requests import GuidedRequests
 from autopilot.mavlink.px4_modes import custom_mode, mode_from_px4
-from autopilot.parameters import ParameterStore
-from autopilot.vehicle_state import VehicleState
+from autopilot.storage.parameters import ParameterStore
+from autopilot.topics.vehicle_state import VehicleState
 from transport.mavlink import mavlink as M
 
 HOVER = 0.69

@@ -8,7 +8,7 @@ import math
 from collections.abc import Iterator
 from contextlib import contextmanager
 
-from autopilot.parameters import BY_NAME, encode_value
+from autopilot.storage.parameters import BY_NAME, encode_value
 from tests.ground_station import HOLD, LAND, OFFBOARD, MissionClient, said
 from tests.mavlink_sitl import start_sitl
 from tests.test_mavlink_navigation import RETURN_MODE, latlon_e7

@@ -10,8 +10,8 @@ import numpy as np
 import pymap3d
 import pytest
 
-from autopilot.guidance import circle_velocity, leg_cruise_speed, leg_velocity
-from autopilot.mission_flight import takeoff_down
+from autopilot.navigator.guidance import circle_velocity, leg_cruise_speed, leg_velocity
+from autopilot.navigator.mission_flight import takeoff_down
 from tests.ground_station import HOLD, MissionClient
 from tests.mavlink_sitl import start_sitl
 from transport.geodesy import Home

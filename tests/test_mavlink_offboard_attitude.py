@@ -9,8 +9,8 @@ import math
 from aircraft.airframe import load_airframe
 from aircraft.frames import quaternion_from_euler
 from autopilot.mavlink.offboard_attitude import attitude_request
-from autopilot.offboard_setpoint import attitude_in_limits
-from autopilot.requests import OffboardAttitude
+from autopilot.navigator.offboard_setpoint import attitude_in_limits
+from autopilot.topics.requests import OffboardAttitude
 from tests.ground_station import HOLD, OFFBOARD
 from tests.mavlink_sitl import start_sitl
 from tests.test_mavlink_failsafes import set_param

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 
-from autopilot.output_tests import MAX_TEST_USEC, OutputTests, duration_usec, motor_pwm, servo_pwm
+from autopilot.commander.output_tests import MAX_TEST_USEC, OutputTests, duration_usec, motor_pwm, servo_pwm
 from tests.mavlink_sitl import start_sitl
 from tests.test_mavlink_failsafes import set_param
 from transport.mavlink import mavlink as M

@@ -14,7 +14,7 @@ import time
 
 import pytest
 
-from autopilot.parameters import (
+from autopilot.storage.parameters import (
     BY_NAME,
     DEFINITIONS,
     MAV_PARAM_TYPE_INT32,
@@ -110,7 +110,7 @@ def test_the_autopilot_refuses_a_broken_parameter_file_with_one_line_and_exit_2(
 WRITER = """
 import sys
 from pathlib import Path
-from autopilot.kept_file import write_atomically
+from autopilot.storage.kept_file import write_atomically
 path = Path(sys.argv[1])
 documents = [('{"n": %d, "pad": "' % i) + "x" * 200_000 + '"}' for i in range(2)]
 print("ready", flush=True)

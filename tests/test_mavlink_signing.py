@@ -37,7 +37,7 @@ def test_a_keyed_client_flies_an_unkeyed_one_is_refused_and_the_key_survives_a_r
         setup_signing(keyed, KEY, timestamp_at(time.time()))  # no key yet: taken unsigned
         said(keyed, "signing: key set")
         keyed.conn.setup_signing(KEY, sign_outgoing=True)
-        # The parameter file is written on the autopilot's writer thread, after the answer (autopilot/kept_file.py).
+        # The parameter file is written on the autopilot's writer thread, after the answer (autopilot/storage/kept_file.py).
         keyed.wait(lambda: saved_key(params_path) == KEY.hex(), "the key in the parameter file")
 
         unkeyed.connect()  # telemetry reaches unsigned clients

@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from autopilot.mpc import RtiSolver
-from autopilot.mpc_horizon import LONG
-from autopilot.mpc_model import CHI, NP, NX, P_FREE_TILT, P_PSI_D_REF, P_PSI_REF, SoftTiltCost
-from autopilot.mpc_reference import solve_reference_nlp
+from autopilot.mpc.rti import RtiSolver
+from autopilot.mpc.horizon import LONG
+from autopilot.mpc.model import CHI, NP, NX, P_FREE_TILT, P_PSI_D_REF, P_PSI_REF, SoftTiltCost
+from autopilot.mpc.reference import solve_reference_nlp
 
 # Paper Table 3, (mean tilt deg, forward speed m/s) -> J_soft. Two cells disagree with every constant set,
 # including the paper's own (its table is inconsistent, docs/mpc.md 1.6): (45, 15) and (90, 10); left out.
@@ -102,11 +102,11 @@ def test_a_stuck_motor_and_a_slow_servo_enter_the_plan_too(solver):
 
 # ---- the set-point trajectory, the coordinated-turn roll, continuous yaw, stuck servos (docs/mpc.md 2.5-2.7) ----
 
-from autopilot.actuator_health import ServoEstimate  # noqa: E402
-from autopilot.allocation import ControlAllocator  # noqa: E402
-from autopilot.mpc_controller import MpcVelocityController, SetpointTrajectory, coordinated_roll  # noqa: E402
-from autopilot.mpc_model import PSI_INDEX  # noqa: E402
-from autopilot.vehicle_state import VehicleState  # noqa: E402
+from autopilot.control.actuator_health import ServoEstimate  # noqa: E402
+from autopilot.control.allocation import ControlAllocator  # noqa: E402
+from autopilot.mpc.controller import MpcVelocityController, SetpointTrajectory, coordinated_roll  # noqa: E402
+from autopilot.mpc.model import PSI_INDEX  # noqa: E402
+from autopilot.topics.vehicle_state import VehicleState  # noqa: E402
 
 
 def ramp_rates(rate_hz: float, accel: float, seconds: float = 0.5) -> list[np.ndarray]:
@@ -274,7 +274,7 @@ def test_a_servo_stuck_near_its_estimate_leaves_the_qp_feasible(solver):
 
 # ---- the soft roll and pitch bound (docs/mpc.md 2.8) ----
 
-from autopilot.mpc_model import MpcLimits, MpcWeights, attitude_bound_residual, yaw_bound_residual  # noqa: E402
+from autopilot.mpc.model import MpcLimits, MpcWeights, attitude_bound_residual, yaw_bound_residual  # noqa: E402
 
 
 def test_soft_attitude_bound_is_zero_inside_and_quadratic_beyond():

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from aircraft.airframe import load_airframe
-from autopilot.velocity_estimate import VelocityEstimate
-from autopilot.vehicle_state import VehicleState
+from autopilot.control.velocity_estimate import VelocityEstimate
+from autopilot.topics.vehicle_state import VehicleState
 from ground_tools.scenario_run import run_scenario
 from scenarios.variants import build_scenario
 from tests.sitl import fly

@@ -1,4 +1,4 @@
-"""The MPC solving one tick ahead on its solver's worker thread (autopilot/mpc_overlap.py, VT_MPC_OVERLAP): the
+"""The MPC solving one tick ahead on its solver's worker thread (autopilot/mpc/overlap.py, VT_MPC_OVERLAP): the
 maths of the prediction, the C back-end's steps on the worker thread equal to the same steps taken here, a failure
 reaching the next solve, and lockstep flights through the real processes that repeat bit for bit."""
 
@@ -12,12 +12,12 @@ import pytest
 from aircraft.actuators import ALLOCATED_ROTORS
 from aircraft.failures import FailureType, FailureUnit, parse_failure
 from autopilot.controllers import build_flight_controller
-from autopilot.flight_controller import MPC, VELOCITY_PERIOD_USEC
-from autopilot.mpc_controller import euler_rates
-from autopilot.mpc_horizon import HORIZONS
-from autopilot.mpc_model import P_SOLVER, THRUST
-from autopilot.mpc_overlap import OverlappedMpc, body_rates
-from autopilot.vehicle_state import VehicleState
+from autopilot.control.flight_controller import MPC, VELOCITY_PERIOD_USEC
+from autopilot.mpc.controller import euler_rates
+from autopilot.mpc.horizon import HORIZONS
+from autopilot.mpc.model import P_SOLVER, THRUST
+from autopilot.mpc.overlap import OverlappedMpc, body_rates
+from autopilot.topics.vehicle_state import VehicleState
 from tiltrotor_sitl import Vehicle
 from transport.flight_log import VN, VN_SP, read_flight_log
 

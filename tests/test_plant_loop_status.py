@@ -11,14 +11,14 @@ import pytest
 
 from aircraft.airframe import load_airframe
 from aircraft.failures import FailureType, FailureUnit, parse_failure
-from autopilot.commander import Commander
+from autopilot.commander.commander import Commander
 from autopilot.controllers import build_flight_controller
-from autopilot.failure_injection import FailureInjection
-from autopilot.flight_controller import PID
-from autopilot.mission_store import MissionStore
-from autopilot.parameters import ParameterStore
+from autopilot.commander.failure_injection import FailureInjection
+from autopilot.control.flight_controller import PID
+from autopilot.storage.mission_store import MissionStore
+from autopilot.storage.parameters import ParameterStore
 from autopilot.plant_loop import STATUS_MAX_AGE_USEC, PlantLoop
-from autopilot.vehicle_status import EventOutbox
+from autopilot.topics.vehicle_status import EventOutbox
 from transport.geodesy import Home
 from transport.mavlink import mavlink
 from transport.plant_link import PlantLinkClient, PlantSample

@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from autopilot.stamped_setpoints import StampedSetpoints
-from autopilot.yaw_setpoint import YawSetpoint
+from autopilot.navigator.stamped_setpoints import StampedSetpoints
+from autopilot.topics.yaw_setpoint import YawSetpoint
 from ground_tools.lockstep_client import PERIOD_MS, START_MS, grid_stamp, setpoint_for, tilt_commands_deg, yaw_turns
 from ground_tools.free_ports import bindable
 from ground_tools.processes import AutopilotCommand
@@ -372,7 +372,7 @@ def test_bad_scenario_arguments_get_one_line_and_exit_2(tmp_path) -> None:
 
 
 def test_course_rate_of_the_circle_setpoint_is_its_angular_rate() -> None:
-    from autopilot.velocity_command import course_rate
+    from autopilot.control.velocity_command import course_rate
 
     omega = 26.0 / 250.0
     for angle in (0.0, 1.0, 3.0):  # v = 26 (cos wt, sin wt): dv/dt = omega x v

@@ -8,7 +8,7 @@ import tracemalloc
 import numpy as np
 import pytest
 
-from autopilot.solve_times import SOLVE_TIME_RELATIVE_ACCURACY, SolveTimes
+from autopilot.mpc.solve_times import SOLVE_TIME_RELATIVE_ACCURACY, SolveTimes
 
 
 def test_quantiles_are_within_the_stated_accuracy_and_the_maximum_is_exact():

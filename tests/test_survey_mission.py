@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from autopilot.guidance import leg_cruise_speed, leg_velocity, turn_ramp
+from autopilot.navigator.guidance import leg_cruise_speed, leg_velocity, turn_ramp
 
 from ground_tools.cli import main
 from ground_tools.mission_command import FIGURE_FILES

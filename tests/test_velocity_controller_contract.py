@@ -1,4 +1,4 @@
-"""Every velocity controller keeps the VelocityController contract (autopilot/velocity_controller.py), checked
+"""Every velocity controller keeps the VelocityController contract (autopilot/control/velocity_controller.py), checked
 through the real classes as autopilot.controllers builds them: finite commands for a range of states and
 set-points, attitude and tilt set-points within the controller's limits, a phase name, the same commands for the
 same inputs, the caller's arrays left alone."""
@@ -13,14 +13,14 @@ import pytest
 from aircraft.airframe import Airframe, load_airframe
 from aircraft.frames import quaternion_from_euler
 from autopilot.controllers import KINDS, build_flight_controller
-from autopilot.flight_controller import MPC, VELOCITY_PERIOD_USEC
-from autopilot.mpc_controller import MpcVelocityController
-from autopilot.mpc_overlap import OverlappedMpc
-from autopilot.pid_baseline import PidVelocityController
-from autopilot.vehicle_state import VehicleState
-from autopilot.velocity_command import VelocityCommand
-from autopilot.velocity_controller import VelocityController
-from autopilot.yaw_setpoint import YawReference
+from autopilot.control.flight_controller import MPC, VELOCITY_PERIOD_USEC
+from autopilot.mpc.controller import MpcVelocityController
+from autopilot.mpc.overlap import OverlappedMpc
+from autopilot.control.pid_baseline import PidVelocityController
+from autopilot.topics.vehicle_state import VehicleState
+from autopilot.control.velocity_command import VelocityCommand
+from autopilot.control.velocity_controller import VelocityController
+from autopilot.topics.yaw_setpoint import YawReference
 
 TICKS = 25  # 0.25 s at 100 Hz per case
 MPC_OVERLAPPED = "mpc-overlapped"  # the MPC solving one tick ahead on its worker thread (VT_MPC_OVERLAP = 1)

@@ -10,9 +10,9 @@ import math
 import numpy as np
 import pytest
 
-from autopilot.attitude import wrap
-from autopilot.auto_flight import ORBIT_FRONT_TO_CENTER, ORBIT_INITIAL_HEADING, ORBIT_TANGENT, Circle, orbit_yaw
-from autopilot.yaw_setpoint import YAW_STOPPED, StickYaw, YawSetpoint, YawShaper, multicopter_speed
+from autopilot.control.attitude import wrap
+from autopilot.navigator.auto_flight import ORBIT_FRONT_TO_CENTER, ORBIT_INITIAL_HEADING, ORBIT_TANGENT, Circle, orbit_yaw
+from autopilot.topics.yaw_setpoint import YAW_STOPPED, StickYaw, YawSetpoint, YawShaper, multicopter_speed
 from tests.ground_station import HOLD, OFFBOARD, MissionClient
 from tests.test_mavlink_failsafes import hovering, set_param
 from tests.test_mavlink_manual_control import POSCTL
@@ -384,10 +384,10 @@ def test_a_region_of_interest_turns_the_nose_on_a_missions_legs_and_payload_item
 
 
 def test_a_region_of_interest_leaves_takeoffs_landings_and_their_approach_alone():
-    from autopilot.auto_flight import AutoFlight, Climb, FlyTo, HoldAt, LandAt
-    from autopilot.parameters import ParameterStore
-    from autopilot.region_of_interest import RegionOfInterest
-    from autopilot.vehicle_state import VehicleState
+    from autopilot.navigator.auto_flight import AutoFlight, Climb, FlyTo, HoldAt, LandAt
+    from autopilot.storage.parameters import ParameterStore
+    from autopilot.topics.region_of_interest import RegionOfInterest
+    from autopilot.topics.vehicle_state import VehicleState
 
     state = VehicleState(time_usec=1, valid=True)
     state.position_ned[:] = (0.0, 0.0, -20.0)

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 from aircraft.airframe import load_airframe
-from autopilot.control_telemetry import BATCH_SAMPLES, ControlTelemetry
+from autopilot.logger.control_telemetry import BATCH_SAMPLES, ControlTelemetry
 from autopilot.controllers import build_flight_controller
 from ground_tools import cli
 from ground_tools.free_ports import free_zenoh_endpoint

@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
-from autopilot.parameters import ParameterFileError, ParameterRejected, ParameterStore, vehicle_system_id
+from autopilot.storage.parameters import ParameterFileError, ParameterRejected, ParameterStore, vehicle_system_id
 from ground_tools.free_ports import bind_error, free_udp_port, protocol
 from ground_tools.processes import (AutopilotCommand, LinkPorts, SimCommand, VehiclePorts, Zenoh,
                                     deterministic_argv, fleet_home)  # fmt: skip

@@ -9,7 +9,7 @@ from typing import Any
 
 from autopilot.mavlink.router import GroundLink
 from autopilot.mavlink.statustext import Announcer
-from autopilot.requests import ManualControlInput, RequestHandler
+from autopilot.topics.requests import ManualControlInput, RequestHandler
 from transport.mavlink import mavlink as M
 
 INVALID_AXIS = 32767  # INT16_MAX

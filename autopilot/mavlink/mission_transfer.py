@@ -16,7 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from autopilot.mission_items import MissionItem, from_float_coordinates
+from autopilot.topics.mission_items import MissionItem, from_float_coordinates
 from transport.mavlink import mavlink as M
 
 RETRY_S = 0.25  # PX4's MAVLINK_MISSION_RETRY_TIMEOUT_DEFAULT

@@ -1,7 +1,7 @@
 """The mission protocol as PX4 serves it (docs/mavlink.md, "Missions"), for the mission, geofence and rally lists.
 
 Uploads and downloads run one at a time (mission_transfer.py holds their state); a complete, checked upload
-becomes a `StoreMission` request to the flight stack, which keeps the lists (autopilot/mission_store.py). The
+becomes a `StoreMission` request to the flight stack, which keeps the lists (autopilot/storage/mission_store.py). The
 stored lists are read from the VehicleStatus only (downloads, MISSION_CURRENT, MISSION_ITEM_REACHED), and before
 the first one from the lists loaded at start (StatusView.missions). Bad input is refused with the MISSION_ACK
 result PX4 sends (or, where PX4 sends none, the one the MAVLink spec names) and a STATUSTEXT, and leaves the
@@ -26,7 +26,7 @@ from autopilot.mavlink.mission_transfer import (
 from autopilot.mavlink.router import COMP_ID, GroundLink, Router
 from autopilot.mavlink.statustext import Announcer
 from autopilot.mavlink.view import StatusView
-from autopilot.mission_items import (
+from autopilot.topics.mission_items import (
     FLOAT_FRAME_OF,
     MAX_ITEMS,
     MISSION,
@@ -36,9 +36,9 @@ from autopilot.mission_items import (
     result_name,
     to_float_coordinates,
 )
-from autopilot.mission_store import Missions
-from autopilot.requests import ClearMission, RequestHandler, SetMissionCurrent, StoreMission
-from autopilot.vehicle_status import VehicleStatus
+from autopilot.storage.mission_store import Missions
+from autopilot.topics.requests import ClearMission, RequestHandler, SetMissionCurrent, StoreMission
+from autopilot.topics.vehicle_status import VehicleStatus
 from transport.mavlink import mavlink as M
 
 MISSION_PLANNER_COMP = M.MAV_COMP_ID_MISSIONPLANNER  # PX4 also takes mission messages addressed to it

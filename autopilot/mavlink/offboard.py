@@ -16,8 +16,8 @@ from autopilot.mavlink.global_frames import GLOBAL_FRAMES, altitude_amsl
 from autopilot.mavlink.router import GroundLink
 from autopilot.mavlink.statustext import Announcer
 from autopilot.mavlink.view import StatusView
-from autopilot.requests import OffboardPosition, OffboardVelocity, RequestHandler
-from autopilot.yaw_setpoint import YawSetpoint
+from autopilot.topics.requests import OffboardPosition, OffboardVelocity, RequestHandler
+from autopilot.topics.yaw_setpoint import YawSetpoint
 from transport.geodesy import Home, ned_from_geodetic
 from transport.mavlink import mavlink as M
 

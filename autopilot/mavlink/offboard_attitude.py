@@ -13,8 +13,8 @@ import numpy as np
 from autopilot.mavlink.commands import for_us
 from autopilot.mavlink.router import GroundLink
 from autopilot.mavlink.statustext import Announcer
-from autopilot.requests import OffboardAttitude, RequestHandler
-from autopilot.vehicle_state import euler_from_quaternion
+from autopilot.topics.requests import OffboardAttitude, RequestHandler
+from autopilot.topics.vehicle_state import euler_from_quaternion
 from transport.mavlink import mavlink as M
 
 RATES_IGNORE = (M.ATTITUDE_TARGET_TYPEMASK_BODY_ROLL_RATE_IGNORE | M.ATTITUDE_TARGET_TYPEMASK_BODY_PITCH_RATE_IGNORE

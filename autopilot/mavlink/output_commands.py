@@ -1,4 +1,4 @@
-"""The commands on the motors' outputs, read into requests (autopilot/output_requests.py judges them):
+"""The commands on the motors' outputs, read into requests (autopilot/commander/output_requests.py judges them):
 MAV_CMD_DO_FLIGHTTERMINATION, MAV_CMD_DO_MOTOR_TEST and MAV_CMD_ACTUATOR_TEST. Each function gives the request,
 or the reply that refuses the command's parameters."""
 
@@ -7,8 +7,8 @@ from __future__ import annotations
 import math
 
 from autopilot.mavlink.command_params import Params, int_param
-from autopilot.output_tests import MOTOR_COUNT, SERVO_COUNT
-from autopilot.requests import FlightTermination, OutputTest, Reply
+from autopilot.commander.output_tests import MOTOR_COUNT, SERVO_COUNT
+from autopilot.topics.requests import FlightTermination, OutputTest, Reply
 from transport.mavlink import mavlink as M
 
 

@@ -9,7 +9,7 @@ from typing import Any
 from autopilot.mavlink.commands import for_us
 from autopilot.mavlink.router import GroundLink, Router
 from autopilot.mavlink.statustext import Announcer
-from autopilot.parameters import MAV_TYPE_OF, ParameterRejected, ParameterStore, decode_value, encode_value
+from autopilot.storage.parameters import MAV_TYPE_OF, ParameterRejected, ParameterStore, decode_value, encode_value
 from transport.mavlink import mavlink as M
 
 TAKES_EFFECT_LATER = {"MAV_SYS_ID": "from the next start",

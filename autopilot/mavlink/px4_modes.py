@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from autopilot.commander import HOLD, LAND, MISSION, OFFBOARD, ORBIT, RETURN, TAKEOFF
-from autopilot.manual_modes import ALTITUDE, POSITION
+from autopilot.commander.commander import HOLD, LAND, MISSION, OFFBOARD, ORBIT, RETURN, TAKEOFF
+from autopilot.navigator.manual_modes import ALTITUDE, POSITION
 
 PX4_MAIN_ALTCTL, PX4_MAIN_POSCTL, PX4_MAIN_AUTO, PX4_MAIN_OFFBOARD = 2, 3, 4, 6
 PX4_AUTO_TAKEOFF, PX4_AUTO_LOITER, PX4_AUTO_MISSION, PX4_AUTO_RTL, PX4_AUTO_LAND = 2, 3, 4, 5, 6

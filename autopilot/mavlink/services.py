@@ -1,7 +1,7 @@
 """The MAVLink services together, as the plant loop drives them once per plant step:
 
     receive(now)     the datagrams waiting on the ground links, each message to its service; what a client asks
-                     becomes a typed request to the flight stack (autopilot/requests.py)
+                     becomes a typed request to the flight stack (autopilot/topics/requests.py)
     publish(status)  the flight stack's snapshot out: its events as STATUSTEXT, answered injections as
                      COMMAND_ACK, a HEARTBEAT when arming or mode changed, the telemetry streams that are due
                      (at the steps where streams_due() or the flight stack has news; flush() at the others)
@@ -18,7 +18,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from autopilot.home_position import HomePosition
+from autopilot.topics.home_position import HomePosition
 from autopilot.mavlink import messages
 from autopilot.mavlink.commands import CommandService
 from autopilot.mavlink.manual_control import ManualControlService
@@ -30,10 +30,10 @@ from autopilot.mavlink.router import GroundLink, Router
 from autopilot.mavlink.signing import SigningService
 from autopilot.mavlink.statustext import Announcer
 from autopilot.mavlink.view import StatusView
-from autopilot.mission_store import Missions
-from autopilot.parameters import ParameterStore
-from autopilot.requests import GcsHeartbeat, RequestHandler
-from autopilot.vehicle_status import VehicleStatus
+from autopilot.storage.mission_store import Missions
+from autopilot.storage.parameters import ParameterStore
+from autopilot.topics.requests import GcsHeartbeat, RequestHandler
+from autopilot.topics.vehicle_status import VehicleStatus
 from transport.geodesy import Home
 from transport.mavlink import mavlink as M
 

@@ -15,8 +15,8 @@ from typing import Any
 from autopilot.mavlink.commands import for_us
 from autopilot.mavlink.router import GroundLink, Router
 from autopilot.mavlink.statustext import Announcer
-from autopilot.parameters import ParameterStore
-from autopilot.signing_key import SigningKey, SigningRefused, key_from_setup
+from autopilot.storage.parameters import ParameterStore
+from autopilot.storage.signing_key import SigningKey, SigningRefused, key_from_setup
 from transport.link_signing import timestamp_at
 from transport.mavlink import MAV_RESULT_DENIED
 from transport.mavlink import mavlink as M

@@ -5,9 +5,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from autopilot.home_position import HomePosition
-from autopilot.mission_store import EMPTY, Missions
-from autopilot.vehicle_status import VehicleStatus
+from autopilot.topics.home_position import HomePosition
+from autopilot.storage.mission_store import EMPTY, Missions
+from autopilot.topics.vehicle_status import VehicleStatus
 
 
 @dataclass

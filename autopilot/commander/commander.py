@@ -1,0 +1,408 @@
+"""Arming, flight modes and their transitions, as PX4's commander does them, in simulation time (docs/mavlink.md).
+
+Modes (PX4 custom modes): Hold (AUTO.LOITER), Takeoff (AUTO.TAKEOFF), Land (AUTO.LAND), Offboard, Mission
+(AUTO.MISSION), Return (AUTO.RTL), Orbit (POSCTL.ORBIT), one class each in flight_modes.py: the commander chooses
+the mode, the mode gives the velocity set-point for the flight controller, and its yaw set-point, shaped into the
+yaw reference the controllers follow while the set-point is a multicopter's (autopilot/topics/yaw_setpoint.py).
+
+On the ground the flight controller does not run: disarmed, the rotors are off; armed, they idle until a
+takeoff (Takeoff mode, or an Offboard set-point that climbs), which starts a fresh flight controller
+(ground_state.py: lift-offs, touchdowns, the automatic disarms).
+
+Every request answers (MAV_RESULT, reason); a reason goes to the ground station as STATUSTEXT. What the
+commander says (`say`) goes to the ground stations as STATUSTEXT too. Arming, modes and takeoff are judged here;
+the guided requests (Land, Go-to, Orbit, transition, speed, home, Offboard set-points) in guided_requests.py, the
+requests on the outputs (flight termination, motor and actuator tests) in output_requests.py.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from autopilot.navigator.auto_flight import AutoFlight
+from autopilot.commander.failsafe import Decision, Failsafe, FailsafeInputs
+from autopilot.commander.failsafe_reaction import reaction
+from autopilot.navigator.flight_modes import (HOLD, LAND, MISSION, OFFBOARD, ORBIT, RETURN, TAKEOFF, FlightMode, HoldMode,
+                                    LandMode, MissionMode, OffboardMode, OrbitMode, ReturnMode, TakeoffMode)  # fmt: skip
+from autopilot.commander.ground_state import GroundState, landed_state
+from autopilot.topics.home_position import HomeKeeper
+from autopilot.navigator.manual_modes import ALTITUDE, POSITION, ManualControl, StickMode
+from autopilot.navigator.mission_feasibility import MissionFeasibility
+from autopilot.navigator.mission_flight import MissionFlight
+from autopilot.storage.mission_store import MissionStore
+from autopilot.navigator.flight_tasks import TICK_S, LandDetector, Navigator
+from autopilot.navigator.offboard_setpoint import AttitudeTarget, OffboardSetpoint
+from autopilot.commander.output_tests import OutputTests
+from autopilot.storage.parameters import ParameterStore
+from autopilot.commander.prearm_checks import prearm_refusal
+from autopilot.topics.region_of_interest import RegionOfInterest
+from autopilot.topics.requests import ManualControlInput, Reply
+from autopilot.topics.vehicle_state import VehicleState
+from autopilot.topics.vehicle_status import CommanderReport
+from autopilot.topics.yaw_setpoint import YawReference, YawShaper, multicopter_speed
+from transport.geodesy import Home
+from transport.mavlink import mavlink
+
+ACCEPTED = mavlink.MAV_RESULT_ACCEPTED
+TEMPORARILY_REJECTED = mavlink.MAV_RESULT_TEMPORARILY_REJECTED
+DENIED = mavlink.MAV_RESULT_DENIED
+UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
+
+FORCE_MAGIC = 21196  # MAV_CMD_COMPONENT_ARM_DISARM param2: skip the checks (PX4)
+
+HOME_AT_REST_SPEED = 0.5  # m/s: home follows a disarmed vehicle on the ground only when it is this still
+
+
+class Commander:
+    """The vehicle's arming state, mode and ground/air state; velocity set-points at 100 Hz."""
+
+    def __init__(self, params: ParameterStore, hover_fraction: float, *, armed: bool, in_air: bool,
+                 say: Callable[..., None] = lambda severity, text, key=None: None,
+                 profile: Callable[[float], np.ndarray] | None = None, stamped_setpoints: bool = False,
+                 missions: MissionStore | None = None, home: Home = Home()) -> None:  # fmt: skip
+        self.params = params
+        missions = missions if missions is not None else MissionStore()
+        navigator = Navigator(params)
+        self.homes = HomeKeeper(home)
+        self.auto = auto = AutoFlight(params)
+        mission = MissionFlight(params, missions, self.homes, auto, landed=lambda: self.on_ground)
+        self.failsafe = Failsafe(params, missions, self.homes, say)
+        self.feasibility = MissionFeasibility(mission, self.failsafe.outside_fence, say)
+        self.offboard = OffboardSetpoint(stamped=stamped_setpoints)
+        self.manual = ManualControl(params)
+        self.hold = HoldMode(navigator, auto)
+        self.takeoff_mode = TakeoffMode(navigator)
+        self.land_mode = LandMode(navigator)
+        self.orbit = OrbitMode(auto, self.manual.yaw_rate)
+        self.mission_mode = MissionMode(mission)
+        self.return_mode = ReturnMode(params, auto, mission, lambda: self.feasibility.check() is None, say)
+        self.modes: dict[str, FlightMode] = {mode.name: mode for mode in (
+            self.hold, self.takeoff_mode, self.land_mode, OffboardMode(navigator, self.offboard, hover_fraction),
+            self.mission_mode,
+            self.return_mode, self.orbit, StickMode(POSITION, params, self.manual),
+            StickMode(ALTITUDE, params, self.manual))}  # fmt: skip
+        self.land_detector = LandDetector(hover_fraction)
+        self.yaw_shaper = YawShaper()
+        self.say = say
+        self.profile = profile
+        self.armed = armed
+        self.ground = GroundState(in_air)
+        self.mode = OFFBOARD if profile is not None else HOLD
+        self.started = False
+        self.state_version = 1  # counts arming, mode, ground-state and termination changes (each sends a HEARTBEAT)
+        self.terminated = False  # flight termination: motors off (disarmed), arming refused until it is cleared
+        self.output_tests = OutputTests()  # motor and actuator tests, disarmed
+        self._reported_version = 0
+        self.now_usec = 0
+        self.state = VehicleState()  # the current step's estimate (observe())
+        self._start_usec = 0
+        self.failsafes = 0
+
+    # ---- state ---------------------------------------------------------------------------------------------
+    @property
+    def yaw_reference(self) -> YawReference | None:  # the tick's, for the flight controller (None: its own rule)
+        return self.yaw_shaper.reference
+
+    @property
+    def on_ground(self) -> bool:
+        return self.ground.on_ground
+
+    @property
+    def controller_reset(self) -> bool:
+        """A takeoff began that no fresh flight controller has been started for yet."""
+        return self.ground.controller_reset
+
+    def controller_started(self) -> None:
+        """The flight stack started a fresh flight controller for the current flight."""
+        self.ground.controller_started()
+
+    @property
+    def state_changed(self) -> bool:
+        """Arming, mode, ground state or flight termination changed since the last report()."""
+        return self.state_version != self._reported_version
+
+    def report(self) -> CommanderReport:
+        self._reported_version = self.state_version
+        return CommanderReport(self.started, self.armed, self.mode, self.landed_state, self.flying,
+                               self.state_version, self.terminated)  # fmt: skip
+
+    def observe(self, state: VehicleState) -> None:
+        """The state estimate of the current plant step (requests are judged against it)."""
+        self.state = state
+        self.now_usec = state.time_usec
+
+    @property
+    def flying(self) -> bool:
+        """The flight controller runs (armed and off the ground)."""
+        return self.armed and not self.on_ground
+
+    @property
+    def landed_state(self) -> int:
+        return landed_state(self.started, self.on_ground, self.mode == TAKEOFF, self.active.landing)
+
+    @property
+    def setpoints_clamped(self) -> int:
+        return self.offboard.clamped
+
+    @property
+    def attitude_setpoint(self) -> AttitudeTarget | None:
+        """Offboard attitude flying: the set-point for the attitude loop (the velocity controller out of the loop)."""
+        return self.offboard.attitude if self.mode == OFFBOARD and self.flying else None
+
+    @property
+    def active(self) -> FlightMode:
+        return self.modes[self.mode]
+
+    def switch_mode(self, mode: str, state: VehicleState, reason: str | None = None) -> None:
+        """Enter `mode` (again, if it is the current one: it starts afresh, except Offboard)."""
+        if mode == RETURN:
+            self.return_mode.mission_was_flying = self.mode == MISSION or (
+                self.mode == RETURN and self.return_mode.mission_landing)
+        if mode != OFFBOARD or self.mode != OFFBOARD:
+            self.modes[mode].activate(state)
+        if mode == LAND:
+            self.land_detector.reset()
+        if mode != self.mode:
+            self.mode = mode
+            self.state_version += 1
+            if reason:
+                self.say(mavlink.MAV_SEVERITY_INFO, reason)
+
+    def terminate_flight(self, text: str) -> None:
+        """Flight termination: the motors stop (a forced disarm, PWM to the disarmed values: in the air the vehicle
+        falls) and stay stopped until `clear_termination`."""
+        self.terminated = True
+        self.state_version += 1
+        if self.armed:
+            self._set_armed(False, text, mavlink.MAV_SEVERITY_CRITICAL)
+        else:
+            self.say(mavlink.MAV_SEVERITY_CRITICAL, text)
+
+    def clear_termination(self) -> None:
+        """The vehicle may arm again after a flight termination."""
+        if self.terminated:
+            self.terminated = False
+            self.state_version += 1
+            self.say(mavlink.MAV_SEVERITY_INFO, "Flight termination cleared")
+
+    def set_region_of_interest(self, roi: RegionOfInterest | None) -> None:
+        """DO_SET_ROI_*: the vehicle's region of interest (the mission keeps it), turned to at once by Mission and
+        Return's mission landing."""
+        turn_now = self.mode == MISSION or (self.mode == RETURN and self.return_mode.mission_landing)
+        self.mission_mode.mission.point_at(roi, turn_now)
+
+    def _set_armed(self, armed: bool, text: str, severity: int = mavlink.MAV_SEVERITY_INFO) -> None:
+        self.armed = armed
+        self.state_version += 1
+        if armed:
+            self.output_tests.clear()  # PX4 ends the tests when the vehicle arms
+            self.ground.armed(self.now_usec)
+        else:
+            self.ground.disarmed()
+        self.say(severity, text)
+
+    def start(self, state: VehicleState) -> None:
+        """The first valid state: a vehicle spawned in the air holds where it is."""
+        self.started = True
+        self.now_usec = self._start_usec = state.time_usec
+        if self.on_ground:
+            self.homes.set_here(state.position_ned)  # PX4: home at the first valid position on the ground
+        if self.flying and self.profile is None:
+            self.hold.activate(state)
+        if self.armed:
+            self.ground.armed(state.time_usec)
+
+    def restart(self, state: VehicleState) -> None:
+        """The plant's clock went back (a new plant run): time-stamped things start afresh."""
+        self.now_usec = self._start_usec = state.time_usec
+        self.offboard.restart()
+        self.manual.restart()
+        self.failsafe.restart()
+        self.ground.restarted(state.time_usec, self.armed)
+        if self.profile is None and self.flying:
+            self.hold.activate(state)
+
+    def refusal(self, name: str | None = None, positional: bool = False) -> Reply | None:
+        """Commands are off while the internal --profile flies; `name` needs a vehicle state first, and a
+        `positional` one a position estimate (PX4: the mode cannot run)."""
+        if self.profile is not None:
+            return TEMPORARILY_REJECTED, "flying the internal --profile: flight commands are off"
+        if name is not None and not self.started:
+            return TEMPORARILY_REJECTED, f"{name} denied: no vehicle state from the plant yet"
+        if name is not None and positional and self.failsafe.position_lost:
+            return TEMPORARILY_REJECTED, f"{name} denied: no position estimate (GPS lost)"
+        return None
+
+    # ---- requests (commands) ---------------------------------------------------------------------------------
+    def arm(self, state: VehicleState, force: bool = False) -> Reply:
+        if (refusal := self.refusal()) is not None:
+            return refusal
+        if self.armed:
+            return ACCEPTED, None
+        if not self.started or not state.valid:
+            return TEMPORARILY_REJECTED, "Arming denied: no vehicle state from the plant yet"
+        why = prearm_refusal(state, force=force, terminated=self.terminated,
+                             outside_fence=None if force else self.failsafe.outside_fence(state.position_ned),
+                             mission_invalid=not force and self.mode == MISSION and self.feasibility.check() is not None)
+        if why is not None:
+            return DENIED, why
+        self._set_armed(True, "Armed")
+        if not self.failsafe.position_lost:
+            self.homes.set_here(state.position_ned)  # PX4: home where the vehicle arms (not over a manual home)
+        if self.mode == MISSION:
+            self.mission_mode.activate(state)  # a takeoff item first: the mission takes off
+        if self.mode == OFFBOARD and not self._offboard_fresh():
+            self.switch_mode(HOLD, state)
+        return ACCEPTED, None
+
+    def disarm(self, state: VehicleState, force: bool = False) -> Reply:
+        if (refusal := self.refusal()) is not None:
+            return refusal
+        if not self.armed:
+            return ACCEPTED, None
+        if not self.on_ground and not force:
+            return DENIED, f"Disarming denied: in the air (param2 = {FORCE_MAGIC} forces it)"
+        self._set_armed(False, "Disarmed" + (" in the air (forced)" if not self.on_ground else ""))
+        return ACCEPTED, None
+
+    def _offboard_fresh(self) -> bool:
+        return self.offboard.fresh(self.now_usec, self.params["COM_OF_LOSS_T"])
+
+    def set_mode(self, mode: str, state: VehicleState) -> Reply:
+        if (refusal := self.refusal(mode)) is not None:
+            return refusal
+        if mode == self.mode:
+            return ACCEPTED, None
+        if (refusal := self.refusal(mode, positional=mode not in (LAND, ALTITUDE))) is not None:
+            return refusal
+        if mode == OFFBOARD and not self._offboard_fresh():
+            return TEMPORARILY_REJECTED, (f"Offboard denied: no set-point in the last "
+                                          f"{self.params['COM_OF_LOSS_T']:g} s")  # fmt: skip
+        if mode in (POSITION, ALTITUDE) and (refusal := self.manual.refusal(mode, self.now_usec)) is not None:
+            return refusal
+        if mode == TAKEOFF:
+            return self.takeoff(state, None)
+        if mode == MISSION and not self.mission_mode.stored:
+            return DENIED, "Mission denied: no mission stored"
+        if mode == MISSION and self.feasibility.check() is not None:
+            return TEMPORARILY_REJECTED, "Switching to Mission is currently not available"
+        if mode == ORBIT:
+            return DENIED, "Orbit: use MAV_CMD_DO_ORBIT (radius, speed, centre)"
+        if mode == RETURN and not self.flying:
+            return TEMPORARILY_REJECTED, "Return denied: not flying"
+        self.switch_mode(mode, state)
+        return ACCEPTED, None
+
+    def start_mission(self, state: VehicleState) -> Reply:
+        """MAV_CMD_MISSION_START: Mission mode, if the mission passes the feasibility check (PX4: DENIED if not)."""
+        if self.mission_mode.stored and self.mode != MISSION and self.feasibility.check() is not None:
+            return DENIED, "Mission start denied! No valid mission"
+        return self.set_mode(MISSION, state)
+
+    def manual_control(self, sticks: ManualControlInput) -> Reply:
+        """MANUAL_CONTROL as a virtual RC, when COM_RC_IN_MODE takes it."""
+        return self.manual.receive(sticks, self.now_usec)
+
+    def takeoff(self, state: VehicleState, altitude_above_home: float | None) -> Reply:
+        """Climb to `altitude_above_home` (None: MIS_TAKEOFF_ALT) over the current position, then Hold."""
+        if (refusal := self.refusal("Takeoff", positional=True)) is not None:
+            return refusal
+        if altitude_above_home is None:
+            altitude_above_home = self.params["MIS_TAKEOFF_ALT"]
+        elif not 1.0 <= altitude_above_home <= 1000.0:
+            return DENIED, f"Takeoff denied: altitude {altitude_above_home:.1f} m above home not in 1..1000 m"
+        self.takeoff_mode.start(state, self.homes.position.down - altitude_above_home)
+        if self.mode != TAKEOFF:
+            self.mode = TAKEOFF
+            self.state_version += 1
+        if self.armed and self.on_ground:
+            self._lift_off()
+        if not self.armed:
+            self.say(mavlink.MAV_SEVERITY_INFO, f"Takeoff to {altitude_above_home:.1f} m: waiting for arming")
+        else:
+            self.say(mavlink.MAV_SEVERITY_INFO, f"Takeoff to {altitude_above_home:.1f} m")
+        return ACCEPTED, None
+
+    def setpoints_cover(self, time_usec: int) -> bool:
+        """--offboard-lockstep: the client's set-points reach this simulation time (True without the option)."""
+        return self.offboard.covers(time_usec)
+
+    # ---- 100 Hz -------------------------------------------------------------------------------------------------
+    def _lift_off(self) -> None:
+        self.ground.lift_off()
+        self.state_version += 1
+
+    def tick(self, state: VehicleState, time_usec: int, mean_thrust_fraction: float) -> np.ndarray | None:
+        """Mode logic at 100 Hz; the velocity set-point while flying (None on the ground), and the yaw reference."""
+        setpoint = self._mode_tick(state, time_usec, mean_thrust_fraction)
+        yaw = None if setpoint is None or self.profile is not None else self.active.yaw(state)
+        if yaw is not None and not multicopter_speed(setpoint, self.params["MPC_XY_VEL_MAX"]):
+            yaw = None  # forward flight: the nose follows the course
+        self.yaw_shaper.update(yaw, float(state.euler[2]), math.radians(self.params["MPC_YAWRAUTO_MAX"]), TICK_S)
+        return setpoint
+
+    def _mode_tick(self, state: VehicleState, time_usec: int, mean_thrust_fraction: float) -> np.ndarray | None:
+        self.now_usec = time_usec
+        self.offboard.take_due(time_usec)
+        if self.profile is not None:
+            return self.profile((time_usec - self._start_usec) / 1e6) if self.flying else None
+        manual_lost = self.mode in (POSITION, ALTITUDE) and not self.manual.fresh(time_usec)
+        decision = self.failsafe.check(FailsafeInputs(time_usec, self.flying, self.mode, state.position_ned,
+                                                      self.mode == OFFBOARD and not self._offboard_fresh(),
+                                                      manual_lost, self.mode == OFFBOARD
+                                                      and self.manual.refusal(POSITION, time_usec) is None))  # fmt: skip
+        if decision is not None:
+            self._failsafe(decision, state)
+        if not self.armed:
+            at_rest = float(np.linalg.norm(state.velocity_ned)) < HOME_AT_REST_SPEED  # not falling after a termination
+            if self.on_ground and at_rest and not self.failsafe.position_lost:
+                self.homes.follow(state.position_ned)
+            return None
+        if self.on_ground:
+            return self._on_ground(state, time_usec)
+        if self.mode == TAKEOFF:
+            if not self.takeoff_mode.done(state):
+                return self.takeoff_mode.setpoint(state)
+            self.switch_mode(HOLD, state, "Takeoff complete: Hold")
+            self.hold.hold_at(*self.takeoff_mode.end)
+        mode = self.active
+        setpoint = mode.setpoint(state)
+        if mode.detects_landing and self.land_detector.update(state, mean_thrust_fraction, time_usec,
+                                                              float(setpoint[2])):  # fmt: skip
+            self.ground.touch_down(time_usec)
+            self.state_version += 1
+            self.say(mavlink.MAV_SEVERITY_INFO, "Landing detected")
+            mode.touched_down(state)
+            return None
+        if not mode.detects_landing:
+            self.land_detector.reset()
+        return setpoint
+
+    def _failsafe(self, decision: Decision, state: VehicleState) -> None:
+        """A failsafe's action, as failsafe_reaction.py plans it."""
+        self.failsafes += 1
+        plan = reaction(decision, self.mode, self.flying)
+        for severity, text in plan.before:
+            self.say(severity, text)
+        if plan.cut_motors is not None and plan.terminate:
+            self.terminate_flight(plan.cut_motors)
+        elif plan.cut_motors is not None:
+            self._set_armed(False, plan.cut_motors)
+        if plan.mode is not None:
+            self.switch_mode(plan.mode, state, plan.mode_reason)
+            if plan.descend:
+                self.land_mode.descend = True
+        for severity, text in plan.after:
+            self.say(severity, text)
+
+    def _on_ground(self, state: VehicleState, time_usec: int) -> np.ndarray | None:
+        if (why := self.ground.disarm_due(self.params, time_usec)) is not None:
+            self._set_armed(False, why)
+            return None
+        if self.active.lifts_off(state):
+            self._lift_off()
+            return self.active.setpoint(state)
+        return None

@@ -1,0 +1,283 @@
+"""The unified velocity MPC's optimal control problem (paper section "Model Predictive Control"; docs/mpc.md 1).
+
+State x (16):  v (NED, m/s) | tilts chi_1..4 (rad) | Psi = (roll, pitch, yaw) | Psi_dot | Psi_dot_prev
+Input u (11):  tilt rates chi_dot_1..4 (rad/s) | thrusts T_1..4 (N) | attitude set-point Psi_d (rad)
+Model: v_dot = R(Psi) (sum_i T_i u(chi_i) + F_aero(R^T v)) / m + g e_z   (the shared aircraft model)
+       chi_dot = input;  Psi_ddot = attitude_law(Psi, Psi_dot, Psi_dot_prev, Psi_d)  (the attitude loop's law)
+       Psi_dot_prev(k+1) = Psi_dot(k)  (the previous step's rate, paper)
+Cost per stage (paper eq. for J and Table 2): |v - v_sp,k|^2_Qref + |(phi - phi_ref, theta, psi - psi_ref)|^2_Qpsi
+       + |Psi_dot - (0, 0, psi_rate_ref)|^2_Qpsidot + |T|^2_RT + |T cos(chi) - T_ref(V)|^2_Rlift + |chi_dot|^2_Rchi
+       + |(phi_d - phi_ref, theta_d, psi_d - psi_d_ref)|^2_RPsi + J_soft,
+       terminal |v_N - v_sp|^2_Qf. Every term is a squared residual (Gauss-Newton), J_soft = exp(s) included as
+       (exp(s / 2))^2.
+No flight-mode logic anywhere: the soft tilt cost alone keeps the rotors up at low speed.
+The per-stage references (v_sp,k along the set-point's trajectory, and the coordinated-turn phi_ref,
+psi_rate_ref, psi_d_ref) come from the controller (mpc_controller, docs/mpc.md 2.5); for a constant set-point
+they are the paper's (v_sp, 0, 0, psi_ref).
+
+Deviation (docs/mpc.md): the paper weighs the thrust itself, 0.025 T^2 (T in N). Measured with this plant:
+- over a 0.25 s horizon that buys thrust with altitude (the velocity error a thrust deficit causes stays small
+  within the horizon): a 21 m sink, 3.4 m/s, in the first 10 s of the acceleration test;
+- weighing thrust beyond T_ref(V) = m g / 4 (1 - e(V)), the share of the weight the wing cannot carry at the
+  stage's airspeed, removes the sink, but the tilt stalls near 50 deg at cruise (too little drive), and a
+  10x weight that drives it to 80 deg also costs 0.6 m/s of cruise speed (it penalises the thrust that
+  overcomes drag too).
+So the weight acts on what the wing should take over: each rotor's lifting component T cos(chi) beyond
+T_ref(V); a small weight on T itself keeps the least-effort preference. No mode switch: e(V) is the shared
+model's smooth effectiveness.
+
+Deviation (docs/mpc.md 2.8): the roll and pitch bound |phi|, |theta| <= pi/4 is soft, a smooth penalty in every
+stage and at the end, not the paper's hard state bound: with x_0 fixed, a pitch already moving past the bound
+faster than the attitude loop can stop it made every QP infeasible (accel-decel, 22.3 s: 3 failed solves, PID).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from aircraft.aerodynamics import aero_effectiveness
+from aircraft.airframe import Airframe
+from aircraft.frames import rotation_from_euler
+from aircraft.wrench import body_wrench
+from autopilot.control.attitude import DEFAULT_GAINS, AttitudeGains, attitude_law, wrap_angle
+from autopilot.control.velocity_command import has_course
+
+NX, NU = 16, 11
+V, CHI, PSI, PSI_DOT, PSI_DOT_PREV = slice(0, 3), slice(3, 7), slice(7, 10), slice(10, 13), slice(13, 16)
+ROLL_PITCH, PSI_INDEX = slice(7, 9), 9  # within PSI: roll and pitch, yaw
+CHI_DOT, THRUST, PSI_D = slice(0, 4), slice(4, 8), slice(8, 11)
+ROLL_PITCH_D, PSI_D_INDEX = slice(8, 10), 10  # within PSI_D
+# Parameters per stage: v_sp (3), psi_ref, free_tilt (4: 1 for a working servo, 0 for a stuck one; the MPC's own
+# layout, not the actuators'), and the rest of the set-point trajectory's coordinated-turn attitude: phi_ref,
+# psi_rate_ref, psi_d_ref (docs/mpc.md 2.5); and the stage's place on the time grid (docs/mpc.md 2.9): its length dt
+# (s) and rate_held (1: Psi_dot_prev is the previous stage's rate, held over this one, as in the paper's 10 ms
+# stages; 0: a long stage, on which the delayed rate is taken in its continuous-time form); the roll and pitch
+# set-point flown at the previous tick and the weight (0 or 1) of the move from it (the first stage only). The
+# solver writes P_SOLVER itself (RtiSolver.stage_parameters).
+NP = 16
+P_V_SP, P_PSI_REF, P_FREE_TILT, P_PHI_REF, P_PSI_RATE_REF, P_PSI_D_REF = slice(0, 3), 3, slice(4, 8), 8, 9, 10
+P_DT, P_RATE_HELD, P_ATTITUDE_SP_PREV, P_MOVE = 11, 12, slice(13, 15), 15
+P_GRID, P_SOLVER = slice(11, 13), slice(11, 16)
+# The stage the paper's weights are given for (Table 2: 25 stages of 10 ms); a stage of length dt weighs dt / this,
+# so the cost stays the same integral on any grid. Also the delay of Psi_dot_prev in the continuous-time form.
+REFERENCE_STAGE_S = 0.01
+
+
+@dataclass(frozen=True)
+class MpcWeights:
+    """Paper Table 2 (docs/mpc.md 1.5)."""
+
+    q_ref: tuple[float, float, float] = (20.0, 10.0, 50.0)
+    q_final: tuple[float, float, float] = (20.0, 10.0, 50.0)
+    q_psi: tuple[float, float, float] = (10.0, 20.0, 10.0)
+    q_psi_dot: tuple[float, float, float] = (3.0, 3.0, 3.0)
+    r_thrust: float = 0.0025  # per N^2 (least effort; see r_rotor_lift and the module docstring)
+    r_rotor_lift: float = 0.25  # per N^2, on each rotor's lifting component beyond T_ref(V)
+    r_tilt_rate: float = 1.0
+    r_psi_d: tuple[float, float, float] = (10.0, 20.0, 10.0)
+    # The roll and pitch bound |phi|, |theta| <= MpcLimits.attitude as a soft constraint (docs/mpc.md 2.8): a
+    # penalty q (width softplus((|angle| - bound) / width))^2, q per rad^2, in every stage and at the end. q = 0
+    # makes it the paper's hard state bound again.
+    q_attitude_bound: float = 1e6
+    attitude_bound_width: float = math.radians(3.0)
+    # Each working servo's tilt away from the working servos' mean, per rad^2 (docs/mpc.md 2.9); 0 leaves the four
+    # tilts independent, as the paper does.
+    q_tilt_spread: float = 0.0
+    # The yaw's error from its reference bounded softly in every stage (not at the end), |psi - psi_ref| <=
+    # yaw_bound (rad), q per rad^2, the roll and pitch bound's width (docs/mpc.md 2.9); q = 0: no bound, as the paper.
+    q_yaw_bound: float = 0.0
+    yaw_bound: float = math.radians(15.0)
+    # The first stage's roll and pitch set-point away from the one flown at the previous tick, per rad^2 (move
+    # suppression, docs/mpc.md 2.9); 0: none, as the paper.
+    q_attitude_sp_move: float = 0.0
+    # Each stage's cost weighed by its length over REFERENCE_STAGE_S (the same integral on any grid), or each stage
+    # alike (as the paper's uniform stages are).
+    weigh_by_length: bool = True
+
+
+@dataclass(frozen=True)
+class SoftTiltCost:
+    """J_soft = exp(a v_B chi + b chi + c v_B + d), chi = mean tilt in degrees, v_B forward body speed (m/s).
+
+    The authors' final constants (docs/mpc.md 1.6); the paper's stated ones contradict its own table. The exponent is
+    capped so the solver stays well conditioned.
+    """
+
+    a: float = -0.332
+    b: float = 1.8
+    c: float = -0.477
+    d: float = -2.303
+    exponent_cap: float = 30.0
+
+    def exponent(self, forward_speed: ca.SX, mean_tilt_deg: ca.SX) -> ca.SX:
+        s = self.a * forward_speed * mean_tilt_deg + self.b * mean_tilt_deg + self.c * forward_speed + self.d
+        return ca.fmin(s, self.exponent_cap)
+
+    def cost(self, forward_speed: ca.SX, mean_tilt_deg: ca.SX) -> ca.SX:
+        return ca.exp(self.exponent(forward_speed, mean_tilt_deg))
+
+
+@dataclass(frozen=True)
+class MpcLimits:
+    """Constraints (paper eq. for the constraints; docs/mpc.md 1.4)."""
+
+    attitude: tuple[float, float] = (math.pi / 4, math.pi / 4)  # |phi|, |theta|
+    attitude_sp: tuple[float, float] = (math.pi / 3, math.pi / 3)  # |phi_d|, |theta_d|
+    yaw_sp_offset: float = math.pi / 2  # |psi_d - psi|
+    rate: float = math.pi  # |Psi_dot|
+    velocity: tuple[float, float, float] = (30.0, 30.0, 10.0)
+    tilt_rate: float = math.pi / 4  # rad/s
+    # The thrust bound per rotor (the paper's 23 N) is the airframe's thrust_planned_max; the tilt range its own.
+
+
+def continuous_dynamics(airframe: Airframe, gains: AttitudeGains, x: ca.SX, u: ca.SX, rate_held: ca.SX = 1) -> ca.SX:
+    """d/dt of (v, chi, Psi, Psi_dot). rate_held 1: Psi_dot_prev is held over the interval (the paper's 10 ms
+    stages); 0: the delayed rate in continuous time, Psi_dot_prev = Psi_dot(t - tau) ~ Psi_dot - tau Psi_ddot with
+    tau = REFERENCE_STAGE_S, so that K_d (Psi_dot_prev - Psi_dot) = -K_d tau Psi_ddot: on a stage many ticks long a
+    held rate would be that many ticks old (docs/mpc.md 2.9)."""
+    euler = x[PSI]
+    rotation = rotation_from_euler(euler)
+    v_air_body = rotation.T @ x[V]
+    force, _ = body_wrench(airframe, u[THRUST], x[CHI], ca.SX.zeros(4), v_air_body, ca.SX.zeros(3))
+    v_dot = rotation @ force / airframe.mass + ca.vertcat(0, 0, airframe.gravity)
+    held = attitude_law(euler, x[PSI_DOT], x[PSI_DOT_PREV], u[PSI_D], gains)
+    k_d = ca.DM(gains.rate_d)
+    continuous = (held - k_d * (x[PSI_DOT_PREV] - x[PSI_DOT])) / (1 + k_d * REFERENCE_STAGE_S)
+    psi_ddot = rate_held * held + (1 - rate_held) * continuous
+    return ca.vertcat(v_dot, u[CHI_DOT], x[PSI_DOT], psi_ddot)
+
+
+def discrete_dynamics(airframe: Airframe, gains: AttitudeGains, substeps: int = 1) -> ca.Function:
+    """F(x, u, grid) -> x_next: `substeps` RK4 steps over the stage, grid = (dt, rate_held) (the stage parameters
+    P_GRID); Psi_dot_prev(k+1) = Psi_dot(k)."""
+    x = ca.SX.sym("x", NX)
+    u = ca.SX.sym("u", NU)
+    grid = ca.SX.sym("grid", 2)
+    rate_held = grid[1]
+    dt = grid[0] if substeps == 1 else grid[0] / substeps
+
+    def f(z: ca.SX) -> ca.SX:
+        return continuous_dynamics(airframe, gains, ca.vertcat(z, x[PSI_DOT_PREV]), u, rate_held)
+
+    z = x[0:13]
+    for _ in range(substeps):
+        k1 = f(z)
+        k2 = f(z + dt / 2 * k1)
+        k3 = f(z + dt / 2 * k2)
+        k4 = f(z + dt * k3)
+        z = z + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+    return ca.Function("mpc_step", [x, u, grid], [ca.vertcat(z, x[PSI_DOT])], ["x", "u", "grid"], ["x_next"])
+
+
+def soft_bound(q: float, width: float, excess: ca.SX) -> ca.SX:
+    """~0 where excess (how far beyond the bound) < -a few widths, ~sqrt(q) excess beyond it; smooth (softplus),
+    so that the Gauss-Newton Hessian sees the bound before the plan reaches it."""
+    scaled = excess / width
+    softplus = ca.if_else(scaled > 30, scaled, ca.log1p(ca.exp(ca.fmin(scaled, 30))))
+    return math.sqrt(q) * width * softplus
+
+
+def attitude_bound_residual(weights: MpcWeights, limits: MpcLimits, x: ca.SX) -> ca.SX:
+    """The soft roll and pitch bound |angle| <= limits.attitude (docs/mpc.md 2.8)."""
+    if weights.q_attitude_bound <= 0:
+        return ca.SX.zeros(0)
+    angles = x[ROLL_PITCH]
+    bound = ca.DM(limits.attitude)
+    return soft_bound(weights.q_attitude_bound, weights.attitude_bound_width,
+                      ca.vertcat(angles - bound, -angles - bound))  # fmt: skip
+
+
+def yaw_bound_residual(weights: MpcWeights, x: ca.SX, psi_ref: ca.SX) -> ca.SX:
+    """The soft bound |psi - psi_ref| <= yaw_bound: on a 2 s horizon the cheapest braking at speed was to yaw the
+    aircraft across its course and brake on the fuselage's side force (docs/mpc.md 2.9)."""
+    if weights.q_yaw_bound <= 0:
+        return ca.SX.zeros(0)
+    error = wrap_angle(x[PSI_INDEX] - psi_ref)
+    return soft_bound(weights.q_yaw_bound, weights.attitude_bound_width,
+                      ca.vertcat(error - weights.yaw_bound, -error - weights.yaw_bound))  # fmt: skip
+
+
+def tilt_spread_residual(weights: MpcWeights, x: ca.SX, free_tilt: ca.SX) -> ca.SX:
+    """sqrt(q) (chi_i - mean chi) for each working servo: the model plans force alone, and a tilt split between the
+    left and right rotors is a yaw moment it does not see (on a long horizon its plans split them and spun the
+    aircraft up, docs/mpc.md 2.9). A stuck servo is not counted."""
+    if weights.q_tilt_spread <= 0:
+        return ca.SX.zeros(0)
+    mean = ca.dot(free_tilt, x[CHI]) / ca.fmax(ca.sum1(free_tilt), 1)
+    return math.sqrt(weights.q_tilt_spread) * free_tilt * (x[CHI] - mean)
+
+
+def attitude_sp_move_residual(weights: MpcWeights, u: ca.SX, p: ca.SX) -> ca.SX:
+    """sqrt(q) (roll and pitch set-point - the previous tick's), where the stage's P_MOVE is 1 (the first)."""
+    if weights.q_attitude_sp_move <= 0:
+        return ca.SX.zeros(0)
+    return p[P_MOVE] * math.sqrt(weights.q_attitude_sp_move) * (u[ROLL_PITCH_D] - p[P_ATTITUDE_SP_PREV])
+
+
+def stage_residual(
+    airframe: Airframe,
+    weights: MpcWeights,
+    soft: SoftTiltCost,
+    x: ca.SX,
+    u: ca.SX,
+    p: ca.SX,
+    limits: MpcLimits | None = None,
+) -> ca.SX:
+    """Residual r with |r|^2 = the stage cost (Gauss-Newton form), weighted by the stage's length over
+    REFERENCE_STAGE_S."""
+    v_sp, psi_ref, free_tilt = p[P_V_SP], p[P_PSI_REF], p[P_FREE_TILT]
+    phi_ref, psi_rate_ref, psi_d_ref = p[P_PHI_REF], p[P_PSI_RATE_REF], p[P_PSI_D_REF]
+    euler = x[PSI]
+    forward_speed = (rotation_from_euler(euler).T @ x[V])[0]
+    # Mean over the servos that work: a stuck servo's tilt is not the controller's to choose, and counting it
+    # would pin the cost at its cap (e.g. a servo stuck at 60 deg in a hover) and ruin the QP's conditioning.
+    mean_tilt_deg = ca.dot(free_tilt, x[CHI]) / ca.fmax(ca.sum1(free_tilt), 1) * (180 / math.pi)
+    # Thrust is weighed beyond the share of the weight the wing cannot carry at this stage's airspeed (see the
+    # module docstring): T_ref = m g / 4 (1 - e(V)), no mode switch, from the shared model's e(V).
+    airspeed = ca.sqrt(ca.sumsqr(x[V]) + 1e-6)
+    thrust_ref = airframe.mass * airframe.gravity / 4 * (1 - aero_effectiveness(airframe, airspeed))
+    sq = ca.sqrt
+    scale = sq(p[P_DT] / REFERENCE_STAGE_S) if weights.weigh_by_length else 1
+    return scale * ca.vertcat(
+        sq(ca.DM(weights.q_ref)) * (x[V] - v_sp),
+        sq(ca.DM(weights.q_psi)) * ca.vertcat(euler[0] - phi_ref, euler[1], wrap_angle(euler[2] - psi_ref)),
+        sq(ca.DM(weights.q_psi_dot)) * (x[PSI_DOT] - ca.vertcat(0, 0, psi_rate_ref)),
+        math.sqrt(weights.r_tilt_rate) * u[CHI_DOT],
+        math.sqrt(weights.r_thrust) * u[THRUST],
+        math.sqrt(weights.r_rotor_lift) * (u[THRUST] * ca.cos(x[CHI]) - thrust_ref),
+        sq(ca.DM(weights.r_psi_d))
+        * ca.vertcat(u[PSI_D][0] - phi_ref, u[PSI_D][1], wrap_angle(u[PSI_D][2] - psi_d_ref)),
+        ca.exp(soft.exponent(forward_speed, mean_tilt_deg) / 2),
+        attitude_bound_residual(weights, limits or MpcLimits(), x),
+        yaw_bound_residual(weights, x, psi_ref),
+        tilt_spread_residual(weights, x, free_tilt),
+        attitude_sp_move_residual(weights, u, p),
+    )
+
+
+def terminal_residual(weights: MpcWeights, x: ca.SX, p: ca.SX, limits: MpcLimits | None = None) -> ca.SX:
+    return ca.vertcat(
+        ca.sqrt(ca.DM(weights.q_final)) * (x[V] - p[P_V_SP]), attitude_bound_residual(weights, limits or MpcLimits(), x)
+    )
+
+
+def angle_chain(start: float, angles: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """psi_k = psi_{k-1} + wrap(angle_k - psi_{k-1}) where valid_k, else psi_{k-1}, from psi_{-1} = start: each
+    stage's angle unwrapped to within pi of the stage before, so that the plan never turns the long way round."""
+    steps = np.diff(np.concatenate(([start], angles[valid])))
+    chain = start + np.concatenate(([0.0], np.cumsum(np.arctan2(np.sin(steps), np.cos(steps)))))
+    return chain[np.cumsum(valid)]
+
+
+def yaw_references(v_sp: np.ndarray, yaw_now: float) -> np.ndarray:
+    """psi_ref at each stage of the set-point v_sp (3, T): its course where it has one
+    (autopilot.control.velocity_command.setpoint_course), else the stage before's, the current yaw before the first
+    (docs/mpc.md 1.7)."""
+    return angle_chain(yaw_now, np.arctan2(v_sp[1], v_sp[0]), has_course(v_sp[0], v_sp[1]))
+
+
+DEFAULTS = (DEFAULT_GAINS, MpcWeights(), SoftTiltCost(), MpcLimits())

@@ -1,0 +1,318 @@
+"""The autopilot's parameters (docs/mavlink.md): PX4 names where PX4 has the parameter, PX4's bytewise MAVLink
+encoding, and a parameter file that is written atomically and read back at start.
+
+Encoding (MAVLink PARAM_VALUE / PARAM_SET, MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE): a REAL32 parameter
+travels as its float value; an INT32 parameter travels as the four bytes of the int32 reinterpreted as the
+float field (PX4's encoding; 1 is sent as the float 1.4e-45, not 1.0).
+
+The file is JSON, only the values that differ from their default:
+
+    {"format": "tiltrotor-sitl parameters", "version": 1, "parameters": {"SYS_FAILURE_EN": 1}}
+
+It is replaced atomically on a background thread (autopilot/storage/kept_file.py).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import struct
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from autopilot.storage.kept_file import BackgroundWriter, read_kept
+from autopilot.storage.signing_key import SigningKey, SigningRefused, key_from_document, key_to_document
+from transport.ports import Ports
+
+FILE_FORMAT = "tiltrotor-sitl parameters"
+FILE_VERSION = 1
+
+INT32, REAL32 = "INT32", "REAL32"
+MAV_PARAM_TYPE_INT32 = 6
+MAV_PARAM_TYPE_REAL32 = 9
+MAV_TYPE_OF = {INT32: MAV_PARAM_TYPE_INT32, REAL32: MAV_PARAM_TYPE_REAL32}
+
+
+@dataclass(frozen=True)
+class ParameterDefinition:
+    name: str
+    kind: str  # INT32 or REAL32
+    default: float
+    minimum: float
+    maximum: float
+    unit: str
+    description: str
+    px4: bool = True  # False: this project's own parameter (PX4 has no such one)
+
+
+P = ParameterDefinition
+DEFINITIONS: tuple[ParameterDefinition, ...] = (
+    P("MAV_SYS_ID", INT32, 1, 1, 250, "", "MAVLink system id of the vehicle (at the next start; --sysid overrides)"),
+    P("MAV_SIGN_REQ", INT32, 1, 0, 1, "", "with a signing key set (SETUP_SIGNING): 1 refuses unsigned commands, 0 "
+      "accepts them (outgoing messages are signed either way)", px4=False),
+    P("VT_CTRL", INT32, 1, 0, 1, "", "velocity controller: 0 PID baseline, 1 unified MPC (at the next start or "
+      "takeoff from the ground; --controller overrides at start)", px4=False),
+    P("VT_MPC_HRZN", INT32, 0, 0, 1, "", "the MPC's horizon: 0 the paper's 25 stages of 10 ms, 1 the long one "
+      "(2.05 s, docs/mpc.md 2.9) (at the next start or takeoff from the ground; --mpc-horizon overrides at start)",
+      px4=False),
+    P("VT_MPC_OVERLAP", INT32, 0, 0, 1, "", "MPC solve: 0 synchronous (the paper's), 1 one control tick ahead on a "
+      "second core, from the predicted state (at the next start or takeoff from the ground)", px4=False),
+    P("SYS_FAILURE_EN", INT32, 0, 0, 1, "", "1 enables MAV_CMD_INJECT_FAILURE"),
+    P("SYS_FAILURE_DLY", REAL32, 0.0, 0.0, 60.0, "s", "delay before the controllers learn of an injected failure",
+      px4=False),
+    P("COM_OF_LOSS_T", REAL32, 1.0, 0.1, 60.0, "s", "offboard set-point loss timeout: then COM_OBL_RC_ACT"),
+    P("COM_OBL_RC_ACT", INT32, 0, 0, 5, "", "offboard loss failsafe: 0 Position, 1 Altitude (with MANUAL_CONTROL "
+      "heard in the last COM_RC_LOSS_T; without, Hold), 2 Stabilized (Hold: there is no Stabilized), 3 Return, "
+      "4 Land, 5 Hold (PX4's 6 Terminate and 7 Disarm are refused)"),
+    P("COM_DL_LOSS_T", INT32, 10, 5, 300, "s", "data-link loss: no ground-station HEARTBEAT for this long"),
+    P("NAV_DLL_ACT", INT32, 0, 0, 3, "", "data-link loss failsafe: 0 disabled, 1 Hold, 2 Return, 3 Land (PX4's 5 "
+      "Terminate and 6 Disarm are refused)"),
+    P("COM_RC_IN_MODE", INT32, 3, 0, 8, "", "manual control source: 0 RC only (no RC here: MANUAL_CONTROL ignored), "
+      "1 MAVLink only, 2 RC or MAVLink with fallback, 3 RC or MAVLink keep first, 4 disabled, 5-8 priorities"),
+    P("COM_RC_LOSS_T", REAL32, 0.5, 0.0, 35.0, "s", "manual control loss: no MANUAL_CONTROL for this long"),
+    P("NAV_RCL_ACT", INT32, 2, 0, 6, "", "manual control loss failsafe (Position, Altitude): 0 disabled, 1 Hold, "
+      "2 Return, 3 Land, 5 Terminate, 6 Disarm (motors off)"),
+    P("MPC_VEL_MANUAL", REAL32, 10.0, 3.0, 20.0, "m/s", "Position: horizontal speed at full stick"),
+    P("MPC_HOLD_DZ", REAL32, 0.1, 0.0, 1.0, "", "stick deadzone of Position and Altitude (centred: hold)"),
+    P("MPC_MAN_Y_MAX", REAL32, 150.0, 0.0, 400.0, "deg/s", "yaw stick: yaw rate at full stick (Position, Altitude, "
+      "Orbit with yaw behaviour 4)"),
+    P("MPC_YAWRAUTO_MAX", REAL32, 30.0, 5.0, 360.0, "deg/s", "fastest turn to a yaw set-point (Offboard, Mission, "
+      "Go-to, Orbit; PX4's default 45: docs/autopilot.md section 6)"),
+    P("MIS_YAW_ERR", REAL32, 12.0, 1.0, 90.0, "deg", "a mission waypoint with a yaw (param4) is reached once the "
+      "heading is within this of it (flown as a multicopter)"),
+    P("MIS_YAW_TMT", REAL32, -1.0, -1.0, 20.0, "s", "mission yaw timeout: above 0, a waypoint's yaw is not waited "
+      "for (PX4 then waits only for forced headings, which these missions have not); -1 (and 0): wait for "
+      "MIS_YAW_ERR"),
+    P("COM_POS_FS_DELAY", INT32, 1, 1, 100, "s", "position loss failsafe (GPS OFF): Descend after this long"),
+    P("GF_ACTION", INT32, 2, 0, 5, "", "geofence breach action: 0 none, 1 warning, 2 Hold, 3 Return, 4 terminate "
+      "(motors off), 5 Land"),
+    P("GF_MAX_HOR_DIST", REAL32, 0.0, 0.0, 10000.0, "m", "geofence: the farthest from home horizontally (0: no "
+      "limit)"),
+    P("GF_MAX_VER_DIST", REAL32, 0.0, 0.0, 10000.0, "m", "geofence: the highest above home (0: no limit)"),
+    P("COM_DISARM_LAND", REAL32, 2.0, 0.0, 20.0, "s", "disarm this long after a landing is detected"),
+    P("COM_DISARM_PRFLT", REAL32, 10.0, -1.0, 300.0, "s", "disarm when armed on the ground without taking off for "
+      "this long (negative: never)"),
+    P("COM_MOT_TEST_EN", INT32, 1, 0, 1, "", "1 allows MAV_CMD_DO_MOTOR_TEST and MAV_CMD_ACTUATOR_TEST while "
+      "disarmed"),
+    P("MIS_TAKEOFF_ALT", REAL32, 2.5, 1.0, 1000.0, "m", "takeoff altitude above home"),
+    P("MPC_TKO_SPEED", REAL32, 1.5, 0.5, 5.0, "m/s", "takeoff climb speed"),
+    P("MPC_Z_VEL_MAX_UP", REAL32, 3.0, 0.5, 8.0, "m/s", "fastest climb when holding or returning to an altitude"),
+    P("MPC_Z_VEL_MAX_DN", REAL32, 1.5, 0.5, 4.0, "m/s", "fastest descent (landing above MPC_LAND_ALT2)"),
+    P("MPC_LAND_SPEED", REAL32, 0.7, 0.2, 3.0, "m/s", "landing descent speed below MPC_LAND_ALT2"),
+    P("MPC_LAND_ALT2", REAL32, 5.0, 0.0, 100.0, "m", "below this height above home land at MPC_LAND_SPEED"),
+    P("MPC_XY_CRUISE", REAL32, 5.0, 0.5, 12.0, "m/s", "fastest horizontal speed when returning to a hold point"),
+    P("MPC_XY_VEL_MAX", REAL32, 12.0, 1.0, 30.0, "m/s", "fastest horizontal speed flying to an Offboard position "
+      "set-point"),
+    P("MPC_ACC_HOR", REAL32, 2.0, 0.5, 10.0, "m/s^2", "acceleration of the velocity set-points that fly to an "
+      "Offboard position set-point"),
+    P("MPC_XY_P", REAL32, 0.95, 0.0, 2.0, "1/s", "horizontal position gain (Hold, Takeoff, Land, Offboard position)"),
+    P("MPC_Z_P", REAL32, 1.0, 0.0, 2.0, "1/s", "vertical position gain (Hold, Takeoff)"),
+    P("VT_ARSP_BLEND", REAL32, 13.5, 5.0, 40.0, "m/s", "PID baseline: airspeed where MC/FW blending starts"),
+    P("VT_ARSP_TRANS", REAL32, 23.0, 5.0, 40.0, "m/s", "PID baseline: airspeed where the transition completes"),
+    P("FW_AIRSPD_TRIM", REAL32, 26.0, 21.0, 30.0, "m/s", "cruise speed of the fixed-wing Hold (loiter) after a "
+      "transition to fixed wing"),
+    P("NAV_ACC_RAD", REAL32, 10.0, 0.05, 200.0, "m", "mission waypoint acceptance radius (when the item's param2 is "
+      "0)"),
+    P("RTL_TYPE", INT32, 0, 0, 1, "", "Return's destination: 0 the closest of home and the rally points; 1 the "
+      "closest of the rally points and the mission's landing (the land item after its DO_LAND_START), home only "
+      "when there is neither; a mission landing is flown from its DO_LAND_START item (PX4's 2, the mission path, "
+      "and 3 are refused)"),
+    P("RTL_RETURN_ALT", REAL32, 60.0, 0.0, 1000.0, "m", "Return: climb to this height above home (if lower) before "
+      "flying to its destination"),
+    P("RTL_CONE_ANG", INT32, 45, 0, 90, "deg", "Return: half-angle of the cone over the destination that lowers the "
+      "return altitude within RTL_MIN_DIST of it (0: always RTL_RETURN_ALT)"),
+    P("RTL_MIN_DIST", REAL32, 10.0, 0.5, 10000.0, "m", "Return: within this horizontal distance of the destination "
+      "the return altitude is the RTL_CONE_ANG cone's"),
+    P("RTL_DESCEND_ALT", REAL32, 30.0, 0.0, 1000.0, "m", "Return: with RTL_LAND_DELAY not 0, descend over the "
+      "destination to this height above home (if lower) and wait there before landing"),
+    P("RTL_LAND_DELAY", REAL32, 0.0, -1.0, 3600.0, "s", "Return: wait this long at RTL_DESCEND_ALT before landing "
+      "(0: land at once; -1: wait for ever, no landing)"),
+    P("NAV_LOITER_RAD", REAL32, 250.0, 100.0, 2000.0, "m", "radius of the fixed-wing Hold circle"),
+)
+del P
+
+BY_NAME = {definition.name: definition for definition in DEFINITIONS}
+
+
+class ParameterFileError(ValueError):
+    """The parameter file cannot be used (not JSON, wrong shape, bad value)."""
+
+
+class ParameterRejected(ValueError):
+    """A PARAM_SET that cannot be applied; the message says why."""
+
+
+def encode_value(definition: ParameterDefinition, value: float) -> float:
+    """The float that carries `value` in PARAM_VALUE.param_value (PX4 bytewise encoding for INT32)."""
+    if definition.kind == INT32:
+        return struct.unpack("<f", struct.pack("<i", int(value)))[0]
+    return float(value)
+
+
+def decode_value(definition: ParameterDefinition, param_value: float) -> float:
+    """The value a PARAM_SET.param_value carries (PX4 bytewise encoding for INT32)."""
+    if definition.kind == INT32:
+        return float(struct.unpack("<i", struct.pack("<f", param_value))[0])
+    return float(struct.unpack("<f", struct.pack("<f", param_value))[0])  # what a float32 can hold
+
+
+def default_parameter_path(instance: int) -> Path:
+    """$XDG_STATE_HOME/tiltrotor-sitl/params-<instance>.json (~/.local/state when XDG_STATE_HOME is unset)."""
+    base = os.environ.get("XDG_STATE_HOME") or os.path.join(os.path.expanduser("~"), ".local", "state")
+    return Path(base) / "tiltrotor-sitl" / f"params-{instance}.json"
+
+
+def vehicle_system_id(params: ParameterStore, instance: int) -> int:
+    """The vehicle's MAVLink system id as PX4 picks it: MAV_SYS_ID when it was changed from its default, else the
+    instance's (instance + 1, transport.ports.Ports.system_id)."""
+    if "MAV_SYS_ID" in params.non_default():
+        return params.get_int("MAV_SYS_ID")
+    return Ports(instance).system_id
+
+
+def _format_value(definition: ParameterDefinition, value: float) -> str:
+    return str(int(value)) if definition.kind == INT32 else f"{value:g}"
+
+
+class ParameterStore:
+    """Values by name, in a fixed order (param_index), persisted to `path` (None: not persisted)."""
+
+    def __init__(self, path: Path | None = None, definitions: tuple[ParameterDefinition, ...] = DEFINITIONS) -> None:
+        self.definitions = definitions
+        self.index = {d.name: i for i, d in enumerate(definitions)}
+        self.values: dict[str, float] = {d.name: float(d.default) for d in definitions}
+        self.path = path
+        self.version = 0  # counts changes: the flight stack hands changed values on when it sees a new one
+        self.warnings: list[str] = []
+        self.signing_key: SigningKey | None = None  # MAVLink 2 signing (SETUP_SIGNING), kept in the same file
+        self._writer = BackgroundWriter(path, "parameter file") if path is not None else None
+
+    # ---- access ------------------------------------------------------------------------------------------
+    def __getitem__(self, name: str) -> float:
+        return self.values[name]
+
+    def get_int(self, name: str) -> int:
+        return int(self.values[name])
+
+    def __len__(self) -> int:
+        return len(self.definitions)
+
+    def definition(self, name: str) -> ParameterDefinition | None:
+        return BY_NAME.get(name) if name in self.index else None
+
+    # ---- changes -----------------------------------------------------------------------------------------
+    def check(self, name: str, value: float) -> ParameterDefinition:
+        """Raise ParameterRejected unless `value` is acceptable for `name`."""
+        definition = self.definition(name)
+        if definition is None:
+            raise ParameterRejected(f"unknown parameter {name!r}")
+        if not math.isfinite(value):
+            raise ParameterRejected(f"{name}: {value} is not a finite number")
+        if definition.kind == INT32 and value != int(value):
+            raise ParameterRejected(f"{name}: {value} is not an integer")
+        if not definition.minimum <= value <= definition.maximum:
+            raise ParameterRejected(f"{name}: {_format_value(definition, value)} outside "
+                                    f"{_format_value(definition, definition.minimum)}.."
+                                    f"{_format_value(definition, definition.maximum)}")  # fmt: skip
+        blend = value if name == "VT_ARSP_BLEND" else self.values["VT_ARSP_BLEND"]
+        trans = value if name == "VT_ARSP_TRANS" else self.values["VT_ARSP_TRANS"]
+        if name in ("VT_ARSP_BLEND", "VT_ARSP_TRANS") and blend >= trans:
+            raise ParameterRejected(f"{name}: VT_ARSP_BLEND ({blend:g}) must stay below VT_ARSP_TRANS ({trans:g})")
+        return definition
+
+    def set(self, name: str, value: float) -> bool:
+        """Set a value (checked); True when it changed. The file is rewritten in the background."""
+        definition = self.check(name, value)
+        value = float(int(value)) if definition.kind == INT32 else float(value)
+        if self.values[name] == value:
+            return False
+        self.values[name] = value
+        self.version += 1
+        self.save()
+        return True
+
+    def set_signing_key(self, key: SigningKey | None) -> None:
+        """Set (None: remove) the signing key; the file is rewritten in the background, atomically as ever."""
+        self.signing_key = key
+        self.save()
+
+    # ---- persistence -------------------------------------------------------------------------------------
+    def non_default(self) -> dict[str, int | float]:
+        changed: dict[str, int | float] = {}
+        for d in self.definitions:
+            value = self.values[d.name]
+            if value != float(d.default):
+                changed[d.name] = int(value) if d.kind == INT32 else value
+        return changed
+
+    def document(self) -> str:
+        document: dict[str, Any] = {"format": FILE_FORMAT, "version": FILE_VERSION, "parameters": self.non_default()}
+        if self.signing_key is not None:
+            document["signing"] = key_to_document(self.signing_key)
+        return json.dumps(document, indent=1, sort_keys=True) + "\n"
+
+    def save(self) -> None:
+        if self._writer is not None:
+            self._writer.submit(self.document())
+
+    @property
+    def write_error(self) -> str | None:
+        """The last write's error (None: it worked, or nothing was written yet)."""
+        return None if self._writer is None else self._writer.last_error
+
+    def flush(self, timeout_s: float = 10.0) -> str | None:
+        """Wait for pending writes; returns the last write error (or None)."""
+        if self._writer is None:
+            return None
+        return self._writer.flush(timeout_s)
+
+    def load(self) -> None:
+        """Read the file if it exists (a missing file means all defaults); raise ParameterFileError if broken."""
+        if self.path is None:
+            return
+        text = read_kept(self.path, "parameter file", ParameterFileError)
+        if text is None:
+            return
+        where = f"parameter file {self.path}"
+        try:
+            document = json.loads(text)
+        except ValueError as exc:
+            raise ParameterFileError(f"{where} is not valid JSON ({exc})") from None
+        if not isinstance(document, dict) or document.get("format") != FILE_FORMAT:
+            raise ParameterFileError(f"{where}: not a tiltrotor-sitl parameter file (no \"format\": \"{FILE_FORMAT}\")")
+        if document.get("version") != FILE_VERSION:
+            raise ParameterFileError(f"{where}: version {document.get('version')!r}, expected {FILE_VERSION}")
+        parameters = document.get("parameters")
+        if not isinstance(parameters, dict):
+            raise ParameterFileError(f"{where}: \"parameters\" must be an object of NAME: value")
+        loaded: dict[str, float] = {}
+        for name, value in parameters.items():
+            if name not in self.index:
+                self.warnings.append(f"{where}: unknown parameter {name!r} ignored")
+                continue
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise ParameterFileError(f"{where}: {name} = {value!r} is not a number")
+            try:
+                self.check(name, float(value))
+            except ParameterRejected as exc:
+                raise ParameterFileError(f"{where}: {exc}") from None
+            loaded[name] = float(value)
+        self.values.update(loaded)
+        if "signing" in document:
+            try:
+                self.signing_key = key_from_document(document["signing"])
+            except SigningRefused as exc:
+                raise ParameterFileError(f"{where}: {exc}") from None
+        if self.values["VT_ARSP_BLEND"] >= self.values["VT_ARSP_TRANS"]:
+            raise ParameterFileError(f"{where}: VT_ARSP_BLEND must be below VT_ARSP_TRANS")
+
+
+def describe(definitions: tuple[ParameterDefinition, ...] = DEFINITIONS) -> list[dict[str, Any]]:
+    """The table of parameters (for docs and --help-params)."""
+    return [
+        {"name": d.name, "type": d.kind, "default": d.default, "min": d.minimum, "max": d.maximum, "unit": d.unit,
+         "description": d.description, "px4": d.px4}
+        for d in definitions
+    ]  # fmt: skip
