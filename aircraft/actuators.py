@@ -30,6 +30,7 @@ ROTORS = slice(0, 4)
 TILTS = slice(4, 8)
 SURFACES = slice(8, 12)
 SERVO_CHANNELS = slice(4, 12)  # what MAV_CMD_INJECT_FAILURE calls servos: tilt servos 1-4, then surfaces 5-8
+SERVO_COUNT = SERVO_CHANNELS.stop - SERVO_CHANNELS.start
 # The allocator's 8 actuators (rotor thrust fractions, then surfaces); the tilts are not allocated.
 ALLOCATED_ROTORS = slice(0, 4)
 ALLOCATED_SURFACES = slice(4, 8)

@@ -1,4 +1,4 @@
-"""Rotations between the inertial NED frame and the body FRD frame.
+"""Rotations between the inertial NED frame and the body FRD frame, and angles wrapped to (-pi, pi].
 
 Written with CasADi operations so each function works on Python floats, numpy-free DM values and
 CasADi symbols alike (the plant, the MPC and the allocation share them).
@@ -9,6 +9,16 @@ from __future__ import annotations
 import math
 
 import casadi as ca
+
+
+def wrap_angle(angle: ca.SX) -> ca.SX:
+    """Angle wrapped to (-pi, pi], smooth where it matters (works on floats and symbols)."""
+    return ca.atan2(ca.sin(angle), ca.cos(angle))
+
+
+def wrap(angle: float) -> float:
+    """wrap_angle on a plain float (rad)."""
+    return math.atan2(math.sin(angle), math.cos(angle))
 
 
 def rotation_from_quaternion(q: ca.SX) -> ca.SX:

@@ -11,23 +11,23 @@ from pathlib import Path
 from aircraft.airframe import AirframeError, load_airframe
 from aircraft.failures import FailureRejected, parse_failure
 from autopilot.commander.commander import Commander
-from autopilot.logger.control_telemetry import ControlTelemetry
-from autopilot.controllers import build_flight_controller, controller_kind, mpc_horizon
 from autopilot.commander.failure_injection import FailureInjection, ScheduledFailure
-from autopilot.control.flight_controller import FlightController
-from autopilot.logger.flight_log import FlightLogger
 from autopilot.commander.flight_stack import FlightStack
 from autopilot.commander.guided_requests import GuidedRequests
 from autopilot.commander.output_requests import OutputRequests
+from autopilot.control.flight_controller import FlightController
+from autopilot.control.pid_baseline import TransitionAirspeeds
+from autopilot.controllers import build_flight_controller, controller_kind, mpc_horizon
+from autopilot.logger.control_telemetry import ControlTelemetry
+from autopilot.logger.flight_log import FlightLogger
 from autopilot.mavlink.router import GroundLink, Router
 from autopilot.mavlink.services import MavlinkServices
-from autopilot.storage.mission_store import MissionFileError, MissionStore, default_mission_path
 from autopilot.mpc.horizon import HORIZONS
-from autopilot.storage.parameters import ParameterFileError, ParameterStore, default_parameter_path, vehicle_system_id
-from autopilot.control.pid_baseline import TransitionAirspeeds
 from autopilot.plant_loop import LoopOutputs, PlantLoop
-from scenarios.profiles import PROFILES
+from autopilot.storage.mission_store import MissionFileError, MissionStore, default_mission_path
+from autopilot.storage.parameters import ParameterFileError, ParameterStore, default_parameter_path, vehicle_system_id
 from autopilot.topics.vehicle_status import EventOutbox
+from scenarios.profiles import PROFILES
 from transport.cli import (
     OneLineArgumentParser,
     bounded_int,

@@ -29,18 +29,19 @@ from typing import Any
 
 import numpy as np
 
-from aircraft.actuators import ROTORS, ROTOR_COUNT, TILTS, command_to_pwm
+from aircraft.actuators import ROTOR_COUNT, ROTORS, TILTS, command_to_pwm
 from aircraft.airframe import Airframe
 from aircraft.failures import Failure
 from autopilot.commander.commander import Commander
-from autopilot.logger.control_telemetry import ControlTelemetry
 from autopilot.commander.failure_injection import FailureInjection
 from autopilot.control.flight_controller import FlightController
+from autopilot.logger.control_telemetry import ControlTelemetry
 from autopilot.logger.flight_log import FlightLogger
-from autopilot.topics.home_position import HomePosition
 from autopilot.mavlink.services import MavlinkServices
-from autopilot.storage.mission_store import Missions, MissionStore
+from autopilot.storage.mission_store import MissionStore
 from autopilot.storage.parameters import ParameterStore
+from autopilot.topics.home_position import HomePosition
+from autopilot.topics.missions import Missions
 from autopilot.topics.vehicle_state import VehicleState, update_from_hil_state
 from autopilot.topics.vehicle_status import EventOutbox, GlobalPosition, VehicleStatus, copy_state, vtol_state
 from transport.geodesy import Home, LocalGeodetic

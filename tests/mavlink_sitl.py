@@ -7,8 +7,8 @@ import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
-from tiltrotor_sitl import Controller, Vehicle
 from tests.ground_station import GroundStation
+from tiltrotor_sitl import Controller, Vehicle
 
 
 @dataclass

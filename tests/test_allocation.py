@@ -23,7 +23,13 @@ import pytest
 from aircraft.actuators import ALLOCATED_ROTORS, ALLOCATED_SURFACES
 from aircraft.airframe import Airframe, load_airframe
 from aircraft.wrench import actuator_wrench
-from autopilot.control.allocation import LOWER_NOMINAL, STATUS_INVALID_INPUT, UPPER_NOMINAL, AllocationResult, ControlAllocator
+from autopilot.control.allocation import (
+    LOWER_NOMINAL,
+    STATUS_INVALID_INPUT,
+    UPPER_NOMINAL,
+    AllocationResult,
+    ControlAllocator,
+)
 from autopilot.control.allocation_qp import build_allocation_functions
 
 ZERO3 = np.zeros(3)

@@ -4,7 +4,7 @@ stream, and a link that drops everything triggers the Offboard-loss failsafe."""
 
 from __future__ import annotations
 
-from ground_tools.fault_proxy import Faults, FaultProxy
+from ground_tools.fault_proxy import FaultProxy, Faults
 from ground_tools.free_ports import free_udp_port
 from tests.ground_station import HOLD, OFFBOARD, GroundStation
 from tiltrotor_sitl import Vehicle

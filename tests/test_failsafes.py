@@ -14,16 +14,21 @@ from aircraft.failures import Failure, FailureRejected, FailureType, FailureUnit
 from autopilot.commander.commander import HOLD, LAND, OFFBOARD, RETURN, Commander
 from autopilot.commander.failsafe import Decision
 from autopilot.commander.failsafe_reaction import Reaction, reaction
-from autopilot.navigator.geofence import breach, fence_from_items, inside_polygon
 from autopilot.commander.guided_requests import GuidedRequests
+from autopilot.navigator.geofence import breach, fence_from_items, inside_polygon
 from autopilot.navigator.manual_modes import ALTITUDE, POSITION
 from autopilot.navigator.mission_feasibility import geofence_violation
-from autopilot.topics.mission_items import MissionItem
+from autopilot.navigator.return_route import (
+    MissionLanding,
+    closest_safe_point,
+    mission_landing,
+    return_destination,
+    return_height,  # fmt: skip
+)
 from autopilot.storage.mission_store import MissionStore
 from autopilot.storage.parameters import ParameterRejected, ParameterStore
+from autopilot.topics.mission_items import MissionItem
 from autopilot.topics.requests import ManualControlInput, Reposition
-from autopilot.navigator.return_route import (MissionLanding, closest_safe_point, mission_landing, return_destination,
-                                    return_height)  # fmt: skip
 from autopilot.topics.vehicle_state import VehicleState
 from transport.geodesy import Home
 from transport.mavlink import mavlink as M

@@ -58,7 +58,7 @@ def test_a_command_description_left_alone_adds_nothing_and_each_field_its_option
 def test_the_flight_log_reads_back_what_it_writes_and_refuses_other_files(tmp_path):
     import pytest
 
-    from transport.flight_log import COLUMNS, MODE, NUMERIC_COLUMNS, T, FlightLogWriter, read_flight_log
+    from transport.flight_log import COLUMNS, MODE, NUMERIC_COLUMNS, FlightLogWriter, T, read_flight_log
 
     assert COLUMNS[-1] == MODE and len(COLUMNS) == len(set(COLUMNS)) == len(NUMERIC_COLUMNS) + 1
     path = tmp_path / "log.csv"

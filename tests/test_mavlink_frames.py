@@ -8,8 +8,14 @@ import struct
 import pytest
 
 from transport.mavlink import Link
-from transport.mavlink_frames import (HIL_GPS, HIL_SENSOR, HIL_STATE_QUATERNION, PLANT_STEP_FORMATS, SERVO_OUTPUT_RAW,
-                                      FrameFormat)  # fmt: skip
+from transport.mavlink_frames import (
+    HIL_GPS,
+    HIL_SENSOR,
+    HIL_STATE_QUATERNION,
+    PLANT_STEP_FORMATS,
+    SERVO_OUTPUT_RAW,
+    FrameFormat,  # fmt: skip
+)
 
 KEY = bytes(range(32))
 

@@ -5,8 +5,8 @@ the mission or the fence allows it. GF_MAX_HOR_DIST counts as the fence does. Lo
 
 from __future__ import annotations
 
-from tests.mavlink_sitl import start_sitl
 from tests.ground_station import MissionClient
+from tests.mavlink_sitl import start_sitl
 from tests.test_mavlink_missions import REL, rows_of, same
 from tests.test_mavlink_navigation import MISSION_MODE, latlon_e7, waypoint
 from transport.mavlink import mavlink as M

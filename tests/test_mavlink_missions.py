@@ -14,8 +14,8 @@ import pytest
 
 from autopilot.navigator.mission_feasibility import geofence_violation
 from autopilot.navigator.mission_flight import region_of_interest
-from autopilot.topics.mission_items import PAYLOAD, MissionItem, check_item
 from autopilot.storage.mission_store import MissionFileError, MissionStore, document, parse_document
+from autopilot.topics.mission_items import PAYLOAD, MissionItem, check_item
 from tests.ground_station import GroundStation, MissionClient
 from tests.mavlink_sitl import Sitl, start_sitl
 from transport.mavlink import mavlink as M

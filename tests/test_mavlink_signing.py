@@ -6,9 +6,9 @@ import json
 import signal
 import time
 
-from transport.link_signing import timestamp_at
 from tests.ground_station import GroundStation, said
 from tests.mavlink_sitl import start_sitl
+from transport.link_signing import timestamp_at
 from transport.mavlink import MAV_RESULT_ACCEPTED, MAV_RESULT_DENIED, mavlink
 
 KEY = bytes(range(1, 33))

@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from autopilot.mpc.rti import RtiSolver
 from autopilot.mpc.horizon import LONG
 from autopilot.mpc.model import CHI, NP, NX, P_FREE_TILT, P_PSI_D_REF, P_PSI_REF, SoftTiltCost
 from autopilot.mpc.reference import solve_reference_nlp
+from autopilot.mpc.rti import RtiSolver
 
 # Paper Table 3, (mean tilt deg, forward speed m/s) -> J_soft. Two cells disagree with every constant set,
 # including the paper's own (its table is inconsistent, docs/mpc.md 1.6): (45, 15) and (90, 10); left out.

@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from autopilot.mpc.rti import QpBackend, RtiSolver
 from autopilot.mpc.horizon import StageGrid
 from autopilot.mpc.model import CHI, NP, NX, P_FREE_TILT
+from autopilot.mpc.rti import QpBackend, RtiSolver
 
 
 def problem(horizon: int) -> tuple[np.ndarray, np.ndarray]:

@@ -10,9 +10,9 @@ import pytest
 
 from aircraft.codegen import BufferedFunction
 from autopilot.controllers import mpc_horizon
-from autopilot.mpc.rti import RtiSolver, planned_force_function
 from autopilot.mpc.horizon import LONG, PAPER, StageGrid, extrapolate_setpoint
 from autopilot.mpc.model import CHI, NU, NX, angle_chain, yaw_references
+from autopilot.mpc.rti import RtiSolver, planned_force_function
 
 
 def test_the_long_grid_sees_two_seconds_with_the_papers_number_of_stages():

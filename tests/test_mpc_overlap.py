@@ -11,9 +11,9 @@ import pytest
 
 from aircraft.actuators import ALLOCATED_ROTORS
 from aircraft.failures import FailureType, FailureUnit, parse_failure
-from autopilot.controllers import build_flight_controller
+from autopilot.control.attitude import euler_rates
 from autopilot.control.flight_controller import MPC, VELOCITY_PERIOD_USEC
-from autopilot.mpc.controller import euler_rates
+from autopilot.controllers import build_flight_controller
 from autopilot.mpc.horizon import HORIZONS
 from autopilot.mpc.model import P_SOLVER, THRUST
 from autopilot.mpc.overlap import OverlappedMpc, body_rates

@@ -19,8 +19,8 @@ import pytest
 
 from autopilot.navigator.stamped_setpoints import StampedSetpoints
 from autopilot.topics.yaw_setpoint import YawSetpoint
-from ground_tools.lockstep_client import PERIOD_MS, START_MS, grid_stamp, setpoint_for, tilt_commands_deg, yaw_turns
 from ground_tools.free_ports import bindable
+from ground_tools.lockstep_client import PERIOD_MS, START_MS, grid_stamp, setpoint_for, tilt_commands_deg, yaw_turns
 from ground_tools.processes import AutopilotCommand
 from ground_tools.scenario_report import acceptance, velocity_rmse, write_report
 from ground_tools.scenario_run import WALL_CLOCK_KEYS

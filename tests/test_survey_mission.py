@@ -15,7 +15,6 @@ import numpy as np
 import pytest
 
 from autopilot.navigator.guidance import leg_cruise_speed, leg_velocity, turn_ramp
-
 from ground_tools.cli import main
 from ground_tools.mission_command import FIGURE_FILES
 from ground_tools.mission_file import WPL_HEADER, read_mission_file, read_waypoints

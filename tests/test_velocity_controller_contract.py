@@ -12,14 +12,14 @@ import pytest
 
 from aircraft.airframe import Airframe, load_airframe
 from aircraft.frames import quaternion_from_euler
-from autopilot.controllers import KINDS, build_flight_controller
 from autopilot.control.flight_controller import MPC, VELOCITY_PERIOD_USEC
-from autopilot.mpc.controller import MpcVelocityController
-from autopilot.mpc.overlap import OverlappedMpc
 from autopilot.control.pid_baseline import PidVelocityController
-from autopilot.topics.vehicle_state import VehicleState
 from autopilot.control.velocity_command import VelocityCommand
 from autopilot.control.velocity_controller import VelocityController
+from autopilot.controllers import KINDS, build_flight_controller
+from autopilot.mpc.controller import MpcVelocityController
+from autopilot.mpc.overlap import OverlappedMpc
+from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.yaw_setpoint import YawReference
 
 TICKS = 25  # 0.25 s at 100 Hz per case

@@ -10,9 +10,16 @@ import math
 import numpy as np
 import pytest
 
-from autopilot.control.attitude import wrap
-from autopilot.navigator.auto_flight import ORBIT_FRONT_TO_CENTER, ORBIT_INITIAL_HEADING, ORBIT_TANGENT, Circle, orbit_yaw
-from autopilot.topics.yaw_setpoint import YAW_STOPPED, StickYaw, YawSetpoint, YawShaper, multicopter_speed
+from aircraft.frames import wrap
+from autopilot.navigator.auto_flight import (
+    ORBIT_FRONT_TO_CENTER,
+    ORBIT_INITIAL_HEADING,
+    ORBIT_TANGENT,
+    Circle,
+    orbit_yaw,
+)
+from autopilot.navigator.yaw_shaping import YAW_STOPPED, StickYaw, YawShaper, multicopter_speed
+from autopilot.topics.yaw_setpoint import YawSetpoint
 from tests.ground_station import HOLD, OFFBOARD, MissionClient
 from tests.test_mavlink_failsafes import hovering, set_param
 from tests.test_mavlink_manual_control import POSCTL

@@ -22,27 +22,44 @@ from collections.abc import Callable
 
 import numpy as np
 
-from autopilot.navigator.auto_flight import AutoFlight
 from autopilot.commander.failsafe import Decision, Failsafe, FailsafeInputs
 from autopilot.commander.failsafe_reaction import reaction
-from autopilot.navigator.flight_modes import (HOLD, LAND, MISSION, OFFBOARD, ORBIT, RETURN, TAKEOFF, FlightMode, HoldMode,
-                                    LandMode, MissionMode, OffboardMode, OrbitMode, ReturnMode, TakeoffMode)  # fmt: skip
 from autopilot.commander.ground_state import GroundState, landed_state
-from autopilot.topics.home_position import HomeKeeper
+from autopilot.commander.output_tests import OutputTests
+from autopilot.commander.prearm_checks import prearm_refusal
+from autopilot.navigator.auto_flight import AutoFlight
+from autopilot.navigator.flight_modes import (
+    HOLD,
+    LAND,
+    MISSION,
+    OFFBOARD,
+    ORBIT,
+    RETURN,
+    TAKEOFF,
+    FlightMode,
+    HoldMode,
+    LandMode,  # fmt: skip
+    MissionMode,
+    OffboardMode,
+    OrbitMode,
+    ReturnMode,
+    TakeoffMode,
+)
+from autopilot.navigator.flight_tasks import TICK_S, LandDetector, Navigator
 from autopilot.navigator.manual_modes import ALTITUDE, POSITION, ManualControl, StickMode
 from autopilot.navigator.mission_feasibility import MissionFeasibility
 from autopilot.navigator.mission_flight import MissionFlight
+from autopilot.navigator.offboard_setpoint import OffboardSetpoint
+from autopilot.navigator.yaw_shaping import YawShaper, multicopter_speed
 from autopilot.storage.mission_store import MissionStore
-from autopilot.navigator.flight_tasks import TICK_S, LandDetector, Navigator
-from autopilot.navigator.offboard_setpoint import AttitudeTarget, OffboardSetpoint
-from autopilot.commander.output_tests import OutputTests
 from autopilot.storage.parameters import ParameterStore
-from autopilot.commander.prearm_checks import prearm_refusal
+from autopilot.topics.attitude_target import AttitudeTarget
+from autopilot.topics.home_position import HomeKeeper
 from autopilot.topics.region_of_interest import RegionOfInterest
-from autopilot.topics.requests import ManualControlInput, Reply
+from autopilot.topics.requests import FORCE_MAGIC, ManualControlInput, Reply
 from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.vehicle_status import CommanderReport
-from autopilot.topics.yaw_setpoint import YawReference, YawShaper, multicopter_speed
+from autopilot.topics.yaw_setpoint import YawReference
 from transport.geodesy import Home
 from transport.mavlink import mavlink
 
@@ -51,7 +68,6 @@ TEMPORARILY_REJECTED = mavlink.MAV_RESULT_TEMPORARILY_REJECTED
 DENIED = mavlink.MAV_RESULT_DENIED
 UNSUPPORTED = mavlink.MAV_RESULT_UNSUPPORTED
 
-FORCE_MAGIC = 21196  # MAV_CMD_COMPONENT_ARM_DISARM param2: skip the checks (PX4)
 
 HOME_AT_REST_SPEED = 0.5  # m/s: home follows a disarmed vehicle on the ground only when it is this still
 

@@ -25,10 +25,10 @@ import numpy as np
 from aircraft.failures import Failure, FailureUnit, failed_sensors
 from autopilot.navigator.flight_modes import HOLD, LAND, RETURN
 from autopilot.navigator.geofence import Fence, breach, fence_from_items
-from autopilot.topics.home_position import HomeKeeper
 from autopilot.navigator.manual_modes import ALTITUDE, POSITION
 from autopilot.storage.mission_store import MissionStore
 from autopilot.storage.parameters import ParameterStore
+from autopilot.topics.home_position import HomeKeeper
 from transport.mavlink import mavlink
 
 NONE, WARN, TERMINATE, DISARM = "None", "Warn", "Terminate", "Disarm"  # the actions that are not modes

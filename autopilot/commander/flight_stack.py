@@ -10,16 +10,40 @@ from __future__ import annotations
 from autopilot.commander.commander import RETURN, Commander
 from autopilot.commander.failure_injection import FailureInjection
 from autopilot.commander.guided_requests import GuidedRequests
+from autopilot.commander.output_requests import OutputRequests
+from autopilot.storage.mission_store import MissionStore
+from autopilot.storage.parameters import ParameterStore
 from autopilot.topics.mission_items import FENCE as FENCE_TYPE
 from autopilot.topics.mission_items import MISSION as MISSION_TYPE
-from autopilot.storage.mission_store import MissionStore
-from autopilot.commander.output_requests import OutputRequests
-from autopilot.storage.parameters import ParameterStore
-from autopilot.topics.requests import (Arm, ChangeSpeed, ClearMission, Disarm, FlightTermination, GcsHeartbeat,
-                                InjectFailure, Land, ManualControlInput, OffboardAttitude, OffboardPosition,
-                                OffboardVelocity, Orbit, OutputTest, Reply, Reposition, Request, ReturnToLaunch,
-                                SetMissionCurrent, SetMode, SetHome, SetRegionOfInterest, StartMission, StoreMission,
-                                Takeoff, Transition, TurnTo)  # fmt: skip
+from autopilot.topics.requests import (
+    Arm,
+    ChangeSpeed,
+    ClearMission,
+    Disarm,
+    FlightTermination,
+    GcsHeartbeat,
+    InjectFailure,
+    Land,
+    ManualControlInput,
+    OffboardAttitude,
+    OffboardPosition,
+    OffboardVelocity,
+    Orbit,
+    OutputTest,
+    Reply,
+    Reposition,
+    Request,
+    ReturnToLaunch,
+    SetHome,
+    SetMissionCurrent,
+    SetMode,
+    SetRegionOfInterest,
+    StartMission,
+    StoreMission,
+    Takeoff,  # fmt: skip
+    Transition,
+    TurnTo,
+)
 from transport.mavlink import mavlink
 
 

@@ -4,14 +4,22 @@ commander does."""
 
 from __future__ import annotations
 
-from autopilot.navigator.auto_flight import Circle
+from aircraft.frames import wrap
 from autopilot.commander.commander import ACCEPTED, DENIED, TEMPORARILY_REJECTED, Commander
+from autopilot.navigator.auto_flight import Circle
 from autopilot.navigator.flight_modes import HOLD, LAND, OFFBOARD, ORBIT, VTOL_FW, VTOL_MC
 from autopilot.navigator.offboard_setpoint import SETPOINT_LIMITS
 from autopilot.topics.region_of_interest import RegionOfInterest
-from autopilot.control.attitude import wrap
-from autopilot.topics.requests import (OffboardAttitude, OffboardPosition, OffboardVelocity, Orbit, Reply, Reposition, SetHome,
-                                TurnTo)  # fmt: skip
+from autopilot.topics.requests import (
+    OffboardAttitude,
+    OffboardPosition,
+    OffboardVelocity,
+    Orbit,
+    Reply,
+    Reposition,
+    SetHome,
+    TurnTo,  # fmt: skip
+)
 from autopilot.topics.vehicle_state import VehicleState
 from transport.mavlink import mavlink
 

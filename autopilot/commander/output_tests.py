@@ -12,11 +12,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from aircraft.actuators import PWM_MAX, PWM_MIN, ROTOR_COUNT, ROTORS, SERVO_CHANNELS
+from aircraft.actuators import PWM_MAX, PWM_MIN, ROTORS, SERVO_CHANNELS
 
 MAX_TEST_USEC = 3_000_000  # PX4 limits a test to 3 s, and a test without a time-out lasts that long
-MOTOR_COUNT = ROTOR_COUNT
-SERVO_COUNT = SERVO_CHANNELS.stop - SERVO_CHANNELS.start
 
 
 @dataclass(frozen=True)

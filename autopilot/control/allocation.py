@@ -39,6 +39,7 @@ from aircraft.airframe import Airframe
 from aircraft.codegen import compiled
 from aircraft.wrench import ALLOCATED_ACTUATORS
 from autopilot.control.allocation_qp import N_ACTUATORS, N_WRENCH, build_allocation_functions
+
 LOWER_NOMINAL = np.array([0.0, 0.0, 0.0, 0.0, -1.0, -1.0, -1.0, -1.0])
 UPPER_NOMINAL = np.array([1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0])
 DEFAULT_LEAST_EFFORT = 1e-6  # eps relative to the largest diagonal entry of A^T Q A

@@ -22,6 +22,7 @@ import casadi as ca
 import numpy as np
 
 from aircraft.airframe import Airframe
+from aircraft.frames import wrap_angle
 
 
 @dataclass(frozen=True)
@@ -35,16 +36,6 @@ class AttitudeGains:
 
 
 DEFAULT_GAINS = AttitudeGains()
-
-
-def wrap_angle(angle: ca.SX) -> ca.SX:
-    """Angle wrapped to (-pi, pi], smooth where it matters (works on floats and symbols)."""
-    return ca.atan2(ca.sin(angle), ca.cos(angle))
-
-
-def wrap(angle: float) -> float:
-    """wrap_angle on a plain float (rad), for the controllers' per-tick Python code."""
-    return math.atan2(math.sin(angle), math.cos(angle))
 
 
 def attitude_law(
@@ -111,3 +102,11 @@ class AttitudeController:
         self._evaluate()
         self.euler_rate_prev[:] = self.euler_rate
         return self.torque
+
+
+def euler_rates(euler: np.ndarray, body_rates: np.ndarray) -> np.ndarray:
+    """Psi_dot = E(Psi)^-1 omega for ZYX Euler angles (euler_rate_matrix, numerically)."""
+    phi, theta = euler[0], euler[1]
+    sf, cf, ct, tt = math.sin(phi), math.cos(phi), math.cos(theta), math.tan(theta)
+    p, q, r = body_rates
+    return np.array([p + sf * tt * q + cf * tt * r, cf * q - sf * r, (sf * q + cf * r) / ct])

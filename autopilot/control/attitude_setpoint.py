@@ -11,10 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from autopilot.control.attitude import DEFAULT_GAINS
-from autopilot.mpc.controller import euler_rates
-from autopilot.navigator.offboard_setpoint import AttitudeTarget
+from autopilot.control.attitude import DEFAULT_GAINS, euler_rates
 from autopilot.control.velocity_command import VelocityCommand
+from autopilot.topics.attitude_target import AttitudeTarget
 
 ATTITUDE_MODE = "offboard attitude"
 

@@ -29,15 +29,12 @@ from autopilot.control.actuator_health import ActuatorHealth, ServoEstimate
 from autopilot.control.allocation import ControlAllocator
 from autopilot.control.attitude import AttitudeController
 from autopilot.control.attitude_setpoint import attitude_command
-from autopilot.mpc.rti import MpcSolution
-from autopilot.mpc.controller import MpcVelocityController
-from autopilot.mpc.overlap import OverlappedMpc
-from autopilot.navigator.offboard_setpoint import AttitudeTarget
 from autopilot.control.pid_baseline import PidVelocityController
-from autopilot.topics.vehicle_state import VehicleState
 from autopilot.control.velocity_command import VelocityCommand
-from autopilot.control.velocity_controller import VelocityController
+from autopilot.control.velocity_controller import PrimaryVelocityController, VelocityController
 from autopilot.control.velocity_estimate import VelocityEstimate
+from autopilot.topics.attitude_target import AttitudeTarget
+from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.yaw_setpoint import YawReference
 
 ControllerKind = Literal["mpc", "pid"]
@@ -102,7 +99,7 @@ class FlightController:
         allocator: ControlAllocator,
         servos: ServoEstimate,
         pid: PidVelocityController,
-        mpc: MpcVelocityController | OverlappedMpc | None = None,
+        mpc: PrimaryVelocityController | None = None,
     ) -> None:
         self.airframe = airframe
         self.allocator = allocator
@@ -145,11 +142,6 @@ class FlightController:
     def mode_switches(self) -> int:
         """The flying velocity controller's phase changes."""
         return self.velocity_controller.mode_switches
-
-    @property
-    def last_mpc_solution(self) -> MpcSolution | None:
-        """The MPC's latest solve (for telemetry), None without an MPC or before its first solve."""
-        return None if self.mpc is None else self.mpc.last_solution
 
     def set_velocity_setpoint(self, velocity_ned: np.ndarray) -> bool:
         """Accept a NED velocity set-point (m/s); a non-finite one is refused (False) and the last one kept."""
@@ -251,7 +243,7 @@ class FlightController:
         return command.yaw_by_tilt or (self.velocity_controller is not self.pid
                                        and not bool(np.all(np.isnan(self.servos.stuck))))
 
-    def _fall_back_to_pid(self, state: VehicleState, mpc: MpcVelocityController | OverlappedMpc) -> None:
+    def _fall_back_to_pid(self, state: VehicleState, mpc: PrimaryVelocityController) -> None:
         """Paper: the PID is the MPC's back-up after repeated failed solves; it flies from this tick on."""
         self.fell_back_to_pid = True
         self.velocity_controller = self.pid

@@ -23,9 +23,10 @@ from typing import NamedTuple
 import numpy as np
 
 from aircraft.airframe import Airframe
-from autopilot.control.attitude import DEFAULT_GAINS, wrap
-from autopilot.topics.vehicle_state import VehicleState
+from aircraft.frames import wrap
+from autopilot.control.attitude import DEFAULT_GAINS
 from autopilot.control.velocity_command import SetpointTrajectory, VelocityCommand, course_rate, setpoint_course
+from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.yaw_setpoint import YawReference
 
 MC, TRANSITION_FW, FW, TRANSITION_MC = "MC", "TRANSITION_FW", "FW", "TRANSITION_MC"

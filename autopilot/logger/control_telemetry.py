@@ -13,7 +13,6 @@ from typing import Any
 
 from aircraft.actuators import TILTS, allocated_of
 from autopilot.control.flight_controller import FlightController
-from autopilot.mpc.controller import solution_summary
 from transport.telemetry import control_key, encode_control, encode_mpc_solution, join_samples, mpc_key
 
 BATCH_SAMPLES = 10  # 100 ms of simulated time at the velocity controller's 100 Hz
@@ -34,10 +33,10 @@ class ControlTelemetry:
         sample = encode_control(t, c.mode, c.velocity_setpoint, c.velocity_command.euler_sp, c.command[TILTS],
                                 allocated_of(c.command), c.wrench_sp, c.residual)  # fmt: skip
         self._controls.append(sample)
-        solution = c.last_mpc_solution
-        if solution is not None and solution is not self._published_solution:
+        solution = None if c.mpc is None else c.mpc.last_solution
+        if c.mpc is not None and solution is not None and solution is not self._published_solution:
             self._published_solution = solution
-            self._solutions.append(encode_mpc_solution(t, solution_summary(solution)))
+            self._solutions.append(encode_mpc_solution(t, c.mpc.solution_summary()))
         if not gather or len(self._controls) >= BATCH_SAMPLES:
             self.flush()
 

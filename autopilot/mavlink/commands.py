@@ -15,9 +15,6 @@ from typing import Any
 import numpy as np
 
 from aircraft.failures import FailureRejected, parse_failure
-from autopilot.topics.region_of_interest import RegionOfInterest, roi_mode, wpnext_offset_deg
-from autopilot.commander.commander import FORCE_MAGIC
-from autopilot.topics.home_position import home_at, home_here, home_refusal
 from autopilot.mavlink import messages
 from autopilot.mavlink.command_params import GlobalTargets, Params, int_param, latitude_longitude
 from autopilot.mavlink.global_frames import altitude_amsl
@@ -27,7 +24,10 @@ from autopilot.mavlink.router import COMP_ID, GroundLink
 from autopilot.mavlink.statustext import Announcer
 from autopilot.mavlink.streams import DEFAULT_RATES_HZ, MIN_INTERVAL_USEC, default_interval_usec
 from autopilot.mavlink.view import StatusView
+from autopilot.topics.home_position import home_at, home_here, home_refusal
+from autopilot.topics.region_of_interest import RegionOfInterest, roi_mode, wpnext_offset_deg
 from autopilot.topics.requests import (
+    FORCE_MAGIC,
     Arm,
     ChangeSpeed,
     Disarm,

@@ -10,8 +10,8 @@ from typing import Any
 
 from aircraft.failures import FailureUnit, failed_sensors
 from autopilot.mavlink.px4_modes import custom_mode
-from autopilot.topics.vehicle_status import VehicleStatus
 from autopilot.topics.home_position import HomePosition
+from autopilot.topics.vehicle_status import VehicleStatus
 from transport.mavlink import mavlink as M
 
 SENSORS = (

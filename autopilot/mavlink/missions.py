@@ -36,7 +36,7 @@ from autopilot.topics.mission_items import (
     result_name,
     to_float_coordinates,
 )
-from autopilot.storage.mission_store import Missions
+from autopilot.topics.missions import Missions
 from autopilot.topics.requests import ClearMission, RequestHandler, SetMissionCurrent, StoreMission
 from autopilot.topics.vehicle_status import VehicleStatus
 from transport.mavlink import mavlink as M

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import math
 
+from aircraft.actuators import ROTOR_COUNT, SERVO_COUNT
 from autopilot.mavlink.command_params import Params, int_param
-from autopilot.commander.output_tests import MOTOR_COUNT, SERVO_COUNT
 from autopilot.topics.requests import FlightTermination, OutputTest, Reply
 from transport.mavlink import mavlink as M
 
@@ -27,8 +27,8 @@ def motor_test(p: Params) -> OutputTest | Reply:
     count = int_param(p[4]) if math.isfinite(p[4]) else 0  # NaN: one
     if kind != M.MOTOR_TEST_THROTTLE_PERCENT or count is None or count > 1:
         return M.MAV_RESULT_UNSUPPORTED, "Motor test: only one motor at a time, throttle in percent"
-    if motor is None or not 1 <= motor <= MOTOR_COUNT:
-        return M.MAV_RESULT_DENIED, f"Motor test denied: param1 (motor) {p[0]:g} not 1..{MOTOR_COUNT}"
+    if motor is None or not 1 <= motor <= ROTOR_COUNT:
+        return M.MAV_RESULT_DENIED, f"Motor test denied: param1 (motor) {p[0]:g} not 1..{ROTOR_COUNT}"
     if not math.isfinite(p[2]):
         return M.MAV_RESULT_DENIED, "Motor test denied: param3 (throttle) not finite"
     value = p[2] / 100.0
@@ -39,10 +39,10 @@ def actuator_test(p: Params) -> OutputTest | Reply:
     """MAV_CMD_ACTUATOR_TEST (QGroundControl's Actuators page): param1 value (-1 ... 1), param2 time-out (s, at most
     3; 0 or less releases the output), param5 ACTUATOR_OUTPUT_FUNCTION (MOTOR1 ... 4, SERVO1 ... 8)."""
     function = int_param(p[4])
-    motor = function is not None and 0 <= function - M.ACTUATOR_OUTPUT_FUNCTION_MOTOR1 < MOTOR_COUNT
+    motor = function is not None and 0 <= function - M.ACTUATOR_OUTPUT_FUNCTION_MOTOR1 < ROTOR_COUNT
     servo = function is not None and 0 <= function - M.ACTUATOR_OUTPUT_FUNCTION_SERVO1 < SERVO_COUNT
     if function is None or not (motor or servo):
-        return M.MAV_RESULT_UNSUPPORTED, (f"Actuator test: param5 (function) {p[4]:g} is no motor 1..{MOTOR_COUNT} or "
+        return M.MAV_RESULT_UNSUPPORTED, (f"Actuator test: param5 (function) {p[4]:g} is no motor 1..{ROTOR_COUNT} or "
                                           f"servo 1..{SERVO_COUNT} output here")  # fmt: skip
     if math.isinf(p[0]) or not math.isfinite(p[1]):
         return M.MAV_RESULT_DENIED, "Actuator test denied: param1 (value) infinite or param2 (time-out) not finite"

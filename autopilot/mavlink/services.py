@@ -18,7 +18,6 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from autopilot.topics.home_position import HomePosition
 from autopilot.mavlink import messages
 from autopilot.mavlink.commands import CommandService
 from autopilot.mavlink.manual_control import ManualControlService
@@ -30,8 +29,9 @@ from autopilot.mavlink.router import GroundLink, Router
 from autopilot.mavlink.signing import SigningService
 from autopilot.mavlink.statustext import Announcer
 from autopilot.mavlink.view import StatusView
-from autopilot.storage.mission_store import Missions
 from autopilot.storage.parameters import ParameterStore
+from autopilot.topics.home_position import HomePosition
+from autopilot.topics.missions import Missions
 from autopilot.topics.requests import GcsHeartbeat, RequestHandler
 from autopilot.topics.vehicle_status import VehicleStatus
 from transport.geodesy import Home

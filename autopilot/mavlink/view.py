@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from autopilot.topics.home_position import HomePosition
-from autopilot.storage.mission_store import EMPTY, Missions
+from autopilot.topics.missions import EMPTY, Missions
 from autopilot.topics.vehicle_status import VehicleStatus
 
 

@@ -18,10 +18,11 @@ import numpy as np
 from aircraft.actuators import ALLOCATED_ROTORS
 from aircraft.airframe import Airframe
 from aircraft.codegen import BufferedFunction
+from aircraft.frames import wrap
 from autopilot.control.actuator_health import ServoEstimate
 from autopilot.control.allocation import ControlAllocator
-from autopilot.control.attitude import wrap
-from autopilot.mpc.rti import MpcSolution, RtiSolver, planned_force_function
+from autopilot.control.attitude import euler_rates
+from autopilot.control.velocity_command import SetpointTrajectory, VelocityCommand, course_rates
 from autopilot.mpc.horizon import PAPER, MpcHorizon, extrapolate_setpoint
 from autopilot.mpc.model import (
     CHI,
@@ -41,9 +42,9 @@ from autopilot.mpc.model import (
     angle_chain,
     yaw_references,
 )
+from autopilot.mpc.rti import MpcSolution, RtiSolver, planned_force_function
 from autopilot.mpc.solve_times import SolveTimes
 from autopilot.topics.vehicle_state import VehicleState
-from autopilot.control.velocity_command import SetpointTrajectory, VelocityCommand, course_rates
 from autopilot.topics.yaw_setpoint import YawReference
 
 DEFAULT_HORIZON = PAPER  # the stages' lengths and the weights that go with them (docs/mpc.md 2.9)
@@ -59,14 +60,6 @@ def coordinated_roll(acceleration_ned: np.ndarray, heading: np.ndarray, gravity:
     turn avoids)."""
     lateral = -acceleration_ned[0] * np.sin(heading) + acceleration_ned[1] * np.cos(heading)
     return np.clip(np.arctan2(lateral, gravity), -limit, limit)
-
-
-def euler_rates(euler: np.ndarray, body_rates: np.ndarray) -> np.ndarray:
-    """Psi_dot = E(Psi)^-1 omega for ZYX Euler angles (autopilot.control.attitude.euler_rate_matrix, numerically)."""
-    phi, theta = euler[0], euler[1]
-    sf, cf, ct, tt = math.sin(phi), math.cos(phi), math.cos(theta), math.tan(theta)
-    p, q, r = body_rates
-    return np.array([p + sf * tt * q + cf * tt * r, cf * q - sf * r, (sf * q + cf * r) / ct])
 
 
 class MpcVelocityController:
@@ -203,6 +196,10 @@ class MpcVelocityController:
         command.force_sp_body[:] = self.force_function(states[0], u0)[0]
         command.force_weights[:] = 1.0
         return command
+
+    def solution_summary(self) -> dict:
+        """The latest solve's telemetry payload (solution_summary)."""
+        return solution_summary(self.last_solution)
 
     def statistics(self) -> dict:
         """The solver metrics of a flight's summary: solve time median / p99 (within the sketch's 1 %) / max (ms),

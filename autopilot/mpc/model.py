@@ -41,9 +41,9 @@ import numpy as np
 
 from aircraft.aerodynamics import aero_effectiveness
 from aircraft.airframe import Airframe
-from aircraft.frames import rotation_from_euler
+from aircraft.frames import rotation_from_euler, wrap_angle
 from aircraft.wrench import body_wrench
-from autopilot.control.attitude import DEFAULT_GAINS, AttitudeGains, attitude_law, wrap_angle
+from autopilot.control.attitude import DEFAULT_GAINS, AttitudeGains, attitude_law
 from autopilot.control.velocity_command import has_course
 
 NX, NU = 16, 11

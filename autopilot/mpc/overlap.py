@@ -23,15 +23,15 @@ import math
 import numpy as np
 
 from aircraft.codegen import BufferedFunction
-from aircraft.frames import quaternion_from_euler
+from aircraft.frames import quaternion_from_euler, wrap
 from autopilot.control.actuator_health import ServoEstimate
 from autopilot.control.allocation import ControlAllocator
-from autopilot.control.attitude import wrap
-from autopilot.mpc.rti import MpcSolution
-from autopilot.mpc.controller import MpcVelocityController, euler_rates
-from autopilot.mpc.model import CHI, PSI, PSI_DOT, PSI_INDEX, V, discrete_dynamics
-from autopilot.topics.vehicle_state import VehicleState
+from autopilot.control.attitude import euler_rates
 from autopilot.control.velocity_command import SetpointTrajectory, VelocityCommand
+from autopilot.mpc.controller import MpcVelocityController
+from autopilot.mpc.model import CHI, PSI, PSI_DOT, PSI_INDEX, V, discrete_dynamics
+from autopilot.mpc.rti import MpcSolution
+from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.yaw_setpoint import YawReference
 
 
@@ -82,6 +82,9 @@ class OverlappedMpc:
     @property
     def last_solution(self) -> MpcSolution | None:
         return self.mpc.last_solution
+
+    def solution_summary(self) -> dict:
+        return self.mpc.solution_summary()
 
     @property
     def fallback_requested(self) -> bool:

@@ -19,9 +19,9 @@ from aircraft.airframe import Airframe
 from autopilot.control.attitude import DEFAULT_GAINS, AttitudeGains
 from autopilot.mpc.model import (
     NP,
-    P_GRID,
     NU,
     NX,
+    P_GRID,
     PSI_D_INDEX,
     PSI_INDEX,
     MpcLimits,

@@ -6,8 +6,8 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from autopilot.mpc.rti import RtiSolver
 from autopilot.mpc.model import NP, NU, NX, P_GRID, PSI_D_INDEX, PSI_INDEX
+from autopilot.mpc.rti import RtiSolver
 
 
 class ReferenceNlp:

@@ -31,9 +31,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from autopilot.control.attitude import wrap
-from autopilot.navigator.guidance import (circle_velocity, leg_cruise_speed, leg_velocity, limit_norm, ramp, turn_ramp,
-                                vertical_velocity)  # fmt: skip
+from aircraft.frames import wrap
+from autopilot.navigator.guidance import (
+    circle_velocity,
+    leg_cruise_speed,
+    leg_velocity,
+    limit_norm,
+    ramp,
+    turn_ramp,
+    vertical_velocity,  # fmt: skip
+)
 from autopilot.storage.parameters import ParameterStore
 from autopilot.topics.region_of_interest import RegionOfInterest
 from autopilot.topics.vehicle_state import VehicleState

@@ -23,15 +23,21 @@ from collections.abc import Callable
 import numpy as np
 
 from autopilot.navigator.auto_flight import ORBIT_RC_CONTROLLED, AutoFlight, Circle, FlyTo, HoldAt, LandAt
-from autopilot.navigator.mission_flight import MissionFlight
-from autopilot.topics.mission_items import MissionItem
 from autopilot.navigator.flight_tasks import Navigator
+from autopilot.navigator.mission_flight import MissionFlight
 from autopilot.navigator.offboard_setpoint import OffboardSetpoint
+from autopilot.navigator.return_route import (
+    RTL_MISSION_LANDING,
+    MissionLanding,
+    climb_to_return_height,
+    plan_return,
+    return_destination,  # fmt: skip
+)
+from autopilot.navigator.yaw_shaping import StickYaw
 from autopilot.storage.parameters import ParameterStore
-from autopilot.navigator.return_route import (RTL_MISSION_LANDING, MissionLanding, climb_to_return_height, plan_return,
-                                    return_destination)  # fmt: skip
+from autopilot.topics.mission_items import MissionItem
 from autopilot.topics.vehicle_state import VehicleState
-from autopilot.topics.yaw_setpoint import StickYaw, YawSetpoint
+from autopilot.topics.yaw_setpoint import YawSetpoint
 from transport.mavlink import mavlink
 
 HOLD, TAKEOFF, LAND, OFFBOARD = "Hold", "Takeoff", "Land", "Offboard"

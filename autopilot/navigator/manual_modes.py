@@ -22,10 +22,11 @@ import numpy as np
 
 from autopilot.navigator.flight_modes import OFFBOARD_TAKEOFF_CLIMB, FlightMode
 from autopilot.navigator.guidance import limit_norm, ramp, vertical_velocity
+from autopilot.navigator.yaw_shaping import StickYaw
 from autopilot.storage.parameters import ParameterStore
 from autopilot.topics.requests import ManualControlInput, Reply
 from autopilot.topics.vehicle_state import VehicleState
-from autopilot.topics.yaw_setpoint import StickYaw, YawSetpoint
+from autopilot.topics.yaw_setpoint import YawSetpoint
 from transport.mavlink import mavlink
 
 POSITION, ALTITUDE = "Position", "Altitude"

@@ -57,14 +57,19 @@ from collections.abc import Callable
 import numpy as np
 
 from autopilot.navigator.auto_flight import AutoFlight, Climb, FlyTo, HoldAt, LandAt, Target
-from autopilot.topics.mission_items import LANDS, ROI_COMMANDS, MissionItem
+from autopilot.navigator.return_route import (
+    LANDING_APPROACH_RADIUS,
+    MissionLanding,
+    closest_safe_point,
+    mission_landing,
+    plan_return,  # fmt: skip
+)
 from autopilot.storage.mission_store import MissionStore
 from autopilot.storage.parameters import ParameterStore
-from autopilot.topics.region_of_interest import RegionOfInterest, roi_mode, wpnext_offset_deg
-from autopilot.navigator.return_route import (LANDING_APPROACH_RADIUS, MissionLanding, closest_safe_point, mission_landing,
-                                    plan_return)  # fmt: skip
-from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.home_position import HomeKeeper
+from autopilot.topics.mission_items import LANDS, ROI_COMMANDS, MissionItem
+from autopilot.topics.region_of_interest import RegionOfInterest, roi_mode, wpnext_offset_deg
+from autopilot.topics.vehicle_state import VehicleState
 from transport.geodesy import ned_from_geodetic
 from transport.mavlink import mavlink as M
 

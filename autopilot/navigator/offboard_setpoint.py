@@ -6,33 +6,18 @@ feed-forward (each with its yaw set-point, if any), or attitude (or body rates) 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
-from autopilot.topics.requests import OffboardAttitude, OffboardPosition, OffboardVelocity
 from autopilot.navigator.stamped_setpoints import StampedSetpoints
+from autopilot.topics.attitude_target import AttitudeTarget
+from autopilot.topics.requests import OffboardAttitude, OffboardPosition, OffboardVelocity
 from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.yaw_setpoint import YawSetpoint
 
 SETPOINT_LIMITS = np.array([30.0, 30.0, 10.0])  # m/s: the MPC's velocity envelope; set-points are clamped to it
 TILT_LIMIT = math.radians(45.0)  # rad: Offboard roll and pitch set-points are clamped to this
 RATE_LIMIT = math.pi  # rad/s: the attitude loop's rate limit; body-rate and yaw-rate set-points are clamped to it
-ATTITUDE_CLIMB = 1.0  # m/s: the climb (or descent) an Offboard thrust above (below) hover stands for
-
-
-@dataclass(frozen=True)
-class AttitudeTarget:
-    """An Offboard attitude set-point within its limits: Euler angles (rad) or body rates (rad/s), thrust 0..1."""
-
-    euler: np.ndarray | None
-    body_rates: np.ndarray | None
-    thrust: float
-
-    def climb(self, hover_fraction: float) -> np.ndarray:
-        """The velocity set-point (NED) the thrust stands for: a lift-off above hover thrust, a descent (which the
-        land detector watches) below it; the velocity controller does not fly it."""
-        return np.array([0.0, 0.0, -ATTITUDE_CLIMB if self.thrust > hover_fraction else ATTITUDE_CLIMB])
 
 
 def attitude_in_limits(request: OffboardAttitude, last_thrust: float) -> tuple[AttitudeTarget, bool]:

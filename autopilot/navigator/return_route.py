@@ -24,8 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from autopilot.navigator.auto_flight import Climb, FlyTo, HoldAt, LandAt, Target
-from autopilot.topics.mission_items import LANDS, MissionItem
 from autopilot.storage.parameters import ParameterStore
+from autopilot.topics.mission_items import LANDS, MissionItem
 from autopilot.topics.vehicle_state import VehicleState
 from transport.mavlink import mavlink as M
 

@@ -27,12 +27,22 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from autopilot.topics.mission_items import FENCE, MAX_ITEMS, MISSION, RALLY, TYPE_NAMES, MissionItem, check_item, result_name
 from autopilot.storage.kept_file import BackgroundWriter, read_kept
+from autopilot.topics.mission_items import (
+    FENCE,
+    MAX_ITEMS,
+    MISSION,
+    RALLY,
+    TYPE_NAMES,
+    MissionItem,
+    check_item,
+    result_name,
+)
+from autopilot.topics.missions import EMPTY, Missions
 from transport.mavlink import mavlink as M
 
 FILE_FORMAT = "tiltrotor-sitl missions"
@@ -43,25 +53,6 @@ class MissionFileError(ValueError):
     """The mission file cannot be used (not JSON, wrong shape, an item this vehicle refuses)."""
 
 
-@dataclass(frozen=True, slots=True)
-class Missions:
-    mission: tuple[MissionItem, ...] = ()
-    fence: tuple[MissionItem, ...] = ()
-    rally: tuple[MissionItem, ...] = ()
-    current: int = 0  # the mission item flown next (or being flown)
-    state: int = M.MISSION_STATE_NO_MISSION  # MISSION_STATE
-    reached: int = -1  # the last item reached (-1: none since the mission was stored)
-    reached_count: int = 0  # counts MISSION_ITEM_REACHED events (the same item can be reached twice: DO_JUMP)
-
-    def items(self, mission_type: int) -> tuple[MissionItem, ...]:
-        if mission_type == FENCE:
-            return self.fence
-        if mission_type == RALLY:
-            return self.rally
-        return self.mission
-
-
-EMPTY = Missions()
 
 
 def default_mission_path(parameter_path: Path, instance: int) -> Path:

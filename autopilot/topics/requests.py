@@ -14,17 +14,20 @@ from typing import Protocol
 import numpy as np
 
 from aircraft.failures import Failure
-from autopilot.topics.region_of_interest import RegionOfInterest
 from autopilot.topics.home_position import HomePosition
 from autopilot.topics.mission_items import MissionItem
+from autopilot.topics.region_of_interest import RegionOfInterest
 from autopilot.topics.yaw_setpoint import YawSetpoint
 
 Reply = tuple[int, str | None]  # (MAV_RESULT, reason or None)
 
 
+FORCE_MAGIC = 21196  # MAV_CMD_COMPONENT_ARM_DISARM param2: arm or disarm without the checks (PX4)
+
+
 @dataclass(frozen=True)
 class Arm:
-    force: bool = False  # MAV_CMD_COMPONENT_ARM_DISARM param2 = 21196: skip the checks
+    force: bool = False  # param2 = FORCE_MAGIC: skip the checks
 
 
 @dataclass(frozen=True)

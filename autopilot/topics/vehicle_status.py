@@ -17,8 +17,8 @@ import numpy as np
 
 from aircraft.failures import Failure
 from autopilot.topics.home_position import HomePosition
-from autopilot.storage.mission_store import EMPTY as NO_MISSIONS
-from autopilot.storage.mission_store import Missions
+from autopilot.topics.missions import EMPTY as NO_MISSIONS
+from autopilot.topics.missions import Missions
 from autopilot.topics.vehicle_state import VehicleState
 from transport.mavlink import mavlink
 
