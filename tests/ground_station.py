@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import Any
 
 from pymavlink import mavutil
@@ -48,6 +49,7 @@ class GroundStation:
         self.retries = 0  # commands sent again for want of an ACK
         self._last_heartbeat = 0.0
         self.sends_heartbeats = True  # False: the ground station falls silent (a data-link loss)
+        self._recordings: list[tuple[tuple[str, ...], list[Any]]] = []
 
     def close(self) -> None:
         self.conn.close()
@@ -58,6 +60,9 @@ class GroundStation:
         if kind == "BAD_DATA" or message.get_srcSystem() != self.vehicle:
             return
         self.latest[kind] = message
+        for kinds, got in self._recordings:
+            if kind in kinds:
+                got.append(message)
         if kind in TIMED:
             self.time_boot_ms = message.time_boot_ms
         elif kind == "STATUSTEXT":
@@ -89,6 +94,16 @@ class GroundStation:
             self._note(message)
             if time.monotonic() >= deadline:
                 return
+
+    @contextmanager
+    def recording(self, *kinds: str) -> Iterator[list[Any]]:
+        """Every message of `kinds` from the vehicle handled while the block runs, in the order received."""
+        entry: tuple[tuple[str, ...], list[Any]] = (kinds, [])
+        self._recordings.append(entry)
+        try:
+            yield entry[1]
+        finally:
+            self._recordings.remove(entry)
 
     @property
     def sim_time(self) -> float:

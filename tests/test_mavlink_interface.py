@@ -1,5 +1,6 @@
-"""The vehicle's MAVLink interface against one hovering vehicle (docs/mavlink.md): identity, streams and their rates,
-requests, offboard set-point checks, refused commands, failure injection, and junk on both links."""
+"""The vehicle's MAVLink interface against a hovering vehicle (docs/mavlink.md): identity, streams and their rates,
+requests, offboard set-point checks, refused commands, failure injection (one vehicle shared by these tests, each
+leaving it as it found it), and junk on both links (a vehicle of its own: it is stopped to read its counters)."""
 
 from __future__ import annotations
 
@@ -10,9 +11,11 @@ import struct
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 from pymavlink.dialects.v20 import ardupilotmega
 
+from aircraft.actuators import ROTORS, TILTS, pwm_to_command
 from tests.ground_station import HOLD, OFFBOARD, VELOCITY_MASK
 from tests.mavlink_sitl import start_sitl
 from transport.mavlink import Link
@@ -22,12 +25,30 @@ NAN = math.nan
 ALTITUDE = 50.0
 
 
+def start_hovering(folder: Path):
+    """Spawned hovering at 50 m in Hold (armed), plant in real time x4, a pymavlink ground station connected."""
+    sitl = start_sitl(folder / "params.json", spawn_alt=ALTITUDE, speed=4.0, controller="pid")
+    try:
+        sitl.gs.connect()
+    except BaseException:
+        sitl.kill()
+        raise
+    return sitl
+
+
 @pytest.fixture(scope="module")
 def hovering(tmp_path_factory):
-    """Spawned hovering at 50 m in Hold (armed), plant in real time x4, a pymavlink ground station connected."""
-    sitl = start_sitl(tmp_path_factory.mktemp("hover") / "params.json", spawn_alt=ALTITUDE, speed=4.0,
-                      controller="pid")  # fmt: skip
-    sitl.gs.connect()
+    """One hovering vehicle for the tests that leave it as they found it (hovering in Hold, streams and parameters
+    at their defaults, no client on the API link)."""
+    sitl = start_hovering(tmp_path_factory.mktemp("hover"))
+    yield sitl
+    sitl.kill()
+
+
+@pytest.fixture
+def own_hovering(tmp_path):
+    """A hovering vehicle of its own, for a test that stops it or speaks on its API link."""
+    sitl = start_hovering(tmp_path)
     yield sitl
     sitl.kill()
 
@@ -59,7 +80,7 @@ def assert_hovering(gs, start=None):
         assert math.hypot(here.x - start.x, here.y - start.y) < 1.0
 
 
-def test_identity_streams_and_requests(hovering):
+def test_identity_streams_and_requests(hovering, airframe):
     gs = hovering.gs
     heartbeat = gs.latest["HEARTBEAT"]
     assert (heartbeat.type, heartbeat.autopilot) == (M.MAV_TYPE_VTOL_TILTROTOR, M.MAV_AUTOPILOT_PX4)
@@ -72,8 +93,16 @@ def test_identity_streams_and_requests(hovering):
     ext = gs.latest["EXTENDED_SYS_STATE"]
     assert ext.vtol_state == M.MAV_VTOL_STATE_MC and ext.landed_state == M.MAV_LANDED_STATE_IN_AIR
     assert gs.latest["GLOBAL_POSITION_INT"].relative_alt == pytest.approx(ALTITUDE * 1000, abs=1000)
+    # The outputs fly the hover: decoded as the plant decodes them, the four rotors, tilted up, carry the weight.
     servo = gs.latest["SERVO_OUTPUT_RAW"]
-    assert all(1000 <= getattr(servo, f"servo{i}_raw") <= 2000 for i in range(1, 13))
+    decoded = pwm_to_command(airframe, [getattr(servo, f"servo{i}_raw") for i in range(1, 13)], np.zeros(12))
+    thrusts, tilts = decoded.command[ROTORS] * airframe.thrust_max, decoded.command[TILTS]
+    lift = float(np.sum(thrusts * np.cos(tilts)))
+    print(f"hover outputs: thrusts {np.round(thrusts, 2)} N, tilts {np.round(np.degrees(tilts), 1)} deg, lift "
+          f"{lift:.2f} N for a weight of {airframe.mass * airframe.gravity:.2f} N")  # fmt: skip
+    assert (decoded.clamped, decoded.undriven) == (0, 0)
+    assert np.all(np.abs(tilts) < math.radians(5.0))
+    assert lift == pytest.approx(airframe.mass * airframe.gravity, rel=0.05)
 
     # Default rates, in simulated time; SET_MESSAGE_INTERVAL changes them, per link.
     assert rate_hz(gs, "ATTITUDE") == pytest.approx(50, abs=3)
@@ -100,9 +129,20 @@ def test_identity_streams_and_requests(hovering):
                              M.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY):
         assert capabilities & mission_protocol
     assert gs.command(M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 1).result == M.MAV_RESULT_ACCEPTED
-    assert gs.command(M.MAV_CMD_REQUEST_MESSAGE, M.MAVLINK_MSG_ID_HOME_POSITION).result == M.MAV_RESULT_ACCEPTED
-    home = gs.latest["HOME_POSITION"]
-    assert (home.latitude, home.longitude, home.altitude) == (473977420, 85455940, 488000)  # PX4 SITL's
+    # HOME_POSITION on request, its 0.5 Hz stream stopped first: what arrives is the answer, once.
+    assert gs.command(M.MAV_CMD_SET_MESSAGE_INTERVAL, M.MAVLINK_MSG_ID_HOME_POSITION, -1).result == M.MAV_RESULT_ACCEPTED
+    try:
+        with gs.recording("HOME_POSITION") as homes:
+            gs.wait_sim(3.0)  # more than the stream's 2 s period
+            assert homes == []
+            assert gs.command(M.MAV_CMD_REQUEST_MESSAGE, M.MAVLINK_MSG_ID_HOME_POSITION).result == M.MAV_RESULT_ACCEPTED
+            gs.wait(lambda: len(homes) > 0, "the requested HOME_POSITION")
+            gs.wait_sim(3.0)
+        assert len(homes) == 1
+        home = homes[0]
+        assert (home.latitude, home.longitude, home.altitude) == (473977420, 85455940, 488000)  # PX4 SITL's
+    finally:  # the stream at its default rate again, for the tests that share this vehicle
+        assert gs.command(M.MAV_CMD_SET_MESSAGE_INTERVAL, M.MAVLINK_MSG_ID_HOME_POSITION, 0).result == M.MAV_RESULT_ACCEPTED
     gs.conn.mav.mission_request_list_send(gs.vehicle, 1, M.MAV_MISSION_TYPE_MISSION)
     gs.wait(lambda: "MISSION_COUNT" in gs.latest, "MISSION_COUNT")
     assert gs.latest["MISSION_COUNT"].count == 0
@@ -284,7 +324,8 @@ def kernel_drops(port: int) -> int:
     return 0
 
 
-def test_junk_on_both_links_is_dropped_while_the_vehicle_hovers(hovering):
+def test_junk_on_both_links_is_dropped_while_the_vehicle_hovers(own_hovering):
+    hovering = own_hovering  # it speaks on the API link and stops the vehicle to read its counters
     gs = hovering.gs
     start = gs.latest["LOCAL_POSITION_NED"]
     rng = random.Random(11)

@@ -1,9 +1,11 @@
 """Issue 4 "Done means": a real client no one here wrote. MAVSDK (`pip install mavsdk`, the 4.x native binding:
 no mavsdk_server) connects on the API link, unmodified, and flies a whole flight: health and armable, parameters,
-arm, takeoff, OFFBOARD velocity, the transition command, a servo failure injected and cleared, land."""
+arm, takeoff, OFFBOARD velocity, the transition commands (to FW and back to MC, seen in the VTOL state), a servo
+failure injected and cleared, land."""
 
 from __future__ import annotations
 
+import math
 import time
 
 import pytest
@@ -26,6 +28,23 @@ def wait_for(predicate, what: str, timeout_s: float = 30.0, period_s: float = 0.
     deadline = time.monotonic() + timeout_s
     while not predicate():
         assert time.monotonic() < deadline, f"timed out waiting for {what}"
+        time.sleep(period_s)
+
+
+def watch(value, until, what: str, timeout_s: float = 30.0, period_s: float = 0.05, also=None) -> list:
+    """Poll value() until until(value) holds; the values seen, each change once, in order. `also` runs at each
+    poll (e.g. to sample other telemetry on the way)."""
+    seen: list = []
+    deadline = time.monotonic() + timeout_s
+    while True:
+        current = value()
+        if not seen or seen[-1] != current:
+            seen.append(current)
+        if also is not None:
+            also()
+        if until(current):
+            return seen
+        assert time.monotonic() < deadline, f"timed out waiting for {what}; seen {seen}"
         time.sleep(period_s)
 
 
@@ -72,15 +91,38 @@ def test_mavsdk_flies_the_vehicle_unmodified(sitl):
         # OFFBOARD velocity: 2 m/s north.
         offboard.set_velocity_ned(VelocityNedYaw(2.0, 0.0, 0.0, 0.0))
         offboard.start()
-        assert telemetry.flight_mode() in (FlightMode.OFFBOARD, FlightMode.HOLD)
-        wait_for(lambda: telemetry.flight_mode() == FlightMode.OFFBOARD, "Offboard")
+        # Straight from Hold to Offboard (the ACK can come before the HEARTBEAT that shows the new mode).
+        modes = watch(telemetry.flight_mode, lambda mode: mode == FlightMode.OFFBOARD, "Offboard")
+        assert modes in ([FlightMode.HOLD, FlightMode.OFFBOARD], [FlightMode.OFFBOARD]), modes
         wait_for(lambda: abs(telemetry.velocity_ned().north_m_s - 2.0) < 0.2, "2 m/s north", timeout_s=20)
         offboard.stop()
         wait_for(lambda: telemetry.flight_mode() == FlightMode.HOLD, "Hold after Offboard")
 
-        # The transition command is acknowledged (Hold in FW circles; back to MC brakes to a hover).
+        # The transition command in Hold (autopilot/flight_modes.py, HoldMode.transition): to FW the vehicle circles
+        # at FW_AIRSPD_TRIM, tilting its rotors forward as it speeds up, through TRANSITION_TO_FW (mean tilt 5 ...
+        # 85 deg, autopilot/vehicle_status.py) to FW; back to MC it brakes to a hover, through TRANSITION_TO_MC.
+        assert telemetry.vtol_state() == VtolState.MC
+        lowest = [telemetry.position().relative_altitude_m]
+
+        def note_altitude() -> None:
+            lowest[0] = min(lowest[0], telemetry.position().relative_altitude_m)
+
         action.transition_to_fixedwing()
+        to_fw = watch(telemetry.vtol_state, lambda state: state == VtolState.FW, "fixed wing", timeout_s=90,
+                      also=note_altitude)  # fmt: skip
+        fw_speed = math.hypot(telemetry.velocity_ned().north_m_s, telemetry.velocity_ned().east_m_s)
+        assert to_fw == [VtolState.MC, VtolState.TRANSITION_TO_FW, VtolState.FW], to_fw
+        assert fw_speed > 20.0  # in forward flight at about FW_AIRSPD_TRIM (26 m/s)
+        assert telemetry.flight_mode() == FlightMode.HOLD
         action.transition_to_multicopter()
+        to_mc = watch(telemetry.vtol_state, lambda state: state == VtolState.MC, "multicopter", timeout_s=90,
+                      also=note_altitude)  # fmt: skip
+        print(f"to FW {to_fw} at {fw_speed:.1f} m/s, back {to_mc}, lowest {lowest[0]:.2f} m")
+        assert to_mc == [VtolState.FW, VtolState.TRANSITION_TO_MC, VtolState.MC], to_mc
+        assert lowest[0] > 3.0  # both ways at the altitude it held (5 m)
+        assert telemetry.flight_mode() == FlightMode.HOLD
+        wait_for(lambda: math.hypot(telemetry.velocity_ned().north_m_s, telemetry.velocity_ned().east_m_s) < 0.5,
+                 "the brake to a hover", timeout_s=60)  # fmt: skip
 
         # A servo failure injected and cleared.
         failure.inject(FailureUnit.SYSTEM_SERVO, FailureType.STUCK, 1)

@@ -174,14 +174,26 @@ def same(a: list[tuple], b: list[tuple]) -> bool:
     return repr([item(r) for r in a]) == repr([item(r) for r in b])
 
 
-@pytest.fixture(scope="module")
-def vehicle(tmp_path_factory):
-    sitl = start_sitl(tmp_path_factory.mktemp("missions") / "params.json", speed=4.0)
+def connected_vehicle(folder):
+    """A vehicle on the ground (real time x4), its files in `folder`, with its ground station and mission client."""
+    sitl = start_sitl(folder / "params.json", speed=4.0)
     try:
         sitl.gs.connect()
         yield sitl, MissionClient(sitl.gs)
     finally:
         sitl.kill()
+
+
+@pytest.fixture(scope="module")
+def vehicle(tmp_path_factory):
+    """One vehicle for the protocol tests: each uploads what it needs and asks nothing of what ran before."""
+    yield from connected_vehicle(tmp_path_factory.mktemp("missions"))
+
+
+@pytest.fixture
+def own_vehicle(tmp_path):
+    """A vehicle of its own, for a test that restarts its autopilot."""
+    yield from connected_vehicle(tmp_path)
 
 
 def test_round_trip_of_each_type_clear_and_current(vehicle):
@@ -295,6 +307,9 @@ def test_an_abandoned_upload_is_retried_then_cancelled_and_the_mission_stays(veh
     assert client.next("MISSION_REQUEST_INT").seq == 0
     client.send_item(0, SURVEY[0], 0)
     assert client.next("MISSION_REQUEST_INT").seq == 1
+    # The mission protocol's retries (every 0.25 s) and time-out (5 s) are in wall time, as PX4's: the partner is a
+    # program that runs in wall time, whatever the simulation's speed (autopilot/mavlink/mission_transfer.py), so
+    # they are measured here in wall time.
     started = time.monotonic()
     retries = 0
     while True:  # we stop answering: the request is repeated, then the upload is cancelled
@@ -303,8 +318,11 @@ def test_an_abandoned_upload_is_retried_then_cancelled_and_the_mission_stays(veh
             break
         assert message.seq == 1
         retries += 1
+    cancelled_after = time.monotonic() - started
+    print(f"{retries} retries, cancelled after {cancelled_after:.2f} s")
     assert message.type == M.MAV_MISSION_OPERATION_CANCELLED
-    assert retries >= 5 and 4.0 < time.monotonic() - started < 8.0
+    # 5 s of silence at a retry each 0.25 s: 19 retries (at most 20); at least 10 on a busy machine
+    assert 10 <= retries <= 20 and 4.5 < cancelled_after < 8.0
     assert same(rows_of(client.download(M.MAV_MISSION_TYPE_MISSION)), before)
 
 
@@ -329,13 +347,15 @@ def count_asked_while_starting(sitl: Sitl) -> Any:
         probe.close()
 
 
-def test_missions_survive_an_autopilot_restart(vehicle):
-    sitl, client = vehicle
-    assert client.upload(M.MAV_MISSION_TYPE_MISSION, SURVEY) == M.MAV_MISSION_ACCEPTED
+def test_missions_survive_an_autopilot_restart(own_vehicle):
+    sitl, client = own_vehicle
+    for kind, rows in TYPES.items():
+        assert client.upload(kind, rows) == M.MAV_MISSION_ACCEPTED
     client.mav.mission_set_current_send(client.gs.vehicle, 1, 3)
     while client.next("MISSION_CURRENT").seq != 3:
         pass
     stored = {kind: rows_of(client.download(kind)) for kind in TYPES}
+    assert all(same(stored[kind], rows) for kind, rows in TYPES.items())
     sitl.autopilot.terminate()
     sitl.autopilot.wait(timeout=30)
     assert json.loads((sitl.params_path.parent / "missions-0.json").read_text())["current"] == 3

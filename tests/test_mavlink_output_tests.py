@@ -5,11 +5,17 @@ refusals PX4 gives (armed, COM_MOT_TEST_EN 0, several motors, another throttle t
 from __future__ import annotations
 
 import math
+from itertools import pairwise
 
+import numpy as np
+
+from aircraft.actuators import command_to_pwm
 from autopilot.commander.output_tests import MAX_TEST_USEC, OutputTests, duration_usec, motor_pwm, servo_pwm
 from tests.mavlink_sitl import start_sitl
 from tests.test_mavlink_failsafes import set_param
 from transport.mavlink import mavlink as M
+
+STREAM_PERIOD_USEC = 50_000  # SERVO_OUTPUT_RAW at 20 Hz (autopilot/mavlink/streams.py)
 
 
 def test_test_values_become_pwm_and_tests_end_at_their_time_out():
@@ -27,36 +33,64 @@ def test_test_values_become_pwm_and_tests_end_at_their_time_out():
     assert tests.applied(disarmed, 0) is disarmed
 
 
-def test_motor_and_actuator_tests_drive_one_output_of_a_disarmed_vehicle_for_their_time_out(tmp_path):
+def pwm_of(message) -> tuple[int, ...]:
+    """The 12 outputs of a SERVO_OUTPUT_RAW."""
+    return tuple(getattr(message, f"servo{i}_raw") for i in range(1, 13))
+
+
+def test_motor_and_actuator_tests_drive_one_output_of_a_disarmed_vehicle_for_their_time_out(tmp_path, airframe):
     sitl = start_sitl(tmp_path / "params.json", speed=None)
     try:
         gs = sitl.gs
         gs.connect()
 
-        def outputs() -> tuple[int, ...]:
-            r = gs.latest["SERVO_OUTPUT_RAW"]
-            return (r.servo1_raw, r.servo2_raw, r.servo3_raw, r.servo4_raw, r.servo5_raw, r.servo6_raw, r.servo7_raw,
-                    r.servo8_raw, r.servo9_raw, r.servo10_raw, r.servo11_raw, r.servo12_raw)  # fmt: skip
+        def released(stream: list, driven: tuple[int, ...]) -> bool:
+            """The stream showed `driven`, then the disarmed outputs again (in lockstep a 0.5 s test can come and go
+            between two looks at the latest message)."""
+            shown = [pwm_of(m) for m in stream]
+            return driven in shown and disarmed in shown[shown.index(driven) :]
+
+        def streaming(stream: list) -> bool:
+            """Two messages of the stream one period apart: at its full rate (the schedule restarts when our first
+            HEARTBEAT arrives), seen before the command so that the last message before the test is recorded."""
+            return len(stream) >= 2 and stream[-1].time_usec - stream[-2].time_usec == STREAM_PERIOD_USEC
+
+        def driven_for(stream: list, driven: tuple[int, ...]) -> int:
+            """How long (simulated us, from the stream's own time stamps) the outputs were `driven`: from the first
+            message showing it to the first one after that shows the disarmed outputs again. Every message is one
+            or the other, the driven ones are one run, and none is missing around it."""
+            shown = [(m.time_usec, pwm_of(m)) for m in stream]
+            assert {pwm for _, pwm in shown} == {disarmed, driven}, shown
+            on = [i for i, (_, pwm) in enumerate(shown) if pwm == driven]
+            assert on == list(range(on[0], on[-1] + 1)) and 0 < on[0] and on[-1] + 1 < len(shown)
+            around = shown[on[0] - 1 : on[-1] + 2]  # from the last message before to the first one after
+            assert {b - a for (a, _), (b, _) in pairwise(around)} == {STREAM_PERIOD_USEC}, around
+            return shown[on[-1] + 1][0] - shown[on[0]][0]
 
         gs.wait(lambda: "SERVO_OUTPUT_RAW" in gs.latest, "SERVO_OUTPUT_RAW")
-        disarmed = outputs()
+        disarmed = pwm_of(gs.latest["SERVO_OUTPUT_RAW"])
+        assert disarmed == tuple(command_to_pwm(airframe, np.zeros(12)))  # rotors off, tilts up, surfaces centred
         # QGroundControl's motor slider: motor 2 at 30 % for 1 s (DO_MOTOR_TEST, throttle in percent, one motor).
-        ack = gs.command(M.MAV_CMD_DO_MOTOR_TEST, 2, M.MOTOR_TEST_THROTTLE_PERCENT, 30, 1.0, 1, 0)
-        assert ack.result == M.MAV_RESULT_ACCEPTED
-        gs.wait(lambda: outputs()[1] == 1300, "motor 2 at 30 %")
-        started = gs.sim_time
-        assert outputs()[0] == outputs()[2] == outputs()[3] == 1000  # the others stay stopped
-        gs.wait(lambda: outputs()[1] == 1000, "the motor test's end", 30)
-        ran = gs.sim_time - started
+        motor_2 = (disarmed[0], motor_pwm(0.3), *disarmed[2:])  # motor 2 alone, at 1300
+        with gs.recording("SERVO_OUTPUT_RAW") as stream:
+            gs.wait(lambda: streaming(stream), "SERVO_OUTPUT_RAW at 20 Hz")
+            ack = gs.command(M.MAV_CMD_DO_MOTOR_TEST, 2, M.MOTOR_TEST_THROTTLE_PERCENT, 30, 1.0, 1, 0)
+            assert ack.result == M.MAV_RESULT_ACCEPTED
+            gs.wait(lambda: released(stream, motor_2), "motor 2 at 30 %, then stopped again", 30)
+        motor_usec = driven_for(stream, motor_2)
         # ACTUATOR_TEST: servo 1 (tilt servo 1, channel 5) to the end of its range for 0.5 s.
-        ack = gs.command(M.MAV_CMD_ACTUATOR_TEST, 1.0, 0.5, 0, 0, M.ACTUATOR_OUTPUT_FUNCTION_SERVO1, 0, 0)
-        assert ack.result == M.MAV_RESULT_ACCEPTED
-        gs.wait(lambda: outputs()[4] == 2000, "servo 1 at its end")
-        gs.wait(lambda: outputs() == disarmed, "the actuator test's end", 30)
-        print(f"motor 2 ran {ran:.2f} s (time-out 1 s)")
-        # Seen through a 20 Hz stream by a ground station that reads in batches: up to a few tenths of simulated time
-        # late at either end when the machine is busy; a test that ignored its time-out would run 3 s.
-        assert 0.5 <= ran <= 1.5
+        servo_1 = (*disarmed[:4], servo_pwm(1.0), *disarmed[5:])  # channel 5 alone, at 2000
+        with gs.recording("SERVO_OUTPUT_RAW") as stream:
+            gs.wait(lambda: streaming(stream), "SERVO_OUTPUT_RAW at 20 Hz")
+            ack = gs.command(M.MAV_CMD_ACTUATOR_TEST, 1.0, 0.5, 0, 0, M.ACTUATOR_OUTPUT_FUNCTION_SERVO1, 0, 0)
+            assert ack.result == M.MAV_RESULT_ACCEPTED
+            gs.wait(lambda: released(stream, servo_1), "servo 1 at its end, then centred again", 30)
+        servo_usec = driven_for(stream, servo_1)
+        print(f"motor 2 driven {motor_usec} us (time-out 1 s), servo 1 {servo_usec} us (time-out 0.5 s)")
+        # In simulated time, from the stream's stamps: a test starts and ends on plant steps, each seen at the next
+        # message of the 20 Hz stream, so what is seen is the time-out to within one period (a test that ignored
+        # its time-out would run 3 s).
+        assert abs(motor_usec - 1_000_000) <= STREAM_PERIOD_USEC and abs(servo_usec - 500_000) <= STREAM_PERIOD_USEC
         # Refusals, as PX4's commander gives them.
         unsupported = [(M.MAV_CMD_DO_MOTOR_TEST, (1, 1, 30, 1, 1, 0)),  # throttle as PWM
                        (M.MAV_CMD_DO_MOTOR_TEST, (1, 0, 30, 1, 4, 0)),  # four motors in a row

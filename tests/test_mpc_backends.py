@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import gc
 import math
+import os
+import time
+import weakref
 
 import numpy as np
 import pytest
@@ -83,11 +86,41 @@ def test_start_and_finish_give_what_solve_gives_one_solve_at_a_time(airframe, ba
         started.finish()
 
 
+def os_threads() -> set[str]:
+    """The ids of this process's threads, the C workers among them (Linux: /proc/self/task)."""
+    return set(os.listdir("/proc/self/task"))
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self/task"), reason="counts the process's threads in /proc")
 def test_a_solver_dropped_while_its_solve_runs_is_freed_after_it(airframe):
-    """The C object's worker thread ends when the object is freed, after the solve it runs (no hang, no crash)."""
-    solver = RtiSolver(airframe, StageGrid.uniform(25), gauss_newton_steps=2)
+    """The C object's worker thread ends when the object is freed, after the solve it runs (no hang, no crash): the
+    object goes, its thread goes, and the solve had ended when it went (its buffers hold the whole solve's result,
+    the one the same solve here gives, and nothing writes them afterwards)."""
+    steps = 100  # about 0.1 s of solving: dropped while it runs, without a doubt
+    reference, solver = (RtiSolver(airframe, StageGrid.uniform(25), gauss_newton_steps=steps) for _ in range(2))
     x0, params = problem(25)
-    solver.initialise(x0, airframe.hover_thrust_per_rotor)
+    for each in (reference, solver):
+        each.set_actuator_limits(np.full(4, 23.0), np.full(4, np.nan))
+        each.initialise(x0, airframe.hover_thrust_per_rotor)
+        each.levenberg = 0.1
+    expected = reference.solve(x0, params)
+    assert solver.fast is not None and expected.ok
+    guess, info = solver.fast._w, solver.fast._info  # the buffers its worker writes, kept here past the free
+    threads = os_threads()
     solver.start(x0, params)
-    del solver
+    worker = os_threads() - threads
+    assert len(worker) == 1  # its worker thread, started with the first solve
+    deadline = time.monotonic() + 30
+    while info[1] == 0:  # the first QP's iterations: the worker has the solve and runs it
+        assert time.monotonic() < deadline, "the worker never took the solve"
+        time.sleep(0.0005)
+    assert info[8] == 0  # still running: the total is written when the last step ends
+    freed, fast_freed = weakref.ref(solver), weakref.ref(solver.fast)
+    del solver, each  # (the loop above left `each` on it)
     gc.collect()
+    assert freed() is None and fast_freed() is None
+    assert not worker & os_threads()  # the worker thread has ended
+    after_free = guess.copy(), info.copy()
+    assert np.array_equal(guess, reference.w) and int(info[8]) == expected.iterations  # the whole solve's result
+    time.sleep(0.05)
+    assert np.array_equal(guess, after_free[0]) and np.array_equal(info, after_free[1])  # nothing writes them now

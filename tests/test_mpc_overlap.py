@@ -67,12 +67,12 @@ def test_a_motor_failure_reaches_the_next_solve(airframe):
     assert isinstance(mpc, OverlappedMpc)
     for tick in range(3):
         controller.step(hover(tick * VELOCITY_PERIOD_USEC))
-    assert controller.last_mpc_solution.u[0][THRUST][0] > 1.0  # rotor 1 lifts its share
+    assert mpc.last_solution.u[0][THRUST][0] > 1.0  # rotor 1 lifts its share
     controller.apply_failure(parse_failure(FailureUnit.MOTOR, FailureType.OFF, 1, 0.0))
     thrusts = []
     for tick in range(3, 8):
         controller.step(hover(tick * VELOCITY_PERIOD_USEC))
-        thrusts.append(controller.last_mpc_solution.u[0][THRUST][0])
+        thrusts.append(mpc.last_solution.u[0][THRUST][0])
     # The solve in flight when the failure became known was started before it: one tick later the plan knows.
     assert thrusts[0] > 1.0 and max(abs(t) for t in thrusts[1:]) < 0.05
     assert controller.allocator.upper[ALLOCATED_ROTORS][0] == 0.0

@@ -209,12 +209,18 @@ def test_stuck_servo_over_the_link_seen_in_zenoh_truth(start_plant, airframe):
         plant.client.command_plant(mavlink.MAV_CMD_INJECT_FAILURE, (102, 2, 1, 30.0))
         command = hover_command(airframe)
         command[4:8] = math.radians(80)
-        fly(plant, lambda s: command_to_pwm(airframe, command), 800, first=sample)
-        time.sleep(0.5)
+        end_s = fly(plant, lambda s: command_to_pwm(airframe, command), 800, first=sample)[-1].time_usec / 1e6
+        # The truth up to the last step flown goes out as the plant waits for the next command: wait until it has
+        # arrived, by its simulation time (a wall-clock guard only).
+        deadline = time.monotonic() + 20
+        while not received or decode_plant_states(received[-1])[-1]["t"] < end_s:
+            assert time.monotonic() < deadline, f"no truth of the step at {end_s} s"
+            time.sleep(0.01)
         subscriber.undeclare()
     finally:
         session.close()
     last = decode_plant_states(received[-1])[-1]
+    assert last["t"] == pytest.approx(end_s)  # the last step flown, nothing after it
     assert math.degrees(last["tilt1"]) == pytest.approx(30.0, abs=1e-6)
     assert math.degrees(last["tilt2"]) == pytest.approx(80.0, abs=0.1)
     assert last["cmd_tilt1"] == pytest.approx(math.radians(80), abs=0.002)
@@ -310,7 +316,7 @@ def test_paced_lockstep_waits_for_every_command_and_slows_down_when_the_autopilo
         texts += [m.text for m in plant.client.received_other if m.get_type() == "STATUSTEXT"]
         plant.client.received_other.clear()
         if sample.time_usec >= 1_000_000:
-            time.sleep(0.004)  # from 1 s on, 4 ms per step: the autopilot manages x0.6, not x5
+            time.sleep(0.004)  # from 1 s on, 4 ms (wall) per step: the autopilot manages x0.6, not x5 (what is tested)
         plant.client.send_pwm(sample.time_usec, pwm)
         sample = plant.client.receive_step(5.0)
     wall = time.monotonic() - started

@@ -65,10 +65,17 @@ def test_an_autopilot_without_the_key_never_gets_the_plant(tmp_path, autopilot_k
     port = free_udp_port()
     plant = start_plant(port, key_file(tmp_path, "plant.key"))
     wrong = None if autopilot_key is None else key_file(tmp_path, autopilot_key)
-    pilot = subprocess.Popen(autopilot_command(port, wrong), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    said = tmp_path / "autopilot.stderr"
+    with said.open("w") as sink:
+        pilot = subprocess.Popen(autopilot_command(port, wrong), stdout=subprocess.PIPE, stderr=sink, text=True)
     try:
-        assert pilot.stderr is not None and "plant link udp" in pilot.stderr.readline()  # started, saying HELLO
-        time.sleep(1.5)  # a HELLO every 0.25 s of silence
+        # Unanswered, it says HELLO every 0.25 s and, after 1 s of that, that the plant is silent: by then it has said
+        # HELLO 4 times or more. Wall time: a plant no autopilot has is not stepped, so no simulated time passes.
+        deadline = time.monotonic() + 60
+        while "the plant is silent" not in said.read_text():
+            assert time.monotonic() < deadline and pilot.poll() is None, said.read_text()
+            time.sleep(0.05)
+        assert "plant link udp" in said.read_text().splitlines()[0]  # started, saying HELLO
         assert pilot.poll() is None and plant.poll() is None
         for process in (pilot, plant):
             process.send_signal(signal.SIGTERM)
@@ -81,7 +88,7 @@ def test_an_autopilot_without_the_key_never_gets_the_plant(tmp_path, autopilot_k
                 process.wait()
     autopilot, summary = last_json(pilot_out), last_json(plant_out)
     assert summary["handshakes"] == 0 and summary["peer"] is None
-    assert summary["dropped"]["bad_signature"] >= 4
+    assert summary["dropped"]["bad_signature"] >= 2 * 4  # HEARTBEAT + PING in each HELLO
     assert autopilot["steps"] == 0
 
 

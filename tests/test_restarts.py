@@ -39,15 +39,16 @@ def test_a_killed_autopilot_restarts_takes_the_plant_back_and_keeps_its_paramete
             parameters_before = json.loads(vehicle.params_path.read_text())
             vehicle.process().send_signal(signal.SIGKILL)
             vehicle.process().wait(timeout=30)
-            time.sleep(0.5)
+            gs.pump(0.5)  # what the dead process sent is in our socket: read it, so the next HEARTBEAT is the new one's
             heard = len(gs.heartbeats)
             vehicle.restart()  # the plant waits, releases the dead peer, and the new autopilot takes it
             heartbeat_from_a_new_process(gs, heard)
             gs.wait_sim(2.0, every=gs.heartbeat)
             assert_hovering_in_hold(gs)
+            asked = len(gs.param_values)
             gs.conn.mav.param_request_read_send(gs.vehicle, 1, b"COM_OF_LOSS_T", -1)
-            gs.wait(lambda: any(p.param_id == "COM_OF_LOSS_T" for p in gs.param_values[-3:]), "COM_OF_LOSS_T")
-            assert gs.param_values[-1].param_value == 2.5
+            gs.wait(lambda: any(p.param_id == "COM_OF_LOSS_T" for p in gs.param_values[asked:]), "COM_OF_LOSS_T")
+            assert next(p for p in gs.param_values[asked:] if p.param_id == "COM_OF_LOSS_T").param_value == 2.5
         finally:
             gs.close()
         assert json.loads(vehicle.params_path.read_text()) == parameters_before
@@ -62,7 +63,12 @@ def test_a_killed_plant_restarts_and_the_autopilot_flies_on(tmp_path):
             gs.wait_sim(1.0, every=gs.heartbeat)
             vehicle.process("vtol-sim").send_signal(signal.SIGKILL)
             vehicle.process("vtol-sim").wait(timeout=30)
-            time.sleep(1.0)  # the autopilot waits for a silent plant, saying HELLO every 0.25 s
+            # The autopilot waits for the silent plant, saying HELLO every 0.25 s, and after 1 s says so (wall time:
+            # with no plant no simulated time passes).
+            deadline = time.monotonic() + 60
+            while "the plant is silent; waiting for it" not in vehicle.stderr():
+                assert time.monotonic() < deadline and vehicle.process().poll() is None, vehicle.stderr()
+                time.sleep(0.05)
             assert vehicle.running() is False and vehicle.process().poll() is None
             vehicle.restart("vtol-sim")  # a new plant, spawned as before, its clock from 0
             gs.wait(lambda: gs.sim_time < 1.0, "the new plant's clock", 60.0, every=gs.heartbeat)

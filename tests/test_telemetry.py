@@ -14,6 +14,7 @@ from transport.telemetry import control_key, mpc_key, plant_state_key
 from transport.zenoh_bus import session_config
 
 payloads: Counter[str] = Counter()
+END_SLACK_S = 0.1  # the last sample of each key is within a control tick (10 ms) of the flight's end; margin
 
 
 def fly_with_subscriber(controller: Controller, duration: str, *keys: str) -> dict[str, list]:
@@ -21,10 +22,13 @@ def fly_with_subscriber(controller: Controller, duration: str, *keys: str) -> di
     (and their payloads counted in `payloads`). It connects as the processes start (they take a second or more to
     begin stepping)."""
     received: dict[str, list] = {key: [] for key in keys}
+    latest_t = dict.fromkeys(keys, -1.0)  # the latest simulation time received per key
     payloads.clear()
 
     def on_sample(key: str, sample: zenoh.Sample) -> None:
-        received[key].extend(decode_samples(key, bytes(sample.payload)))
+        samples = decode_samples(key, bytes(sample.payload))
+        received[key].extend(samples)
+        latest_t[key] = max([latest_t[key]] + [s["t"] for s in samples])
         payloads[key] += 1
 
     with Vehicle(controller=controller, spawn_alt=100.0, speed=None, duration_s=float(duration), wait_ready=False,
@@ -35,7 +39,14 @@ def fly_with_subscriber(controller: Controller, duration: str, *keys: str) -> di
             for key in keys:
                 session.declare_subscriber(key, lambda sample, k=key: on_sample(k, sample))
             vehicle.wait_finished(timeout_s=300)  # (an autopilot that exits with an error fails the test here)
-            time.sleep(0.5)
+            # The last samples, put as the processes ended, may still be on their way: wait until every key's reach
+            # the flight's end in simulation time (the wall clock only as a guard).
+            end_s = float(duration) - END_SLACK_S
+            deadline = time.monotonic() + 20
+            while min(latest_t.values()) < end_s:
+                assert time.monotonic() < deadline, f"samples up to {latest_t} s, not to the end ({duration} s)"
+                time.sleep(0.01)
+            print(f"the last samples at {latest_t} s of a {duration} s flight")
         finally:
             session.close()
     return received

@@ -20,7 +20,7 @@ from autopilot.navigator.auto_flight import (
 )
 from autopilot.navigator.yaw_shaping import YAW_STOPPED, StickYaw, YawShaper, multicopter_speed
 from autopilot.topics.yaw_setpoint import YawSetpoint
-from tests.ground_station import HOLD, OFFBOARD, MissionClient
+from tests.ground_station import HOLD, OFFBOARD, MissionClient, said
 from tests.test_mavlink_failsafes import hovering, set_param
 from tests.test_mavlink_manual_control import POSCTL
 from tests.test_mavlink_missions import rows_of
@@ -197,7 +197,8 @@ def test_an_orbit_faces_its_centre_by_default_goto_and_condition_yaw_turn_to_the
     lat, lon = latlon_e7(*centre)
     # DO_ORBIT radius 15 m, 3 m/s, yaw behaviour NaN (PX4's default: front to the centre), centre 15 m north.
     ack = gs.command(M.MAV_CMD_DO_ORBIT, 15.0, 3.0, math.nan, math.nan, lat * 1e-7, lon * 1e-7, math.nan)
-    assert ack.result == M.MAV_RESULT_ACCEPTED and gs.mode == ORBIT_MODE
+    assert ack.result == M.MAV_RESULT_ACCEPTED
+    gs.wait(lambda: gs.mode == ORBIT_MODE, "Orbit")  # the HEARTBEAT showing it can come after the ACK
     gs.wait_sim(25.0)  # on the circle, a quarter turn and more
     errors = []
 
@@ -209,13 +210,16 @@ def test_an_orbit_faces_its_centre_by_default_goto_and_condition_yaw_turn_to_the
     worst = math.degrees(max(abs(e) for e in errors))
     print(f"orbit: nose off the centre by at most {worst:.2f} deg over 5 s")
     assert worst < 5.0
+    texts = len(gs.statustexts)
     bad = gs.command(M.MAV_CMD_DO_ORBIT, 15.0, 3.0, 7.0, math.nan, math.nan, math.nan, math.nan)
-    assert bad.result == M.MAV_RESULT_DENIED and "yaw behaviour" in gs.statustexts[-1]
+    assert bad.result == M.MAV_RESULT_DENIED
+    said(gs, "yaw behaviour", since=texts)  # the reason, among the texts since the command (another may come first)
     assert gs.command(M.MAV_CMD_CONDITION_YAW, 0, 0, 0, 0).result == M.MAV_RESULT_TEMPORARILY_REJECTED  # Hold only
 
     # Go-to here with a yaw (param4, rad as PX4 and MAVSDK send it): Hold, turned to it.
     ack = gs.command(M.MAV_CMD_DO_REPOSITION, -1, 0, 0, math.radians(30.0), math.nan, math.nan, math.nan)
     assert ack.result == M.MAV_RESULT_ACCEPTED
+    gs.wait(lambda: gs.mode == HOLD, "Hold after the go-to")  # from Orbit (the HEARTBEAT can come after the ACK)
     gs.wait_sim(6.0)
     print(f"go-to: heading {yaw_deg(gs):.2f} deg for 30")
     assert abs(yaw_deg(gs) - 30.0) < 3.0
@@ -239,7 +243,8 @@ def test_orbit_yaw_behaviours_hold_the_first_heading_follow_the_track_or_the_yaw
 
     def orbit(behaviour: int) -> None:
         ack = gs.command(M.MAV_CMD_DO_ORBIT, 15.0, 3.0, behaviour, math.nan, lat * 1e-7, lon * 1e-7, math.nan)
-        assert ack.result == M.MAV_RESULT_ACCEPTED and gs.mode == ORBIT_MODE
+        assert ack.result == M.MAV_RESULT_ACCEPTED
+        gs.wait(lambda: gs.mode == ORBIT_MODE, "Orbit")  # the HEARTBEAT showing it can come after the ACK
 
     def worst_error(seconds: float, wanted) -> tuple[float, float]:
         """The largest |yaw - wanted(position)| (deg) and the largest |distance to the centre - 15 m| over
