@@ -10,7 +10,7 @@ from pathlib import Path
 
 from aircraft.airframe import AirframeError, load_airframe
 from aircraft.failures import FailureRejected, parse_failure
-from autopilot.commander.commander import Commander
+from autopilot.commander.commander import build_commander
 from autopilot.commander.failure_injection import FailureInjection, ScheduledFailure
 from autopilot.commander.flight_stack import FlightStack
 from autopilot.commander.guided_requests import GuidedRequests
@@ -166,7 +166,7 @@ def main(argv: list[str] | None = None) -> int:
     in_air = args.spawn_alt > 0
     profile = PROFILES[args.profile][0] if args.profile else None
     events = EventOutbox()
-    commander = Commander(params, airframe.hover_thrust_per_rotor / airframe.thrust_max, armed=in_air, in_air=in_air,
+    commander = build_commander(params, airframe.hover_thrust_per_rotor / airframe.thrust_max, armed=in_air, in_air=in_air,
                           say=events.say, profile=profile, stamped_setpoints=args.offboard_lockstep,
                           missions=missions, home=home)  # fmt: skip
     try:
@@ -190,6 +190,7 @@ def main(argv: list[str] | None = None) -> int:
                                missions)  # fmt: skip
     services = MavlinkServices(
         router, params, flight_stack, system_id=system_id, home=home, missions=missions.snapshot,
+        modes=commander.navigator.ids,
         events_publisher=None if session is None else session.declare_publisher(autopilot_events_key(system_id)),
         quiet=args.quiet,
     )  # fmt: skip

@@ -174,7 +174,7 @@ class PlantLoop:
     def _learn(self, failure: Failure) -> None:
         """A failure the plant applied becomes known: the controllers' (actuators) and the failsafes' (sensors)."""
         self.controller.apply_failure(failure)
-        self.commander.failsafe.failure_known(failure)
+        self.commander.failure_known(failure)
 
     def _parameters_changed(self) -> None:
         """Parameters the running controller uses (VT_ARSP_*) handed on after a change."""
@@ -210,7 +210,7 @@ class PlantLoop:
             return None
         if commander.armed:
             return self._idle_pwm
-        return commander.output_tests.applied(self._disarmed_pwm, t_usec)
+        return commander.outputs_on_ground(self._disarmed_pwm, t_usec)
 
     def _status_due(self, t_usec: int) -> bool:
         """Whether this step builds a VehicleStatus for the services (step 4 of the module's docstring)."""
@@ -218,13 +218,13 @@ class PlantLoop:
         return (last is None or not 0 <= t_usec - last < STATUS_MAX_AGE_USEC
                 or self.services is not None and self.services.streams_due(t_usec)
                 or bool(self.events.pending) or self.injection.has_outcomes or self.commander.state_changed
-                or self.commander.homes.position is not self._status_home
+                or self.commander.home is not self._status_home
                 or self.missions.snapshot is not self._status_missions)  # fmt: skip
 
     def _status(self, t_usec: int, sample: PlantSample, pwm: list[int]) -> VehicleStatus:
         self.counters.status_snapshots += 1
         self._status_usec = t_usec
-        self._status_home, self._status_missions = self.commander.homes.position, self.missions.snapshot
+        self._status_home, self._status_missions = self.commander.home, self.missions.snapshot
         c, report, hil = self.controller, self.commander.report(), sample.state
         throttle = int(round(sum(c.command[ROTORS].tolist()) / ROTOR_COUNT * 100)) if report.flying else 0
         return VehicleStatus(
@@ -233,7 +233,7 @@ class PlantLoop:
             vtol_state=vtol_state(c.servos.tilt, c.command[TILTS]), state_version=report.state_version,
             estimate=copy_state(self.state),
             position=GlobalPosition(hil.lat, hil.lon, hil.alt, hil.vx, hil.vy, hil.vz),
-            home=self.commander.homes.position, pwm=tuple(pwm), throttle_percent=throttle, controller=c.kind,
+            home=self.commander.home, pwm=tuple(pwm), throttle_percent=throttle, controller=c.kind,
             failures=tuple(self.injection.known), events=self.events.drain(),
             injections=self.injection.drain_outcomes(), missions=self.missions.snapshot, terminated=report.terminated,
         )  # fmt: skip

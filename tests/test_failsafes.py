@@ -11,19 +11,24 @@ import pymap3d
 import pytest
 
 from aircraft.failures import Failure, FailureRejected, FailureType, FailureUnit
-from autopilot.commander.commander import HOLD, LAND, OFFBOARD, RETURN, Commander
+from autopilot.commander.commander import Commander, build_commander
 from autopilot.commander.failsafe import Decision
 from autopilot.commander.failsafe_reaction import Reaction, reaction
 from autopilot.commander.guided_requests import GuidedRequests
 from autopilot.navigator.geofence import breach, fence_from_items, inside_polygon
-from autopilot.navigator.manual_modes import ALTITUDE, POSITION
 from autopilot.navigator.mission_feasibility import geofence_violation
+from autopilot.navigator.modes.altitude import ALTITUDE
+from autopilot.navigator.modes.hold import HOLD
+from autopilot.navigator.modes.land import LAND
+from autopilot.navigator.modes.offboard import OFFBOARD
+from autopilot.navigator.modes.position import POSITION
+from autopilot.navigator.modes.rtl import RETURN
 from autopilot.navigator.return_route import (
     MissionLanding,
     closest_safe_point,
     mission_landing,
     return_destination,
-    return_height,  # fmt: skip
+    return_height,
 )
 from autopilot.storage.mission_store import MissionStore
 from autopilot.storage.parameters import ParameterRejected, ParameterStore
@@ -54,7 +59,7 @@ def flying_commander(missions: MissionStore | None = None, **params) -> tuple[Co
     for name, value in params.items():
         store.set(name, value)
     said: list[str] = []
-    commander = Commander(store, HOVER, armed=True, in_air=True, say=lambda severity, text, key=None: said.append(text),
+    commander = build_commander(store, HOVER, armed=True, in_air=True, say=lambda severity, text, key=None: said.append(text),
                           missions=missions, home=HOME)  # fmt: skip
     commander.start(state_at(0.0))
     return commander, said
@@ -193,7 +198,7 @@ def test_geofence_breach_takes_gf_action_once_and_return_heads_for_the_closest_r
     go_to = Reposition(np.array([200.0, 0.0, -50.0]), None)
     assert GuidedRequests(going).route(go_to, state_at(0.0))[0] == M.MAV_RESULT_ACCEPTED
     fly(going, 0.0, 0.1, north=101.0)
-    assert going.mode == HOLD and not going.hold.repositioning  # the Go-to stops where the fence is
+    assert going.mode == HOLD and not going.navigator.hold.repositioning  # the Go-to stops where the fence is
     assert "Failsafe activated: Hold" in said
     warn, said = flying_commander(GF_MAX_VER_DIST=40.0, GF_ACTION=1)
     fly(warn, 0.0, 0.1)
@@ -201,7 +206,7 @@ def test_geofence_breach_takes_gf_action_once_and_return_heads_for_the_closest_r
     fenced = MissionStore()
     fenced.store(M.MAV_MISSION_TYPE_FENCE, (item(M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, 500.0, 0.0, 50.0),))
     store = ParameterStore(None)
-    on_ground = Commander(store, HOVER, armed=False, in_air=False, missions=fenced, home=HOME)
+    on_ground = build_commander(store, HOVER, armed=False, in_air=False, missions=fenced, home=HOME)
     on_ground.start(state_at(0.0, down=0.0))
     result, reason = on_ground.arm(state_at(0.0, down=0.0))
     assert result == M.MAV_RESULT_DENIED and "outside the geofence" in reason  # PX4's pre-arm check

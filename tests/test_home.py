@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 from pymavlink import mavutil
 
-from autopilot.topics.home_position import HomeKeeper, home_at
+from autopilot.commander.home import HomeKeeper
+from autopilot.topics.home_position import home_at
 from ground_tools.free_ports import free_udp_port
 from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, free_link_ports
 from tiltrotor_sitl import Vehicle

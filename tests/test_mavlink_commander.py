@@ -8,18 +8,13 @@ import math
 import numpy as np
 import pytest
 
-from autopilot.commander.commander import (
-    ACCEPTED,
-    DENIED,
-    HOLD,
-    LAND,
-    OFFBOARD,
-    TAKEOFF,
-    TEMPORARILY_REJECTED,
-    Commander,
-)
+from autopilot.commander.commander import ACCEPTED, DENIED, TEMPORARILY_REJECTED, Commander, build_commander
 from autopilot.commander.guided_requests import GuidedRequests
-from autopilot.mavlink.px4_modes import custom_mode, mode_from_px4
+from autopilot.navigator.modes import MODES
+from autopilot.navigator.modes.hold import HOLD
+from autopilot.navigator.modes.land import LAND
+from autopilot.navigator.modes.offboard import OFFBOARD
+from autopilot.navigator.modes.takeoff import TAKEOFF
 from autopilot.storage.parameters import ParameterStore
 from autopilot.topics.vehicle_state import VehicleState
 from transport.mavlink import mavlink as M
@@ -40,9 +35,21 @@ def new_commander(in_air: bool = False, **params) -> tuple[Commander, list[str]]
     for name, value in params.items():
         store.set(name, value)
     said: list[str] = []
-    commander = Commander(store, HOVER, armed=in_air, in_air=in_air, say=lambda severity, text: said.append(text))
+    commander = build_commander(store, HOVER, armed=in_air, in_air=in_air, say=lambda severity, text: said.append(text))
     commander.start(state_at(0.0, down=-50.0 if in_air else 0.0))
     return commander, said
+
+
+IDS = {kind.id.name: kind.id for kind in MODES}
+
+
+def custom_mode(mode: str) -> int:
+    return IDS[mode].custom_mode
+
+
+def mode_from_px4(main: int, sub: int) -> str | None:
+    """As the MAVLink services pick a mode for SET_MODE: the first of the table that matches."""
+    return next((kind.id.name for kind in MODES if kind.id.matches(main, sub)), None)
 
 
 def test_px4_custom_modes_round_trip():

@@ -14,7 +14,7 @@ from transport.mavlink_frames import (
     HIL_STATE_QUATERNION,
     PLANT_STEP_FORMATS,
     SERVO_OUTPUT_RAW,
-    FrameFormat,  # fmt: skip
+    FrameFormat,
 )
 
 KEY = bytes(range(32))

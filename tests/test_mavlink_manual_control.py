@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 
 from autopilot.mavlink.manual_control import sticks_from_message
-from autopilot.navigator.manual_modes import climb_stick, deadzone
+from autopilot.navigator.manual_control import climb_stick, deadzone
 from tests.mavlink_sitl import start_sitl
 from tests.test_mavlink_failsafes import set_param
 from tests.test_mavlink_navigation import RETURN_MODE

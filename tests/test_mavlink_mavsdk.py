@@ -98,7 +98,7 @@ def test_mavsdk_flies_the_vehicle_unmodified(sitl):
         offboard.stop()
         wait_for(lambda: telemetry.flight_mode() == FlightMode.HOLD, "Hold after Offboard")
 
-        # The transition command in Hold (autopilot/flight_modes.py, HoldMode.transition): to FW the vehicle circles
+        # The transition command in Hold (autopilot/navigator/modes/hold.py, HoldMode.transition): to FW the vehicle circles
         # at FW_AIRSPD_TRIM, tilting its rotors forward as it speeds up, through TRANSITION_TO_FW (mean tilt 5 ...
         # 85 deg, autopilot/vehicle_status.py) to FW; back to MC it brakes to a hover, through TRANSITION_TO_MC.
         assert telemetry.vtol_state() == VtolState.MC

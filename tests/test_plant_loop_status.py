@@ -11,7 +11,7 @@ import pytest
 
 from aircraft.airframe import load_airframe
 from aircraft.failures import FailureType, FailureUnit, parse_failure
-from autopilot.commander.commander import Commander
+from autopilot.commander.commander import build_commander
 from autopilot.commander.failure_injection import FailureInjection
 from autopilot.control.flight_controller import PID
 from autopilot.controllers import build_flight_controller
@@ -32,7 +32,7 @@ def loop(tmp_path):
     params = ParameterStore(tmp_path / "params.json")
     missions = MissionStore(tmp_path / "missions.json")
     events = EventOutbox()
-    commander = Commander(params, 0.5, armed=True, in_air=True, say=events.say, missions=missions, home=Home())
+    commander = build_commander(params, 0.5, armed=True, in_air=True, say=events.say, missions=missions, home=Home())
     client = PlantLinkClient(9, sensors=False)  # never used: the test calls the loop's status steps itself
     injection = FailureInjection(send=lambda failure: True, note=lambda text: None)
     loop = PlantLoop(airframe, lambda: build_flight_controller(airframe, PID), client, commander, params, injection,

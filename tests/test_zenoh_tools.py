@@ -43,7 +43,7 @@ from transport.telemetry import (
     encode_control,
     encode_plant_state,
     mpc_key,
-    plant_state_key,  # fmt: skip
+    plant_state_key,
 )
 
 VTOL = [sys.executable, "-m", "ground_tools"]

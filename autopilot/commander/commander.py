@@ -1,9 +1,9 @@
-"""Arming, flight modes and their transitions, as PX4's commander does them, in simulation time (docs/mavlink.md).
+"""Arming, the mode choice and its switches, as PX4's commander does them, in simulation time (docs/mavlink.md).
 
-Modes (PX4 custom modes): Hold (AUTO.LOITER), Takeoff (AUTO.TAKEOFF), Land (AUTO.LAND), Offboard, Mission
-(AUTO.MISSION), Return (AUTO.RTL), Orbit (POSCTL.ORBIT), one class each in flight_modes.py: the commander chooses
-the mode, the mode gives the velocity set-point for the flight controller, and its yaw set-point, shaped into the
-yaw reference the controllers follow while the set-point is a multicopter's (autopilot/topics/yaw_setpoint.py).
+The modes are the navigator's (autopilot/navigator/modes/, one module each with its PX4 custom mode and its entry
+rules): the commander chooses the mode, the mode gives the velocity set-point for the flight controller, and its
+yaw set-point, shaped into the yaw reference the controllers follow while the set-point is a multicopter's
+(navigator/yaw_shaping.py).
 
 On the ground the flight controller does not run: disarmed, the rotors are off; armed, they idle until a
 takeoff (Takeoff mode, or an Offboard set-point that climbs), which starts a fresh flight controller
@@ -22,39 +22,30 @@ from collections.abc import Callable
 
 import numpy as np
 
+from aircraft.failures import Failure
 from autopilot.commander.failsafe import Decision, Failsafe, FailsafeInputs
 from autopilot.commander.failsafe_reaction import reaction
 from autopilot.commander.ground_state import GroundState, landed_state
+from autopilot.commander.home import HomeKeeper
+from autopilot.commander.land_detector import LandDetector
 from autopilot.commander.output_tests import OutputTests
 from autopilot.commander.prearm_checks import prearm_refusal
-from autopilot.navigator.auto_flight import AutoFlight
-from autopilot.navigator.flight_modes import (
-    HOLD,
-    LAND,
-    MISSION,
-    OFFBOARD,
-    ORBIT,
-    RETURN,
-    TAKEOFF,
-    FlightMode,
-    HoldMode,
-    LandMode,  # fmt: skip
-    MissionMode,
-    OffboardMode,
-    OrbitMode,
-    ReturnMode,
-    TakeoffMode,
-)
-from autopilot.navigator.flight_tasks import TICK_S, LandDetector, Navigator
-from autopilot.navigator.manual_modes import ALTITUDE, POSITION, ManualControl, StickMode
-from autopilot.navigator.mission_feasibility import MissionFeasibility
-from autopilot.navigator.mission_flight import MissionFlight
-from autopilot.navigator.offboard_setpoint import OffboardSetpoint
+from autopilot.navigator.auto_flight import Circle
+from autopilot.navigator.guidance import TICK_S
+from autopilot.navigator.mode import FlightMode, ModeEntry
+from autopilot.navigator.modes.altitude import ALTITUDE
+from autopilot.navigator.modes.hold import HOLD
+from autopilot.navigator.modes.mission import MISSION
+from autopilot.navigator.modes.offboard import OFFBOARD
+from autopilot.navigator.modes.position import POSITION
+from autopilot.navigator.modes.takeoff import TAKEOFF
+from autopilot.navigator.navigator import Navigator, build_navigator
 from autopilot.navigator.yaw_shaping import YawShaper, multicopter_speed
 from autopilot.storage.mission_store import MissionStore
 from autopilot.storage.parameters import ParameterStore
 from autopilot.topics.attitude_target import AttitudeTarget
-from autopilot.topics.home_position import HomeKeeper
+from autopilot.topics.flight_mode import ModeId
+from autopilot.topics.home_position import HomePosition
 from autopilot.topics.region_of_interest import RegionOfInterest
 from autopilot.topics.requests import FORCE_MAGIC, ManualControlInput, Reply
 from autopilot.topics.vehicle_state import VehicleState
@@ -73,39 +64,27 @@ HOME_AT_REST_SPEED = 0.5  # m/s: home follows a disarmed vehicle on the ground o
 
 
 class Commander:
-    """The vehicle's arming state, mode and ground/air state; velocity set-points at 100 Hz."""
+    """The vehicle's arming state, mode and ground/air state; velocity set-points at 100 Hz. Its collaborators are
+    built by build_commander."""
 
-    def __init__(self, params: ParameterStore, hover_fraction: float, *, armed: bool, in_air: bool,
-                 say: Callable[..., None] = lambda severity, text, key=None: None,
-                 profile: Callable[[float], np.ndarray] | None = None, stamped_setpoints: bool = False,
-                 missions: MissionStore | None = None, home: Home = Home()) -> None:  # fmt: skip
+    def __init__(self, params: ParameterStore, navigator: Navigator, failsafe: Failsafe, homes: HomeKeeper,
+                 ground: GroundState, land_detector: LandDetector, *, armed: bool, say: Callable[..., None],
+                 profile: Callable[[float], np.ndarray] | None = None) -> None:  # fmt: skip
         self.params = params
-        missions = missions if missions is not None else MissionStore()
-        navigator = Navigator(params)
-        self.homes = HomeKeeper(home)
-        self.auto = auto = AutoFlight(params)
-        mission = MissionFlight(params, missions, self.homes, auto, landed=lambda: self.on_ground)
-        self.failsafe = Failsafe(params, missions, self.homes, say)
-        self.feasibility = MissionFeasibility(mission, self.failsafe.outside_fence, say)
-        self.offboard = OffboardSetpoint(stamped=stamped_setpoints)
-        self.manual = ManualControl(params)
-        self.hold = HoldMode(navigator, auto)
-        self.takeoff_mode = TakeoffMode(navigator)
-        self.land_mode = LandMode(navigator)
-        self.orbit = OrbitMode(auto, self.manual.yaw_rate)
-        self.mission_mode = MissionMode(mission)
-        self.return_mode = ReturnMode(params, auto, mission, lambda: self.feasibility.check() is None, say)
-        self.modes: dict[str, FlightMode] = {mode.name: mode for mode in (
-            self.hold, self.takeoff_mode, self.land_mode, OffboardMode(navigator, self.offboard, hover_fraction),
-            self.mission_mode,
-            self.return_mode, self.orbit, StickMode(POSITION, params, self.manual),
-            StickMode(ALTITUDE, params, self.manual))}  # fmt: skip
-        self.land_detector = LandDetector(hover_fraction)
+        self.navigator = navigator
+        self.modes = navigator.modes
+        self.failsafe = failsafe
+        self.homes = homes
+        self.ground = ground
+        self.land_detector = land_detector
+        context = navigator.context
+        self.feasibility = context.feasibility
+        self.offboard = context.offboard
+        self.manual = context.manual
         self.yaw_shaper = YawShaper()
         self.say = say
         self.profile = profile
         self.armed = armed
-        self.ground = GroundState(in_air)
         self.mode = OFFBOARD if profile is not None else HOLD
         self.started = False
         self.state_version = 1  # counts arming, mode, ground-state and termination changes (each sends a HEARTBEAT)
@@ -142,7 +121,7 @@ class Commander:
 
     def report(self) -> CommanderReport:
         self._reported_version = self.state_version
-        return CommanderReport(self.started, self.armed, self.mode, self.landed_state, self.flying,
+        return CommanderReport(self.started, self.armed, self.active.id, self.landed_state, self.flying,
                                self.state_version, self.terminated)  # fmt: skip
 
     def observe(self, state: VehicleState) -> None:
@@ -172,14 +151,21 @@ class Commander:
     def active(self) -> FlightMode:
         return self.modes[self.mode]
 
+    @property
+    def mode_id(self) -> ModeId:
+        return self.active.id
+
+    @property
+    def home(self) -> HomePosition:
+        return self.homes.position
+
     def switch_mode(self, mode: str, state: VehicleState, reason: str | None = None) -> None:
-        """Enter `mode` (again, if it is the current one: it starts afresh, except Offboard)."""
-        if mode == RETURN:
-            self.return_mode.mission_was_flying = self.mode == MISSION or (
-                self.mode == RETURN and self.return_mode.mission_landing)
-        if mode != OFFBOARD or self.mode != OFFBOARD:
-            self.modes[mode].activate(state)
-        if mode == LAND:
+        """Enter `mode` (again, if it is the current one: it starts afresh, unless it goes on when re-entered)."""
+        target = self.modes[mode]
+        target.entered_from(self.active)
+        if mode != self.mode or target.restarts_when_reentered:
+            target.activate(state)
+        if target.resets_land_detector:
             self.land_detector.reset()
         if mode != self.mode:
             self.mode = mode
@@ -205,10 +191,48 @@ class Commander:
             self.say(mavlink.MAV_SEVERITY_INFO, "Flight termination cleared")
 
     def set_region_of_interest(self, roi: RegionOfInterest | None) -> None:
-        """DO_SET_ROI_*: the vehicle's region of interest (the mission keeps it), turned to at once by Mission and
-        Return's mission landing."""
-        turn_now = self.mode == MISSION or (self.mode == RETURN and self.return_mode.mission_landing)
-        self.mission_mode.mission.point_at(roi, turn_now)
+        """DO_SET_ROI_*: the vehicle's region of interest (the mission keeps it), turned to at once by the modes
+        flying the mission's items (Mission, Return's mission landing)."""
+        self.navigator.point_at(roi, self.active.flies_mission)
+
+    def set_home(self, home: HomePosition) -> None:
+        """DO_SET_HOME: Return and the geofence's distances use `home` from now."""
+        self.homes.set(home)
+
+    def reposition(self, state: VehicleState, position: np.ndarray, speed: float | None, yaw: float | None) -> None:
+        """Go-to: Hold flies to `position` and holds there (Hold must be active)."""
+        self.navigator.reposition(state, position, speed, yaw)
+
+    def orbit(self, state: VehicleState, circle: Circle) -> None:
+        """Orbit circles `circle` (Orbit must be active)."""
+        self.navigator.orbit_around(state, circle)
+
+    def transition(self, target: int, state: VehicleState) -> str | None:
+        """A VTOL transition in Hold; what to say (None: already there)."""
+        return self.navigator.transition(target, state)
+
+    def set_cruise_speed(self, speed: float | None) -> None:
+        self.navigator.set_cruise_speed(speed)
+
+    def drive_output(self, motor: bool, index: int, value: float | None, timeout_s: float) -> None:
+        """A motor or servo test of a disarmed vehicle (output_tests.py), from now for `timeout_s`."""
+        self.output_tests.drive(motor, index, value, timeout_s, self.now_usec)
+
+    def outputs_on_ground(self, disarmed_pwm: list[int], now_usec: int) -> list[int]:
+        """The PWM of a disarmed vehicle: `disarmed_pwm` with the output tests running applied."""
+        return self.output_tests.applied(disarmed_pwm, now_usec)
+
+    def failure_known(self, failure: Failure) -> None:
+        """A failure the plant applied is known (the failsafes watch the sensors')."""
+        self.failsafe.failure_known(failure)
+
+    def gcs_heartbeat(self) -> None:
+        """A ground station's HEARTBEAT (the data-link failsafe)."""
+        self.failsafe.gcs_heartbeat(self.now_usec)
+
+    def check_mission(self) -> None:
+        """A new mission or fence: checked against the geofence at once, as PX4's navigator does."""
+        self.feasibility.check()
 
     def _set_armed(self, armed: bool, text: str, severity: int = mavlink.MAV_SEVERITY_INFO) -> None:
         self.armed = armed
@@ -227,7 +251,7 @@ class Commander:
         if self.on_ground:
             self.homes.set_here(state.position_ned)  # PX4: home at the first valid position on the ground
         if self.flying and self.profile is None:
-            self.hold.activate(state)
+            self.navigator.hold.activate(state)
         if self.armed:
             self.ground.armed(state.time_usec)
 
@@ -239,7 +263,7 @@ class Commander:
         self.failsafe.restart()
         self.ground.restarted(state.time_usec, self.armed)
         if self.profile is None and self.flying:
-            self.hold.activate(state)
+            self.navigator.hold.activate(state)
 
     def refusal(self, name: str | None = None, positional: bool = False) -> Reply | None:
         """Commands are off while the internal --profile flies; `name` needs a vehicle state first, and a
@@ -269,7 +293,7 @@ class Commander:
         if not self.failsafe.position_lost:
             self.homes.set_here(state.position_ned)  # PX4: home where the vehicle arms (not over a manual home)
         if self.mode == MISSION:
-            self.mission_mode.activate(state)  # a takeoff item first: the mission takes off
+            self.active.activate(state)  # a takeoff item first: the mission takes off
         if self.mode == OFFBOARD and not self._offboard_fresh():
             self.switch_mode(HOLD, state)
         return ACCEPTED, None
@@ -288,33 +312,24 @@ class Commander:
         return self.offboard.fresh(self.now_usec, self.params["COM_OF_LOSS_T"])
 
     def set_mode(self, mode: str, state: VehicleState) -> Reply:
+        """A ground station chooses `mode`: the commander's checks, then the mode's own entry rules."""
         if (refusal := self.refusal(mode)) is not None:
             return refusal
         if mode == self.mode:
             return ACCEPTED, None
-        if (refusal := self.refusal(mode, positional=mode not in (LAND, ALTITUDE))) is not None:
+        target = self.modes[mode]
+        if (refusal := self.refusal(mode, positional=target.needs_position)) is not None:
             return refusal
-        if mode == OFFBOARD and not self._offboard_fresh():
-            return TEMPORARILY_REJECTED, (f"Offboard denied: no set-point in the last "
-                                          f"{self.params['COM_OF_LOSS_T']:g} s")  # fmt: skip
-        if mode in (POSITION, ALTITUDE) and (refusal := self.manual.refusal(mode, self.now_usec)) is not None:
+        if (refusal := target.entry_refusal(ModeEntry(self.now_usec, self.flying))) is not None:
             return refusal
         if mode == TAKEOFF:
             return self.takeoff(state, None)
-        if mode == MISSION and not self.mission_mode.stored:
-            return DENIED, "Mission denied: no mission stored"
-        if mode == MISSION and self.feasibility.check() is not None:
-            return TEMPORARILY_REJECTED, "Switching to Mission is currently not available"
-        if mode == ORBIT:
-            return DENIED, "Orbit: use MAV_CMD_DO_ORBIT (radius, speed, centre)"
-        if mode == RETURN and not self.flying:
-            return TEMPORARILY_REJECTED, "Return denied: not flying"
         self.switch_mode(mode, state)
         return ACCEPTED, None
 
     def start_mission(self, state: VehicleState) -> Reply:
         """MAV_CMD_MISSION_START: Mission mode, if the mission passes the feasibility check (PX4: DENIED if not)."""
-        if self.mission_mode.stored and self.mode != MISSION and self.feasibility.check() is not None:
+        if self.navigator.mission.stored and self.mode != MISSION and self.feasibility.check() is not None:
             return DENIED, "Mission start denied! No valid mission"
         return self.set_mode(MISSION, state)
 
@@ -330,7 +345,7 @@ class Commander:
             altitude_above_home = self.params["MIS_TAKEOFF_ALT"]
         elif not 1.0 <= altitude_above_home <= 1000.0:
             return DENIED, f"Takeoff denied: altitude {altitude_above_home:.1f} m above home not in 1..1000 m"
-        self.takeoff_mode.start(state, self.homes.position.down - altitude_above_home)
+        self.navigator.takeoff.start(state, self.homes.position.down - altitude_above_home)
         if self.mode != TAKEOFF:
             self.mode = TAKEOFF
             self.state_version += 1
@@ -380,10 +395,11 @@ class Commander:
         if self.on_ground:
             return self._on_ground(state, time_usec)
         if self.mode == TAKEOFF:
-            if not self.takeoff_mode.done(state):
-                return self.takeoff_mode.setpoint(state)
+            takeoff = self.navigator.takeoff
+            if not takeoff.done(state):
+                return takeoff.setpoint(state)
             self.switch_mode(HOLD, state, "Takeoff complete: Hold")
-            self.hold.hold_at(*self.takeoff_mode.end)
+            self.navigator.hold.hold_at(*takeoff.end)
         mode = self.active
         setpoint = mode.setpoint(state)
         if mode.detects_landing and self.land_detector.update(state, mean_thrust_fraction, time_usec,
@@ -410,7 +426,7 @@ class Commander:
         if plan.mode is not None:
             self.switch_mode(plan.mode, state, plan.mode_reason)
             if plan.descend:
-                self.land_mode.descend = True
+                self.navigator.land.descend = True
         for severity, text in plan.after:
             self.say(severity, text)
 
@@ -422,3 +438,20 @@ class Commander:
             self._lift_off()
             return self.active.setpoint(state)
         return None
+
+
+def build_commander(params: ParameterStore, hover_fraction: float, *, armed: bool, in_air: bool,
+                    say: Callable[..., None] = lambda severity, text, key=None: None,
+                    profile: Callable[[float], np.ndarray] | None = None, stamped_setpoints: bool = False,
+                    missions: MissionStore | None = None, home: Home = Home()) -> Commander:  # fmt: skip
+    """A commander with its collaborators: home (at `home` until set), the ground state (`in_air`), the failsafes,
+    the navigator and its modes on `missions`; `armed`: spawned armed; `profile`: the internal set-points flown from
+    the start; `stamped_setpoints`: --offboard-lockstep."""
+    missions = missions if missions is not None else MissionStore()
+    homes = HomeKeeper(home)
+    ground = GroundState(in_air)
+    failsafe = Failsafe(params, missions, homes, say)
+    navigator = build_navigator(params, missions, homes, hover_fraction, failsafe.outside_fence,
+                                landed=lambda: ground.on_ground, say=say, stamped_setpoints=stamped_setpoints)  # fmt: skip
+    return Commander(params, navigator, failsafe, homes, ground, LandDetector(hover_fraction), armed=armed, say=say,
+                     profile=profile)  # fmt: skip

@@ -23,12 +23,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from aircraft.failures import Failure, FailureUnit, failed_sensors
-from autopilot.navigator.flight_modes import HOLD, LAND, RETURN
+from autopilot.commander.home import HomeKeeper
 from autopilot.navigator.geofence import Fence, breach, fence_from_items
-from autopilot.navigator.manual_modes import ALTITUDE, POSITION
+from autopilot.navigator.modes.altitude import ALTITUDE
+from autopilot.navigator.modes.hold import HOLD
+from autopilot.navigator.modes.land import LAND
+from autopilot.navigator.modes.position import POSITION
+from autopilot.navigator.modes.rtl import RETURN
 from autopilot.storage.mission_store import MissionStore
 from autopilot.storage.parameters import ParameterStore
-from autopilot.topics.home_position import HomeKeeper
 from transport.mavlink import mavlink
 
 NONE, WARN, TERMINATE, DISARM = "None", "Warn", "Terminate", "Disarm"  # the actions that are not modes

@@ -10,7 +10,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from autopilot.commander.failsafe import DESCEND, DISARM, TERMINATE, WARN, Decision
-from autopilot.navigator.flight_modes import HOLD, LAND, RETURN
+from autopilot.navigator.modes.hold import HOLD
+from autopilot.navigator.modes.land import LAND
+from autopilot.navigator.modes.rtl import RETURN
 from transport.mavlink import mavlink
 
 Said = tuple[tuple[int, str], ...]  # (MAV_SEVERITY, STATUSTEXT)

@@ -7,10 +7,11 @@ navigator reads."""
 
 from __future__ import annotations
 
-from autopilot.commander.commander import RETURN, Commander
+from autopilot.commander.commander import Commander
 from autopilot.commander.failure_injection import FailureInjection
 from autopilot.commander.guided_requests import GuidedRequests
 from autopilot.commander.output_requests import OutputRequests
+from autopilot.navigator.modes.rtl import RETURN
 from autopilot.storage.mission_store import MissionStore
 from autopilot.storage.parameters import ParameterStore
 from autopilot.topics.mission_items import FENCE as FENCE_TYPE
@@ -40,7 +41,7 @@ from autopilot.topics.requests import (
     SetRegionOfInterest,
     StartMission,
     StoreMission,
-    Takeoff,  # fmt: skip
+    Takeoff,
     Transition,
     TurnTo,
 )
@@ -66,7 +67,7 @@ class FlightStack:
         if isinstance(request, StoreMission):
             self.missions.store(request.mission_type, request.items, request.current)
             if request.mission_type in (MISSION_TYPE, FENCE_TYPE):
-                self.commander.feasibility.check()  # PX4's navigator checks a new mission (or fence) at once
+                self.commander.check_mission()
             return mavlink.MAV_RESULT_ACCEPTED, None
         if isinstance(request, ClearMission):
             self.missions.clear(request.mission_type)
@@ -116,6 +117,6 @@ class FlightStack:
             case ManualControlInput():
                 return commander.manual_control(request)
             case GcsHeartbeat():
-                commander.failsafe.gcs_heartbeat(commander.now_usec)
+                commander.gcs_heartbeat()
                 return mavlink.MAV_RESULT_ACCEPTED, None
         return mavlink.MAV_RESULT_UNSUPPORTED, f"{type(request).__name__} is not the flight stack's"

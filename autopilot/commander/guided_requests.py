@@ -7,7 +7,10 @@ from __future__ import annotations
 from aircraft.frames import wrap
 from autopilot.commander.commander import ACCEPTED, DENIED, TEMPORARILY_REJECTED, Commander
 from autopilot.navigator.auto_flight import Circle
-from autopilot.navigator.flight_modes import HOLD, LAND, OFFBOARD, ORBIT, VTOL_FW, VTOL_MC
+from autopilot.navigator.modes.hold import HOLD, VTOL_FW, VTOL_MC
+from autopilot.navigator.modes.land import LAND
+from autopilot.navigator.modes.offboard import OFFBOARD
+from autopilot.navigator.modes.orbit import ORBIT
 from autopilot.navigator.offboard_setpoint import SETPOINT_LIMITS
 from autopilot.topics.region_of_interest import RegionOfInterest
 from autopilot.topics.requests import (
@@ -18,7 +21,7 @@ from autopilot.topics.requests import (
     Reply,
     Reposition,
     SetHome,
-    TurnTo,  # fmt: skip
+    TurnTo,
 )
 from autopilot.topics.vehicle_state import VehicleState
 from transport.mavlink import mavlink
@@ -27,7 +30,7 @@ MAX_CRUISE_SPEED = float(SETPOINT_LIMITS[0])  # m/s: DO_CHANGE_SPEED within the 
 
 
 class GuidedRequests:
-    """Judges a guided request and hands it to the commander's modes (Hold, Land, Orbit) or set-point keepers."""
+    """Judges a guided request against the commander's state and hands it to the commander."""
 
     def __init__(self, commander: Commander) -> None:
         self.commander = commander
@@ -45,7 +48,8 @@ class GuidedRequests:
         c = self.commander
         if (refusal := c.refusal("Set home", positional=request.current)) is not None:
             return refusal
-        c.homes.position = home = request.home
+        home = request.home
+        c.set_home(home)
         c.say(mavlink.MAV_SEVERITY_INFO, f"Home position: {home.lat:.7f}, {home.lon:.7f}, {home.alt:.2f}")
         return ACCEPTED, None
 
@@ -62,7 +66,7 @@ class GuidedRequests:
             return TEMPORARILY_REJECTED, "Transition denied: in Offboard the set-points choose the phase"
         if c.mode != HOLD:
             return TEMPORARILY_REJECTED, f"Transition denied: in {c.mode} (switch to Hold first)"
-        if (text := c.hold.transition(target, state)) is not None:
+        if (text := c.transition(target, state)) is not None:
             c.say(mavlink.MAV_SEVERITY_INFO, text)
         return ACCEPTED, None
 
@@ -89,12 +93,12 @@ class GuidedRequests:
             return TEMPORARILY_REJECTED, f"{name} denied: not flying"
         if isinstance(request, Reposition):
             c.switch_mode(HOLD, state, "Reposition: Hold")
-            c.hold.reposition(state, request.position, request.speed, request.yaw)
+            c.reposition(state, request.position, request.speed, request.yaw)
             return ACCEPTED, None
         center = state.position_ned[0:2].copy() if request.center is None else request.center
         down = float(state.position_ned[2]) if request.down is None else request.down
         c.switch_mode(ORBIT, state, f"Orbit: radius {request.radius:g} m at {request.speed:g} m/s")
-        c.orbit.start(state, Circle(center, down, request.radius, request.speed, request.clockwise,
+        c.orbit(state, Circle(center, down, request.radius, request.speed, request.clockwise,
                                     request.yaw_behaviour, float(state.euler[2])))  # fmt: skip
         return ACCEPTED, None
 
@@ -118,7 +122,7 @@ class GuidedRequests:
         heading = request.angle
         if request.relative:
             heading = float(state.euler[2]) + (heading if request.clockwise else -heading)
-        c.hold.reposition(state, state.position_ned.copy(), None, wrap(heading))
+        c.reposition(state, state.position_ned.copy(), None, wrap(heading))
         return ACCEPTED, None
 
     def change_speed(self, speed: float | None) -> Reply:
@@ -130,6 +134,6 @@ class GuidedRequests:
         if speed is not None and speed > MAX_CRUISE_SPEED:
             c.say(mavlink.MAV_SEVERITY_WARNING, f"Speed {speed:g} m/s clamped to {MAX_CRUISE_SPEED:g} m/s")
             speed = MAX_CRUISE_SPEED
-        c.auto.mission_speed = speed
+        c.set_cruise_speed(speed)
         c.say(mavlink.MAV_SEVERITY_INFO, "Speed: defaults" if speed is None else f"Speed: {speed:g} m/s")
         return ACCEPTED, None

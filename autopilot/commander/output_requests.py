@@ -33,5 +33,5 @@ class OutputRequests:
             return DENIED, "Actuator test denied: armed"
         if c.params.get_int("COM_MOT_TEST_EN") != 1:
             return DENIED, "Actuator test denied: COM_MOT_TEST_EN is 0"
-        c.output_tests.drive(request.motor, request.index, request.value, request.timeout_s, c.now_usec)
+        c.drive_output(request.motor, request.index, request.value, request.timeout_s)
         return ACCEPTED, None

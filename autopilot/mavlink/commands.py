@@ -19,11 +19,11 @@ from autopilot.mavlink import messages
 from autopilot.mavlink.command_params import GlobalTargets, Params, int_param, latitude_longitude
 from autopilot.mavlink.global_frames import altitude_amsl
 from autopilot.mavlink.output_commands import actuator_test, flight_termination, motor_test
-from autopilot.mavlink.px4_modes import mode_from_px4, px4_mode_name
 from autopilot.mavlink.router import COMP_ID, GroundLink
 from autopilot.mavlink.statustext import Announcer
 from autopilot.mavlink.streams import DEFAULT_RATES_HZ, MIN_INTERVAL_USEC, default_interval_usec
 from autopilot.mavlink.view import StatusView
+from autopilot.topics.flight_mode import ModeId, px4_mode_name
 from autopilot.topics.home_position import home_at, home_here, home_refusal
 from autopilot.topics.region_of_interest import RegionOfInterest, roi_mode, wpnext_offset_deg
 from autopilot.topics.requests import (
@@ -76,8 +76,10 @@ class Origin:
 
 class CommandService:
     def __init__(self, flight_stack: RequestHandler, view: StatusView, announcer: Announcer, *, system_id: int,
-                 home: Home) -> None:  # fmt: skip
+                 home: Home, modes: tuple[ModeId, ...]) -> None:  # fmt: skip
+        """modes: the vehicle's modes, which SET_MODE and MAV_CMD_DO_SET_MODE may choose."""
         self.flight_stack = flight_stack
+        self.modes = modes
         self.view = view
         self.announcer = announcer
         self.system_id = system_id
@@ -204,11 +206,11 @@ class CommandService:
     def _set_mode(self, base: int, main: int, sub: int) -> Reply:
         if not base & M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED:
             return M.MAV_RESULT_DENIED, "Set mode: only PX4 custom modes (base mode flag 1)"
-        mode = mode_from_px4(main, sub)
+        mode = next((mode for mode in self.modes if mode.matches(main, sub)), None)
         if mode is None:
-            return M.MAV_RESULT_DENIED, (f"Mode {px4_mode_name(main, sub)} not supported: Hold Takeoff Land Offboard "
-                                         "Mission Return Orbit Position Altitude")  # fmt: skip
-        return self.flight_stack.handle(SetMode(mode))
+            return M.MAV_RESULT_DENIED, (f"Mode {px4_mode_name(main, sub)} not supported: "
+                                         f"{' '.join(mode.name for mode in self.modes)}")  # fmt: skip
+        return self.flight_stack.handle(SetMode(mode.name))
 
     def _transition(self, origin: Origin, p: Params, frame: int | None) -> Reply:
         target = int_param(p[0])

@@ -9,7 +9,7 @@ from collections.abc import Callable
 from typing import Any
 
 from aircraft.failures import FailureUnit, failed_sensors
-from autopilot.mavlink.px4_modes import custom_mode
+from autopilot.topics.flight_mode import PX4_AUTO_MISSION, PX4_MAIN_AUTO
 from autopilot.topics.home_position import HomePosition
 from autopilot.topics.vehicle_status import VehicleStatus
 from transport.mavlink import mavlink as M
@@ -55,7 +55,7 @@ def heartbeat(mav: Any, status: VehicleStatus) -> Any:
         state = M.MAV_STATE_BOOT
     elif status.terminated:
         state = M.MAV_STATE_FLIGHT_TERMINATION
-    return mav.heartbeat_encode(M.MAV_TYPE_VTOL_TILTROTOR, M.MAV_AUTOPILOT_PX4, base, custom_mode(status.mode), state)
+    return mav.heartbeat_encode(M.MAV_TYPE_VTOL_TILTROTOR, M.MAV_AUTOPILOT_PX4, base, status.mode.custom_mode, state)
 
 
 def sys_status(mav: Any, status: VehicleStatus) -> Any:
@@ -140,7 +140,7 @@ def mission_current(mav: Any, status: VehicleStatus) -> Any:
     """MISSION_CURRENT as PX4 fills it: total UINT16_MAX without a mission, mission_mode 1 in Mission mode else 2."""
     m = status.missions
     total = len(m.mission) if m.mission else 0xFFFF
-    return mav.mission_current_encode(m.current, total, m.state, 1 if status.mode == "Mission" else 2)
+    return mav.mission_current_encode(m.current, total, m.state, 1 if (status.mode.main, status.mode.sub) == (PX4_MAIN_AUTO, PX4_AUTO_MISSION) else 2)
 
 
 BUILDERS: dict[int, Callable[[Any, VehicleStatus], Any]] = {

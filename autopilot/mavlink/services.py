@@ -30,6 +30,7 @@ from autopilot.mavlink.signing import SigningService
 from autopilot.mavlink.statustext import Announcer
 from autopilot.mavlink.view import StatusView
 from autopilot.storage.parameters import ParameterStore
+from autopilot.topics.flight_mode import ModeId
 from autopilot.topics.home_position import HomePosition
 from autopilot.topics.missions import Missions
 from autopilot.topics.requests import GcsHeartbeat, RequestHandler
@@ -47,15 +48,17 @@ Handler = Callable[[GroundLink, Any], None]
 
 class MavlinkServices:
     def __init__(self, router: Router, params: ParameterStore, flight_stack: RequestHandler, *, system_id: int,
-                 home: Home, missions: Missions, events_publisher: Any | None = None,
+                 home: Home, missions: Missions, modes: tuple[ModeId, ...], events_publisher: Any | None = None,
                  quiet: bool = False) -> None:  # fmt: skip
-        """missions: the stored lists as loaded from the mission file at start (served until the first publish)."""
+        """missions: the stored lists as loaded from the mission file at start (served until the first publish);
+        modes: the vehicle's flight modes (the navigator's table), which ground stations may choose."""
         self.router = router
         self.flight_stack = flight_stack
         self.view = StatusView(loaded_missions=missions)
         self._announced_home: HomePosition | None = None
         self.announcer = Announcer(router, self.view.clock, events_publisher, quiet)
-        self.commands = CommandService(flight_stack, self.view, self.announcer, system_id=system_id, home=home)
+        self.commands = CommandService(flight_stack, self.view, self.announcer, system_id=system_id, home=home,
+                                       modes=modes)
         self.offboard = OffboardService(flight_stack, self.view, self.announcer, system_id=system_id, origin=home)
         self.offboard_attitude = OffboardAttitudeService(flight_stack, self.announcer, system_id=system_id)
         self.manual_control = ManualControlService(flight_stack, self.announcer, system_id=system_id)

@@ -33,13 +33,14 @@ import numpy as np
 
 from aircraft.frames import wrap
 from autopilot.navigator.guidance import (
+    TICK_S,
     circle_velocity,
     leg_cruise_speed,
     leg_velocity,
     limit_norm,
     ramp,
     turn_ramp,
-    vertical_velocity,  # fmt: skip
+    vertical_velocity,
 )
 from autopilot.storage.parameters import ParameterStore
 from autopilot.topics.region_of_interest import RegionOfInterest
@@ -47,7 +48,6 @@ from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.yaw_setpoint import YawSetpoint
 from transport.mavlink import mavlink as M
 
-TICK_S = 0.01
 ALTITUDE_ACCEPTANCE = 3.0  # m: a FlyTo is done within this of its altitude (and its radius horizontally)
 CLIMB_DONE = 0.5  # m below the climb altitude
 OVER_LANDING_POINT = 1.0  # m and m/s: over the landing point and slow: descend

@@ -1,5 +1,6 @@
-"""Position logic of the PX4-like modes: each turns the vehicle state into a velocity set-point (NED, m/s) for
-the velocity controller (docs/mavlink.md). Runs at the velocity controller's 100 Hz, in simulation time.
+"""The position logic of Hold, Takeoff, Land and Offboard's position set-points (PX4's flight tasks): each turns the
+vehicle state into a velocity set-point (NED, m/s) for the velocity controller (docs/mavlink.md). Runs at the
+velocity controller's 100 Hz, in simulation time.
 
     Hold      brake to a stop (from forward flight the velocity controller decelerates and tilts the rotors
               back), then hold the position where it stopped and the altitude where Hold began: a P controller
@@ -16,21 +17,16 @@ import math
 
 import numpy as np
 
+from autopilot.navigator.guidance import TICK_S, limit_norm
 from autopilot.storage.parameters import ParameterStore
 from autopilot.topics.vehicle_state import VehicleState
 
 BRAKED_SPEED = 1.0  # m/s: Hold locks its position once the horizontal speed is below this
 LOITER_CONVERGENCE = 50.0  # m off the circle where the set-point points 45 deg towards it
 TAKEOFF_DONE_M = 0.5  # m below the takeoff altitude: takeoff complete
-TICK_S = 0.01  # the navigator runs at the velocity controller's 100 Hz
 
 
-def _limit_norm(vector: np.ndarray, limit: float) -> np.ndarray:
-    norm = float(np.hypot(vector[0], vector[1]))
-    return vector * (limit / norm) if norm > limit else vector
-
-
-class Navigator:
+class FlightTasks:
     """Targets of the current mode and the velocity set-points that reach them."""
 
     def __init__(self, params: ParameterStore) -> None:
@@ -77,7 +73,7 @@ class Navigator:
                 return np.zeros(2)
             self.hold_xy = state.position_ned[0:2].copy()
         p = self.params
-        return _limit_norm(p["MPC_XY_P"] * (self.hold_xy - state.position_ned[0:2]), p["MPC_XY_CRUISE"])
+        return limit_norm(p["MPC_XY_P"] * (self.hold_xy - state.position_ned[0:2]), p["MPC_XY_CRUISE"])
 
     def hold(self, state: VehicleState) -> np.ndarray:
         if self.loiter_center is not None:
@@ -99,7 +95,7 @@ class Navigator:
 
     def takeoff(self, state: VehicleState) -> np.ndarray:
         p = self.params
-        horizontal = _limit_norm(p["MPC_XY_P"] * (self.takeoff_xy - state.position_ned[0:2]), p["MPC_XY_CRUISE"])
+        horizontal = limit_norm(p["MPC_XY_P"] * (self.takeoff_xy - state.position_ned[0:2]), p["MPC_XY_CRUISE"])
         return np.array([*horizontal, self._vertical_to(state, self.takeoff_down, p["MPC_TKO_SPEED"])])
 
     def start_tracking(self, state: VehicleState) -> None:
@@ -116,7 +112,7 @@ class Navigator:
         error = position[0:2] - state.position_ned[0:2]
         distance = float(np.hypot(*error))
         speed = min(math.sqrt(2.0 * accel * distance), p["MPC_XY_P"] * distance)
-        horizontal = _limit_norm(error * (speed / distance if distance > 0 else 0.0) + feed_forward[0:2],
+        horizontal = limit_norm(error * (speed / distance if distance > 0 else 0.0) + feed_forward[0:2],
                                  p["MPC_XY_VEL_MAX"])  # fmt: skip
         vz = p["MPC_Z_P"] * (position[2] - float(state.position_ned[2])) + feed_forward[2]
         wanted = np.array([*horizontal, min(max(vz, -p["MPC_Z_VEL_MAX_UP"]), p["MPC_Z_VEL_MAX_DN"])])
@@ -137,36 +133,3 @@ class Navigator:
         speed = p["MPC_LAND_SPEED"] if height < p["MPC_LAND_ALT2"] else p["MPC_Z_VEL_MAX_DN"]
         # While braking from forward flight, hold the altitude (a descent would fight the back transition).
         return np.array([*horizontal, 0.0 if braking else speed])
-
-
-class LandDetector:
-    """Touchdown: a descent is asked for, but the vehicle has stopped moving down, and the collective thrust is
-    below hover (the ground carries part of the weight), for 0.5 s. In the air a working controller does not
-    hold still for half a second against a descent set-point of 0.3 m/s or more."""
-
-    CONFIRM_S = 0.5
-    MIN_DESCENT_SETPOINT = 0.3  # m/s
-    MAX_VERTICAL_SPEED = 0.2  # m/s
-    MAX_HORIZONTAL_SPEED = 1.0  # m/s
-    THRUST_FRACTION_OF_HOVER = 0.9
-
-    def __init__(self, hover_fraction: float) -> None:
-        self.hover_fraction = hover_fraction
-        self.since_usec: int | None = None
-
-    def reset(self) -> None:
-        self.since_usec = None
-
-    def update(self, state: VehicleState, mean_thrust_fraction: float, time_usec: int, descent_sp: float) -> bool:
-        on_ground_like = (
-            descent_sp >= self.MIN_DESCENT_SETPOINT
-            and abs(float(state.velocity_ned[2])) < self.MAX_VERTICAL_SPEED
-            and math.hypot(state.velocity_ned[0], state.velocity_ned[1]) < self.MAX_HORIZONTAL_SPEED
-            and mean_thrust_fraction < self.THRUST_FRACTION_OF_HOVER * self.hover_fraction
-        )
-        if not on_ground_like:
-            self.since_usec = None
-            return False
-        if self.since_usec is None:
-            self.since_usec = time_usec
-        return time_usec - self.since_usec >= self.CONFIRM_S * 1e6

@@ -17,6 +17,7 @@ import math
 
 import numpy as np
 
+TICK_S = 0.01  # the navigator and the commander run at the velocity controller's 100 Hz
 CROSS_TRACK_LIMIT = 0.5  # fraction of the leg speed the cross-track correction may add (at most)
 
 

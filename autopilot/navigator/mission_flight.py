@@ -62,11 +62,11 @@ from autopilot.navigator.return_route import (
     MissionLanding,
     closest_safe_point,
     mission_landing,
-    plan_return,  # fmt: skip
+    plan_return,
 )
 from autopilot.storage.mission_store import MissionStore
 from autopilot.storage.parameters import ParameterStore
-from autopilot.topics.home_position import HomeKeeper
+from autopilot.topics.home_position import HomeReader
 from autopilot.topics.mission_items import LANDS, ROI_COMMANDS, MissionItem
 from autopilot.topics.region_of_interest import RegionOfInterest, roi_mode, wpnext_offset_deg
 from autopilot.topics.vehicle_state import VehicleState
@@ -108,7 +108,7 @@ VTOL_FW, VTOL_MC = M.MAV_VTOL_STATE_FW, M.MAV_VTOL_STATE_MC
 class MissionFlight:
     """Steps through the stored mission from its current item, handing AutoFlight its targets."""
 
-    def __init__(self, params: ParameterStore, store: MissionStore, homes: HomeKeeper, auto: AutoFlight,
+    def __init__(self, params: ParameterStore, store: MissionStore, homes: HomeReader, auto: AutoFlight,
                  landed: Callable[[], bool]) -> None:  # fmt: skip
         self.params = params
         self.landed_now = landed

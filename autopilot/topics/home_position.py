@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 import pymap3d
@@ -74,23 +75,15 @@ def moved_from(home: HomePosition, position_ned: np.ndarray) -> bool:
     return horizontal > MOVED_HORIZONTAL or abs(float(position_ned[2]) - home.down) > MOVED_VERTICAL
 
 
-class HomeKeeper:
-    """The local frame's origin (fixed) and the current home, shared by the commander and the parts that fly to
-    or measure from home (the commander alone sets it). `position` is replaced, never changed: a new object is a
-    new home."""
+class HomeReader(Protocol):
+    """Where home is, for the parts that fly to it or measure from it (the commander's HomeKeeper sets it)."""
 
-    def __init__(self, origin: Home) -> None:
-        self.origin = origin
-        self.position = at_origin(origin)
+    @property
+    def origin(self) -> Home:
+        """The local frame's origin (fixed)."""
+        ...
 
-    def set_here(self, position_ned: np.ndarray) -> bool:
-        """Home where the vehicle is, unless a ground station set it in coordinates (arming, the first valid
-        position); True if it was set."""
-        if self.position.manual:
-            return False
-        self.position = home_here(self.origin, position_ned)
-        return True
-
-    def follow(self, position_ned: np.ndarray) -> bool:
-        """Disarmed on the ground: home follows a vehicle that was moved (not over a manual home)."""
-        return moved_from(self.position, position_ned) and self.set_here(position_ned)
+    @property
+    def position(self) -> HomePosition:
+        """The current home (a new object is a new home)."""
+        ...

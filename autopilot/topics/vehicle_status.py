@@ -16,6 +16,7 @@ from typing import TypeVar
 import numpy as np
 
 from aircraft.failures import Failure
+from autopilot.topics.flight_mode import ModeId
 from autopilot.topics.home_position import HomePosition
 from autopilot.topics.missions import EMPTY as NO_MISSIONS
 from autopilot.topics.missions import Missions
@@ -33,7 +34,7 @@ class CommanderReport:
 
     started: bool
     armed: bool
-    mode: str
+    mode: ModeId
     landed_state: int
     flying: bool
     state_version: int
@@ -75,7 +76,7 @@ class VehicleStatus:
     time_usec: int
     started: bool
     armed: bool
-    mode: str  # the commander's mode: Hold, Takeoff, Land, Offboard
+    mode: ModeId  # the commander's mode: its name and PX4 custom mode
     landed_state: int  # MAV_LANDED_STATE
     flying: bool  # armed and off the ground: the flight controller runs
     vtol_state: int  # MAV_VTOL_STATE
