@@ -21,10 +21,10 @@ import numpy as np
 from aircraft.actuators import command_to_pwm, pwm_to_command
 from aircraft.airframe import load_airframe
 from aircraft.wrench import body_wrench
-from ground_tools.free_ports import free_udp_port
-from ground_tools.processes import SimCommand, Zenoh
 from sim_bridge.plant import Plant, Spawn, hover_command
 from sim_bridge.sensors import SensorSuite
+from tiltrotor_sitl._commands import SimCommand, Zenoh
+from tiltrotor_sitl._free_ports import free_udp_port
 from transport.geodesy import Home, LocalGeodetic
 from transport.mavlink import Link
 from transport.plant_link import PlantLinkClient

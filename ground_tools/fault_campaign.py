@@ -22,8 +22,8 @@ import numpy as np
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
 from ground_tools.fault_proxy import FaultProxy, Faults
-from ground_tools.free_ports import free_udp_port
-from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, die_with_parent, free_link_ports
+from tiltrotor_sitl._commands import AutopilotCommand, SimCommand, Zenoh, die_with_parent, free_link_ports
+from tiltrotor_sitl._free_ports import free_udp_port
 from transport.flight_log import DOWN, PITCH, ROLL, VN, VN_SP, read_flight_log
 from transport.mavlink import Link
 from transport.mavlink import mavlink as M

@@ -11,9 +11,9 @@ import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
-from ground_tools.free_ports import free_udp_port
-from ground_tools.processes import (AutopilotCommand, Controller, SimCommand, Zenoh, deterministic_argv,
-                                    deterministic_environment, die_with_parent, free_link_ports)  # fmt: skip
+from tiltrotor_sitl._commands import (AutopilotCommand, Controller, SimCommand, Zenoh, deterministic_argv,
+                                      deterministic_environment, die_with_parent, free_link_ports)  # fmt: skip
+from tiltrotor_sitl._free_ports import free_udp_port
 
 
 class FlightFailed(RuntimeError):

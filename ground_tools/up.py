@@ -2,7 +2,7 @@
 
 `--count N` starts N vehicles, instances I .. I+N-1, as PX4's multi-vehicle SITL does: system ids I+1 .. I+N, every
 GCS link sending to 14550 (one ground station sees the fleet), API links on 14540+I each, and the vehicles
-FLEET_SPACING_M apart in a row to the east (each one's home; ground_tools/processes.py fleet_home).
+FLEET_SPACING_M apart in a row to the east (each one's home; tiltrotor_sitl/_commands.py fleet_home).
 
 Both processes print to this terminal. Ctrl-C (SIGINT to the terminal's process group) or SIGTERM to `vtol` stops
 both: the signal is passed on to each, each stops at its next turn, and `vtol up` waits for them (killing a
@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 
 from autopilot.parameters import ParameterFileError, ParameterStore, default_parameter_path, vehicle_system_id
-from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, die_with_parent, fleet_home
+from tiltrotor_sitl._commands import AutopilotCommand, SimCommand, Zenoh, die_with_parent, fleet_home
 from transport.cli import fail, stop_on_signals
 from transport.ports import LOOPBACK, Ports
 

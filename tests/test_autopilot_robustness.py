@@ -11,8 +11,8 @@ import time
 
 import pytest
 
-from ground_tools.processes import AutopilotCommand
 from tiltrotor_sitl import Vehicle
+from tiltrotor_sitl._commands import AutopilotCommand
 from transport.mavlink import Link
 from transport.udp import receive
 

@@ -12,9 +12,9 @@ import pytest
 from pymavlink import mavutil
 
 from autopilot.home_position import HomeKeeper, home_at
-from ground_tools.free_ports import free_udp_port
-from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, free_link_ports
 from tiltrotor_sitl import Vehicle
+from tiltrotor_sitl._commands import AutopilotCommand, SimCommand, Zenoh, free_link_ports
+from tiltrotor_sitl._free_ports import free_udp_port
 from transport.geodesy import Home, HomeRefused, home_from
 
 M = mavutil.mavlink

@@ -25,8 +25,8 @@ from autopilot.parameters import (
     decode_value,
     encode_value,
 )
-from ground_tools.processes import AutopilotCommand, Zenoh
 from tests.mavlink_sitl import start_sitl
+from tiltrotor_sitl._commands import AutopilotCommand, Zenoh
 
 
 def as_int32_bytes(value: int) -> float:

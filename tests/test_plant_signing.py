@@ -12,9 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from ground_tools.free_ports import free_udp_port
-from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, free_link_ports
 from tests.test_plant_ownership import hellos_answered
+from tiltrotor_sitl._commands import AutopilotCommand, SimCommand, Zenoh, free_link_ports
+from tiltrotor_sitl._free_ports import free_udp_port
 from transport.link_signing import KeyFileRefused, parse_key
 
 

@@ -20,14 +20,14 @@ import pytest
 from autopilot.stamped_setpoints import StampedSetpoints
 from autopilot.yaw_setpoint import YawSetpoint
 from ground_tools.lockstep_client import PERIOD_MS, START_MS, grid_stamp, setpoint_for, tilt_commands_deg, yaw_turns
-from ground_tools.free_ports import bindable
-from ground_tools.processes import AutopilotCommand
 from ground_tools.scenario_report import acceptance, velocity_rmse, write_report
 from ground_tools.scenario_run import WALL_CLOCK_KEYS
 from ground_tools.telemetry_record import decode_samples, read_recording
 from scenarios.experiments import BANK_THEORY_DEG, SCENARIOS, Telemetry, servo_reaches, yaw_reaches
 from scenarios.profiles import PROFILES, accel_decel_braking_at
 from tiltrotor_sitl import Vehicle
+from tiltrotor_sitl._commands import AutopilotCommand
+from tiltrotor_sitl._free_ports import bindable
 from transport.flight_log import ALLOCATED, T, read_flight_log
 from transport.mavlink import Link, mavlink
 from transport.ports import Ports, endpoint_port

@@ -28,8 +28,8 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
 
-from ground_tools.processes import VehiclePorts
 from tiltrotor_sitl._children import Child
+from tiltrotor_sitl._commands import VehiclePorts
 from tiltrotor_sitl._launch import Controller, Options, Started, VehicleError, launch, stop
 from tiltrotor_sitl.truth import PlantTruth, TruthFeed, TruthTimeout
 from transport.geodesy import Home

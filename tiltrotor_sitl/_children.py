@@ -18,7 +18,7 @@ import threading
 from dataclasses import dataclass
 from pathlib import Path
 
-from ground_tools.processes import deterministic_environment, die_with_parent
+from tiltrotor_sitl._commands import deterministic_environment, die_with_parent
 
 STOP_TIMEOUT_S = 5.0
 STDERR_TAIL_LINES = 12

@@ -12,20 +12,18 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
 
 from autopilot.parameters import ParameterFileError, ParameterRejected, ParameterStore, vehicle_system_id
-from ground_tools.free_ports import bind_error, free_udp_port, protocol
-from ground_tools.processes import (AutopilotCommand, LinkPorts, SimCommand, VehiclePorts, Zenoh,
-                                    deterministic_argv, fleet_home)  # fmt: skip
 from tiltrotor_sitl import _children
 from tiltrotor_sitl._children import Child
+from tiltrotor_sitl._commands import (AutopilotCommand, Controller, LinkPorts, SimCommand, VehiclePorts, Zenoh,
+                                      deterministic_argv, fleet_home)  # fmt: skip
+from tiltrotor_sitl._free_ports import bind_error, free_udp_port, protocol
 from tiltrotor_sitl._readiness import ReadinessWatch
 from tiltrotor_sitl.truth import TruthFeed
 from transport.geodesy import Home, home_from
 from transport.ports import LOOPBACK, Ports, endpoint_port
 
-Controller = Literal["mpc", "pid"]
 PLANT_LISTENING = "listening on udp"  # what vtol-sim says on stderr once its port is bound (sim_bridge/cli.py)
 
 

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
-from ground_tools.free_ports import lease_ports
+from tiltrotor_sitl._free_ports import lease_ports
 from transport.geodesy import Home, LocalGeodetic, home_from
 from transport.ports import LOOPBACK, Ports, zenoh_endpoint
 
