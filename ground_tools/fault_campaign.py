@@ -22,7 +22,8 @@ import numpy as np
 from autopilot.mission_store import MissionStore
 from autopilot.parameters import ParameterStore
 from ground_tools.fault_proxy import FaultProxy, Faults
-from tiltrotor_sitl._commands import AutopilotCommand, SimCommand, Zenoh, die_with_parent, free_link_ports
+from tiltrotor_sitl._children import die_with_parent
+from tiltrotor_sitl._commands import AutopilotCommand, SimCommand, Zenoh, free_link_ports
 from tiltrotor_sitl._free_ports import free_udp_port
 from transport.flight_log import DOWN, PITCH, ROLL, VN, VN_SP, read_flight_log
 from transport.mavlink import Link

@@ -11,8 +11,9 @@ import subprocess
 from dataclasses import dataclass
 from pathlib import Path
 
+from tiltrotor_sitl._children import die_with_parent
 from tiltrotor_sitl._commands import (AutopilotCommand, Controller, SimCommand, Zenoh, deterministic_argv,
-                                      deterministic_environment, die_with_parent, free_link_ports)  # fmt: skip
+                                      deterministic_environment, free_link_ports)  # fmt: skip
 from tiltrotor_sitl._free_ports import free_udp_port
 
 

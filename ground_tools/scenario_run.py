@@ -29,8 +29,9 @@ from ground_tools.lockstep_client import START_MS, LockstepClient
 from ground_tools.lockstep_flight import FlightFailed
 from ground_tools.metrics import flight_metrics
 from scenarios.experiments import Scenario
+from tiltrotor_sitl._children import die_with_parent
 from tiltrotor_sitl._commands import (AutopilotCommand, Controller, SimCommand, VehiclePorts, Zenoh, deterministic_argv,
-                                      deterministic_environment, die_with_parent)  # fmt: skip
+                                      deterministic_environment)  # fmt: skip
 from tiltrotor_sitl._port_blocks import PortBlock
 from transport.flight_log import read_flight_log, write_flight_log
 from transport.ports import LOOPBACK, Ports

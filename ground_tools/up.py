@@ -21,7 +21,8 @@ import time
 from pathlib import Path
 
 from autopilot.parameters import ParameterFileError, ParameterStore, default_parameter_path, vehicle_system_id
-from tiltrotor_sitl._commands import AutopilotCommand, SimCommand, Zenoh, die_with_parent, fleet_home
+from tiltrotor_sitl._children import die_with_parent
+from tiltrotor_sitl._commands import AutopilotCommand, SimCommand, Zenoh, fleet_home
 from transport.cli import fail, stop_on_signals
 from transport.ports import LOOPBACK, Ports
 
