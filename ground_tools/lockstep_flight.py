@@ -11,8 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from tiltrotor_sitl._children import Child, Stream, start, stop
-from tiltrotor_sitl._commands import (AutopilotCommand, Controller, SimCommand, Zenoh, deterministic_argv,
-                                      deterministic_environment, free_link_ports)  # fmt: skip
+from tiltrotor_sitl._commands import AutopilotCommand, Controller, SimCommand, Zenoh, free_link_ports
 from tiltrotor_sitl._free_ports import free_udp_port
 
 
@@ -29,9 +28,8 @@ class LockstepFlight:
 
 
 def _start(name: str, argv: list[str]) -> Child:
-    """A process of the flight, deterministic (tiltrotor_sitl/_commands.py), its stdout and stderr captured."""
-    return start(name, deterministic_argv(argv), stdout=Stream.CAPTURE, stderr=Stream.CAPTURE,
-                 env=deterministic_environment())  # fmt: skip
+    """A process of the flight, deterministic, its stdout and stderr captured."""
+    return start(name, argv, stdout=Stream.CAPTURE, stderr=Stream.CAPTURE, deterministic=True)
 
 
 def fly_lockstep(

@@ -1,7 +1,8 @@
 """The one way this project starts, watches and stops its processes (the plant and the autopilot for a Vehicle,
-`vtol up`, `vtol scenario`, `vtol fly`, the fault campaign, the benchmarks and the tests): a command line and an
-environment as given, stdin closed, stdout and stderr each to a file, to a temporary file read back (captured),
-nowhere, or this process's own (the terminal).
+`vtol up`, `vtol scenario`, `vtol fly`, the fault campaign, the benchmarks and the tests): a command line as given,
+run as it is or deterministically (tiltrotor_sitl/_commands.py: address-space randomisation off, PYTHONHASHSEED
+fixed), in this process's environment with the variables the caller sets, stdin closed, stdout and stderr each to
+a file, to a temporary file read back (captured), nowhere, or this process's own (the terminal).
 
 Each child has a parent-death signal on Linux (PR_SET_PDEATHSIG: the kernel signals it when the thread that
 started it ends, however that ends, SIGKILL included, so nothing flies on with no one to stop it), and optionally
@@ -30,6 +31,8 @@ from collections.abc import Callable, Mapping, Sequence
 from contextlib import ExitStack
 from pathlib import Path
 from typing import IO
+
+from tiltrotor_sitl._commands import deterministic_argv, deterministic_environment
 
 STOP_TIMEOUT_S = 5.0
 STDERR_TAIL_LINES = 12
@@ -132,22 +135,24 @@ class Child:
     """One started process: its name (vtol-sim, vtol-autopilot ...), command line, Popen and where its output goes.
     Made by `start`."""
 
-    def __init__(self, name: str, argv: Sequence[str], stdout: Output, stderr: Output, env: Mapping[str, str] | None,
-                 own_group: bool, parent_death: int) -> None:  # fmt: skip
+    def __init__(self, name: str, argv: Sequence[str], stdout: Output, stderr: Output, env: Mapping[str, str],
+                 deterministic: bool, own_group: bool, parent_death: int) -> None:  # fmt: skip
         self.name = name
-        self.argv = list(argv)
+        self.argv = deterministic_argv(list(argv)) if deterministic else list(argv)
         self._sinks = (_Sink(stdout), _Sink(stderr))
-        self._env = None if env is None else dict(env)
+        self._env = dict(env)
+        self._deterministic = deterministic
         self._own_group = own_group
         self._parent_death = parent_death
         self.process = self._spawn(append=False)
 
     def _spawn(self, append: bool) -> subprocess.Popen:
+        environment = {**(deterministic_environment() if self._deterministic else os.environ), **self._env}
         try:
             with ExitStack() as files:
                 stdout, stderr = (sink.target(files, append) for sink in self._sinks)
                 process = subprocess.Popen(self.argv, stdin=subprocess.DEVNULL, stdout=stdout, stderr=stderr,
-                                           env=self._env, start_new_session=self._own_group,
+                                           env=environment, start_new_session=self._own_group,
                                            preexec_fn=die_with_parent(self._parent_death))  # fmt: skip
         except BaseException:
             for sink in self._sinks:  # not started: a captured stream's temporary file is closed
@@ -242,11 +247,12 @@ def read_summary(stdout: str) -> dict:
 
 
 def start(name: str, argv: Sequence[str], *, stdout: Output, stderr: Output, env: Mapping[str, str] | None = None,
-          own_group: bool = False, parent_death: int = signal.SIGTERM) -> Child:  # fmt: skip
-    """Start `argv` as `name`: stdout and stderr to a file (a Path, written from the start) or as `Stream` says, in
-    `env` (default: this process's environment), in a process group of its own if `own_group`, sent `parent_death`
-    when this process ends."""
-    return Child(name, argv, stdout, stderr, env, own_group, parent_death)
+          deterministic: bool = False, own_group: bool = False, parent_death: int = signal.SIGTERM) -> Child:  # fmt: skip
+    """Start `argv` as `name`: stdout and stderr to a file (a Path, written from the start) or as `Stream` says; in
+    this process's environment with `env`'s variables set over it; `deterministic`: a run that repeats bit for bit
+    (deterministic_argv and deterministic_environment); in a process group of its own if `own_group`; sent
+    `parent_death` when this process ends."""
+    return Child(name, argv, stdout, stderr, env or {}, deterministic, own_group, parent_death)
 
 
 def stop(children: Sequence[Child], signum: int = signal.SIGTERM, timeout_s: float = STOP_TIMEOUT_S) -> list[Child]:
@@ -267,8 +273,9 @@ def stop(children: Sequence[Child], signum: int = signal.SIGTERM, timeout_s: flo
 
 
 def run(argv: Sequence[str], timeout_s: float, env: Mapping[str, str] | None = None) -> subprocess.CompletedProcess:
-    """Run `argv` to its end with stdout and stderr captured (a command line refused, --help), as subprocess.run
-    with capture_output and text does: after `timeout_s` it is killed and subprocess.TimeoutExpired raised."""
+    """Run `argv` to its end (`env`'s variables set) with stdout and stderr captured (a command line refused, --help),
+    as subprocess.run with capture_output and text does: after `timeout_s` it is killed and
+    subprocess.TimeoutExpired raised."""
     child = start(Path(argv[0]).name, argv, stdout=Stream.CAPTURE, stderr=Stream.CAPTURE, env=env)
     try:
         code = child.wait(timeout_s)

@@ -19,7 +19,7 @@ from autopilot.parameters import ParameterFileError, ParameterRejected, Paramete
 from tiltrotor_sitl import _children
 from tiltrotor_sitl._children import Child
 from tiltrotor_sitl._commands import (AutopilotCommand, Controller, LinkPorts, SimCommand, VehiclePorts, Zenoh,
-                                      deterministic_argv, deterministic_environment, fleet_home)  # fmt: skip
+                                      fleet_home)  # fmt: skip
 from tiltrotor_sitl._free_ports import bind_error, free_udp_port, protocol
 from tiltrotor_sitl._readiness import ReadinessWatch
 from tiltrotor_sitl.truth import TruthFeed
@@ -262,12 +262,11 @@ def _start_one(options: Options, index: int, sysid: int, ports: VehiclePorts, ro
 
 
 def _start_child(name: str, argv: list[str], folder: Path) -> Child:
-    """One process of a vehicle, deterministic (tiltrotor_sitl/_commands.py), with stdout in folder/<name>.stdout and
-    stderr in folder/<name>.stderr (so a process that dies during start-up can be quoted and a --summary line read
-    back), in its own process group and killed when this process dies."""
-    return _children.start(name, deterministic_argv(argv), stdout=folder / f"{name}.stdout",
-                           stderr=folder / f"{name}.stderr",
-                           env={**deterministic_environment(), "PYTHONUNBUFFERED": "1"}, own_group=True,
+    """One process of a vehicle, deterministic, with stdout in folder/<name>.stdout and stderr in folder/<name>.stderr
+    (so a process that dies during start-up can be quoted and a --summary line read back), in its own process group
+    and killed when this process dies."""
+    return _children.start(name, argv, stdout=folder / f"{name}.stdout", stderr=folder / f"{name}.stderr",
+                           env={"PYTHONUNBUFFERED": "1"}, deterministic=True, own_group=True,
                            parent_death=signal.SIGKILL)  # fmt: skip
 
 
