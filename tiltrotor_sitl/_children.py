@@ -170,6 +170,7 @@ class Child:
 
     @property
     def pid(self) -> int:
+        """Its process id (of the current run, after a restart)."""
         return self.process.pid
 
     def poll(self) -> int | None:
@@ -180,10 +181,12 @@ class Child:
         return code
 
     def running(self) -> bool:
+        """It has not ended."""
         return self.poll() is None
 
     @property
     def returncode(self) -> int | None:
+        """Its exit code once it has ended (as poll()), else None."""
         return self.poll()
 
     def wait(self, timeout_s: float | None = None) -> int:

@@ -1,5 +1,6 @@
 """The command lines of the two processes, `vtol-sim` (the plant) and `vtol-autopilot`, built from typed
-descriptions, and the free ports to put them on.
+descriptions; the ports to put them on (an instance's or free ones), a fleet's homes, and the command line and
+environment of a run that must repeat bit for bit (tiltrotor_sitl/_children.py starts them).
 
 A description's defaults are the program's own: a field left alone adds nothing to the command line. Each
 `argv()` runs the program's module with this interpreter ([sys.executable, "-m", "sim_bridge" | "autopilot",
