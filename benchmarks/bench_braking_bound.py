@@ -24,12 +24,12 @@ import time
 
 import casadi as ca
 import numpy as np
+from bench_horizon import BRAKING_S, velocity_ticks
 
 from aircraft.airframe import load_airframe
 from autopilot.control.attitude import DEFAULT_GAINS
 from autopilot.mpc.horizon import HORIZONS
 from autopilot.mpc.model import CHI, CHI_DOT, NU, NX, PSI, PSI_D, THRUST, MpcLimits, discrete_dynamics
-from bench_horizon import BRAKING_S, velocity_ticks
 from scenarios.profiles import PROFILES, accel_decel_braking_at
 
 GOALS = {"braking error": 1.5, "|v_z|": 0.5, "|pitch|": 25.0}  # m/s, m/s, deg

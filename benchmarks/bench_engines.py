@@ -43,6 +43,7 @@ def _cluster_rss_mb() -> float:
 
 def dask_round(flights: int, out: str) -> dict[str, float]:
     from dask.distributed import Client, LocalCluster
+
     from ground_tools.campaign.flight import fly_point
 
     started = time.perf_counter()
@@ -67,6 +68,7 @@ def dask_round(flights: int, out: str) -> dict[str, float]:
 
 def ray_round(flights: int, out: str) -> dict[str, float]:
     import ray
+
     from ground_tools.campaign.flight import fly_point
 
     started = time.perf_counter()

@@ -16,14 +16,14 @@ import math
 from collections.abc import Callable, Iterator
 
 import numpy as np
+from bench_mpc import spread, vehicle_state
 
 from aircraft.airframe import load_airframe
-from autopilot.controllers import MPC, build_flight_controller
 from autopilot.control.flight_controller import FlightController
+from autopilot.controllers import MPC, build_flight_controller
 from autopilot.mpc.horizon import HORIZONS, LONG, MpcHorizon, StageGrid
 from autopilot.topics.vehicle_state import VehicleState
 from ground_tools.metrics import heading_error_max_deg
-from bench_mpc import spread, vehicle_state
 from scenarios.profiles import DECEL_CRUISE, DECEL_START_S, PROFILES, accel_decel_braking_at
 from sim_bridge.plant import Plant, Spawn
 

@@ -22,12 +22,12 @@ import numpy as np
 
 from aircraft.airframe import load_airframe
 from autopilot.controllers import MPC, build_flight_controller
-from autopilot.mpc.rti import QpBackend, RtiSolver
 from autopilot.mpc.controller import LEVENBERG, WARM_UP_ITERATIONS
 from autopilot.mpc.horizon import LONG, PAPER, MpcHorizon, StageGrid
 from autopilot.mpc.hpipm import HpipmMode, HpipmSettings
 from autopilot.mpc.model import THRUST
 from autopilot.mpc.reference import ReferenceNlp, solve_reference_nlp
+from autopilot.mpc.rti import QpBackend, RtiSolver
 from autopilot.topics.vehicle_state import VehicleState, euler_from_quaternion
 from scenarios.profiles import accel
 from sim_bridge.plant import Plant, Spawn

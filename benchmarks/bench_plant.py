@@ -10,9 +10,8 @@ plus one MAVLink round trip per step.
 from __future__ import annotations
 
 import argparse
-import json
+import signal
 import statistics
-import subprocess
 import time
 
 import casadi as ca
@@ -21,10 +20,11 @@ import numpy as np
 from aircraft.actuators import command_to_pwm, pwm_to_command
 from aircraft.airframe import load_airframe
 from aircraft.wrench import body_wrench
-from ground_tools.free_ports import free_udp_port
-from ground_tools.processes import SimCommand, Zenoh
 from sim_bridge.plant import Plant, Spawn, hover_command
 from sim_bridge.sensors import SensorSuite
+from tiltrotor_sitl._children import Stream, start, stop
+from tiltrotor_sitl._commands import SimCommand, Zenoh
+from tiltrotor_sitl._free_ports import free_udp_port
 from transport.geodesy import Home, LocalGeodetic
 from transport.mavlink import Link
 from transport.plant_link import PlantLinkClient
@@ -73,10 +73,8 @@ def lockstep_factor(seconds: float) -> dict[str, float]:
     """Run vtol-sim in lockstep against an in-process echo peer; simulated seconds per wall second."""
     airframe = load_airframe()
     port = free_udp_port()
-    process = subprocess.Popen(
-        SimCommand(port=port, spawn_alt=100.0, zenoh=Zenoh.off(), duration_s=seconds, summary=True).argv(),
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-    )
+    process = start("vtol-sim", SimCommand(port=port, spawn_alt=100.0, zenoh=Zenoh.off(), duration_s=seconds,
+                                           summary=True).argv(), stdout=Stream.CAPTURE, stderr=Stream.CAPTURE)  # fmt: skip
     client = PlantLinkClient(port)
     pwm = command_to_pwm(airframe, hover_command(airframe))
     try:
@@ -87,20 +85,18 @@ def lockstep_factor(seconds: float) -> dict[str, float]:
             sample = client.receive_step(0.2)
         if sample is None:
             raise RuntimeError("the plant did not start")
-        start = time.perf_counter()
+        began = time.perf_counter()
         steps = 0
         while sample is not None:
             client.send_pwm(sample.time_usec, pwm)
             steps += 1
             sample = client.receive_step(2.0)
-        wall = time.perf_counter() - start - 2.0  # the last receive timed out after the plant finished
-        output, _ = process.communicate(timeout=10)
+        wall = time.perf_counter() - began - 2.0  # the last receive timed out after the plant finished
+        process.wait(10)
     finally:
         client.close()
-        if process.poll() is None:
-            process.kill()
-            process.wait()
-    summary = json.loads(output.strip().splitlines()[-1])
+        stop([process], signal.SIGKILL)
+    summary = process.summary()
     return {
         "steps": steps,
         "plant_real_time_factor": summary["real_time_factor"],

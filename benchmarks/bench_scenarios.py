@@ -22,6 +22,7 @@ import time
 from pathlib import Path
 
 from bench_sitl import GOALS  # the same real-time factors are asked of `vtol scenario accel`
+
 from ground_tools.scenario_report import acceptance, load_runs
 
 GOAL_S = 60.0

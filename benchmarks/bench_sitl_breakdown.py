@@ -18,6 +18,7 @@ import tempfile
 from pathlib import Path
 
 from bench_sitl import overlap_params
+
 from ground_tools.lockstep_flight import LockstepFlight, fly_lockstep
 from scenarios.profiles import PROFILES
 

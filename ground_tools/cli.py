@@ -30,12 +30,12 @@ from ground_tools.campaign.arguments import add_campaign_arguments
 from ground_tools.figures import plot_flight
 from ground_tools.lockstep_flight import FlightFailed, fly_lockstep
 from ground_tools.mission_command import add_mission_arguments, mission
-from ground_tools.processes import Controller
 from ground_tools.scenario_command import add_scenario_arguments, scenario
 from ground_tools.telemetry_record import add_record_arguments, record
 from ground_tools.up import up
 from ground_tools.watch import add_watch_arguments, watch
 from scenarios.profiles import PROFILES
+from tiltrotor_sitl import Controller
 from transport.cli import OneLineArgumentParser, bounded_int, fail, nonnegative_float, positive_float, writable_folder
 from transport.flight_log import read_flight_log
 

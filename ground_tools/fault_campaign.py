@@ -4,9 +4,7 @@ the kept files back. Every process started here is killed by its PID when the fu
 
 from __future__ import annotations
 
-import json
 import math
-import os
 import random
 import signal
 import socket
@@ -22,8 +20,9 @@ import numpy as np
 from autopilot.storage.mission_store import MissionStore
 from autopilot.storage.parameters import ParameterStore
 from ground_tools.fault_proxy import FaultProxy, Faults
-from ground_tools.free_ports import free_udp_port
-from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, die_with_parent, free_link_ports
+from tiltrotor_sitl._children import Stream, start, stop
+from tiltrotor_sitl._commands import AutopilotCommand, SimCommand, Zenoh, free_link_ports
+from tiltrotor_sitl._free_ports import free_udp_port
 from transport.flight_log import DOWN, PITCH, ROLL, VN, VN_SP, read_flight_log
 from transport.mavlink import Link
 from transport.mavlink import mavlink as M
@@ -128,18 +127,6 @@ def send_malformed(targets: dict[str, int], per_port: int, seed: int, burst: int
 
 
 # ---- processes -------------------------------------------------------------------------------------------------
-def _kill(*processes: subprocess.Popen) -> None:
-    for process in processes:
-        if process.poll() is None:
-            process.kill()
-        process.wait(timeout=30)
-
-
-def _summary(output: str) -> dict:
-    lines = [line for line in output.splitlines() if line.startswith("{")]
-    return json.loads(lines[-1]) if lines else {}
-
-
 @dataclass
 class FlightFigures:
     """A flight read back from the autopilot's 100 Hz log."""
@@ -183,22 +170,20 @@ def fly_plant_link(folder: Path, name: str, faults: Faults | None, *, duration_s
     autopilot = AutopilotCommand(sim_port=proxy.port if proxy is not None else port, links=free_link_ports(),
                                  spawn_alt=spawn_alt, profile=profile, duration_s=duration_s, controller=controller,
                                  zenoh=Zenoh.off(), quiet=True, log=log, params=folder / f"{name}.params.json")
-    plant = subprocess.Popen(sim.argv(), stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
-                             preexec_fn=die_with_parent())
-    pilot = subprocess.Popen(autopilot.argv(), stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                             preexec_fn=die_with_parent())
+    plant = start("vtol-sim", sim.argv(), stdout=Stream.CAPTURE, stderr=Stream.DISCARD)
+    pilot = start("vtol-autopilot", autopilot.argv(), stdout=Stream.DISCARD, stderr=Stream.DISCARD)
     try:
-        out, _ = plant.communicate(timeout=600)
+        plant.wait(600)
         try:  # the plant stops after its last state; if the proxy lost that one, the autopilot waits for more
-            pilot.wait(timeout=5)
+            pilot.wait(5)
         except subprocess.TimeoutExpired:
             pilot.send_signal(signal.SIGTERM)
-            pilot.wait(timeout=30)
+            pilot.wait(30)
     finally:
-        _kill(pilot, plant)
+        stop([pilot, plant], signal.SIGKILL)
         if proxy is not None:
             proxy.stop()
-    return PlantLinkRun(FlightFigures.of_log(log), _summary(out), pilot.returncode,
+    return PlantLinkRun(FlightFigures.of_log(log), plant.summary(), pilot.wait(),
                         proxy.summary() if proxy is not None else None)  # fmt: skip
 
 
@@ -225,12 +210,9 @@ def junk_while_hovering(folder: Path, per_port: int, *, seed: int = 7, spawn_alt
     sim = SimCommand(port=port, spawn_alt=spawn_alt, realtime_speed=speed, summary=True, zenoh=Zenoh.off())
     autopilot = AutopilotCommand(sim_port=port, links=links, spawn_alt=spawn_alt, controller="pid", zenoh=Zenoh.off(),
                                  log=log, params=params, summary=True)  # fmt: skip
-    errors = folder / "junk.autopilot.stderr"
-    plant = subprocess.Popen(sim.argv(), stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
-                             preexec_fn=die_with_parent())
-    with open(errors, "w") as err:
-        pilot = subprocess.Popen(autopilot.argv(), stdout=subprocess.PIPE, stderr=err, text=True,
-                                 env={**os.environ, "PYTHONUNBUFFERED": "1"}, preexec_fn=die_with_parent())  # fmt: skip
+    plant = start("vtol-sim", sim.argv(), stdout=Stream.CAPTURE, stderr=Stream.DISCARD)
+    pilot = start("vtol-autopilot", autopilot.argv(), stdout=Stream.CAPTURE, stderr=folder / "junk.autopilot.stderr",
+                  env={"PYTHONUNBUFFERED": "1"})  # fmt: skip
     try:
         deadline = time.monotonic() + 120
         while not (log.exists() and log.stat().st_size > 2000):  # the autopilot has the plant and flies
@@ -241,16 +223,15 @@ def junk_while_hovering(folder: Path, per_port: int, *, seed: int = 7, spawn_alt
         targets = {"plant": port, "gcs": links.gcs_bind, "api": links.api_bind}
         injected = send_malformed(targets, per_port, seed)
         time.sleep(1.0)
-        crashed = [name for name, p in (("vtol-autopilot", pilot), ("vtol-sim", plant)) if p.poll() is not None]
+        crashed = [p.name for p in (pilot, plant) if p.poll() is not None]
         for p in (pilot, plant):
-            if p.poll() is None:
-                p.send_signal(signal.SIGTERM)
-        pilot_out, _ = pilot.communicate(timeout=60)
-        plant_out, _ = plant.communicate(timeout=60)
+            p.send_signal(signal.SIGTERM)
+        pilot.wait(60)
+        plant.wait(60)
     finally:
-        _kill(pilot, plant)
-    return JunkRun(injected, FlightFigures.of_log(log), _summary(pilot_out), _summary(plant_out), pilot.returncode,
-                   plant.returncode, crashed, files_intact(params, None), errors.read_text())  # fmt: skip
+        stop([pilot, plant], signal.SIGKILL)
+    return JunkRun(injected, FlightFigures.of_log(log), pilot.summary(), plant.summary(), pilot.returncode,
+                   plant.returncode, crashed, files_intact(params, None), pilot.stderr_text())  # fmt: skip
 
 
 def files_intact(params: Path, missions: Path | None) -> bool:

@@ -6,14 +6,13 @@ API instead: tests/sitl.py).
 
 from __future__ import annotations
 
-import json
-import subprocess
+import signal
 from dataclasses import dataclass
 from pathlib import Path
 
-from ground_tools.free_ports import free_udp_port
-from ground_tools.processes import (AutopilotCommand, Controller, SimCommand, Zenoh, deterministic_argv,
-                                    deterministic_environment, die_with_parent, free_link_ports)  # fmt: skip
+from tiltrotor_sitl._children import Child, Stream, start, stop
+from tiltrotor_sitl._commands import AutopilotCommand, Controller, SimCommand, Zenoh, free_link_ports
+from tiltrotor_sitl._free_ports import free_udp_port
 
 
 class FlightFailed(RuntimeError):
@@ -26,6 +25,11 @@ class LockstepFlight:
 
     autopilot: dict
     plant: dict
+
+
+def _start(name: str, argv: list[str]) -> Child:
+    """A process of the flight, deterministic, its stdout and stderr captured."""
+    return start(name, argv, stdout=Stream.CAPTURE, stderr=Stream.CAPTURE, deterministic=True)
 
 
 def fly_lockstep(
@@ -42,32 +46,25 @@ def fly_lockstep(
     """Fly `profile` for `duration_s` simulated seconds from a hover at `spawn_alt`; raises FlightFailed.
     autopilot_profile: run the autopilot under cProfile, its statistics written there (benchmarks)."""
     port = free_udp_port()
-    plant = subprocess.Popen(
-        deterministic_argv(SimCommand(port=port, spawn_alt=spawn_alt, zenoh=Zenoh.off(), duration_s=duration_s,
-                                      summary=True).argv()),
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=deterministic_environment(),
-        preexec_fn=die_with_parent(),
-    )  # fmt: skip
-    autopilot_command = AutopilotCommand(
-        sim_port=port, links=free_link_ports(), spawn_alt=spawn_alt, profile=profile, duration_s=duration_s,
-        controller=controller, summary=True, zenoh=Zenoh.off(), quiet=True, log=log_path, extra=autopilot_args,
-    )  # fmt: skip
-    argv = autopilot_command.argv()
-    if autopilot_profile is not None:  # [python, -m, module, ...] -> [python, -m, cProfile, -o, FILE, -m, module, ...]
-        argv = [argv[0], "-m", "cProfile", "-o", str(autopilot_profile), *argv[1:]]
+    plant = _start("vtol-sim", SimCommand(port=port, spawn_alt=spawn_alt, zenoh=Zenoh.off(), duration_s=duration_s,
+                                          summary=True).argv())  # fmt: skip
+    children = [plant]
     try:
-        autopilot = subprocess.run(deterministic_argv(argv), capture_output=True, text=True, timeout=timeout_s,
-                                   env=deterministic_environment(), preexec_fn=die_with_parent())  # fmt: skip
-        plant_out, plant_err = plant.communicate(timeout=120)
+        autopilot_command = AutopilotCommand(
+            sim_port=port, links=free_link_ports(), spawn_alt=spawn_alt, profile=profile, duration_s=duration_s,
+            controller=controller, summary=True, zenoh=Zenoh.off(), quiet=True, log=log_path, extra=autopilot_args,
+        )  # fmt: skip
+        argv = autopilot_command.argv()
+        if autopilot_profile is not None:  # [python, -m, module, ...] -> [python, -m, cProfile, -o, FILE, -m, module, ...]
+            argv = [argv[0], "-m", "cProfile", "-o", str(autopilot_profile), *argv[1:]]
+        autopilot = _start("vtol-autopilot", argv)
+        children.append(autopilot)
+        autopilot.wait(timeout_s)
+        plant.wait(120)
     finally:
-        if plant.poll() is None:
-            plant.kill()
-            plant.wait()
+        stop(children, signal.SIGKILL)  # whatever still runs (a time-out, an interruption)
     if autopilot.returncode != 0:
-        raise FlightFailed(f"vtol-autopilot exited with {autopilot.returncode}: {autopilot.stderr.strip()}")
+        raise FlightFailed(f"vtol-autopilot exited with {autopilot.returncode}: {autopilot.stderr_text().strip()}")
     if plant.returncode != 0:
-        raise FlightFailed(f"vtol-sim exited with {plant.returncode}: {plant_err.strip()}")
-    return LockstepFlight(
-        autopilot=json.loads(autopilot.stdout.strip().splitlines()[-1]),
-        plant=json.loads(plant_out.strip().splitlines()[-1]),
-    )
+        raise FlightFailed(f"vtol-sim exited with {plant.returncode}: {plant.stderr_text().strip()}")
+    return LockstepFlight(autopilot=autopilot.summary(), plant=plant.summary())

@@ -12,7 +12,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from scenarios.experiments import Circle
-from transport.flight_log import DOWN, EAST, NORTH, PITCH, ROLL, T, TILT_EST, VD, VD_SP, VE, VE_SP, VN, VN_SP, YAW
+from transport.flight_log import DOWN, EAST, NORTH, PITCH, ROLL, TILT_EST, VD, VD_SP, VE, VE_SP, VN, VN_SP, YAW, T
 
 REACH_TOLERANCE = 0.5  # m/s: "reached" the target speed when within this of it
 GROUND_CLEARANCE = 1.0  # m: closer than this to the ground counts as ground contact for `survived`

@@ -20,8 +20,8 @@ from ground_tools.figures import pyplot, save_ground_track
 from ground_tools.metrics import mean_tilt
 from ground_tools.mission_file import MissionFileError, read_mission_file
 from ground_tools.mission_run import MissionResult, MissionRunFailed, fly_mission
-from ground_tools.processes import Controller
 from ground_tools.scenario_figures import _style
+from tiltrotor_sitl import Controller
 from transport import flight_log
 from transport.cli import fail, writable_folder
 

@@ -21,8 +21,7 @@ import numpy as np
 from pymavlink import mavutil
 
 from autopilot.topics.mission_items import MissionItem
-from ground_tools.processes import Controller
-from tiltrotor_sitl import Vehicle
+from tiltrotor_sitl import Controller, Vehicle
 from transport import flight_log
 from transport.geodesy import Home, ned_from_geodetic
 from transport.mavlink import mavlink as M

@@ -15,11 +15,11 @@ import time
 from pathlib import Path
 
 from autopilot.mpc.horizon import HORIZONS
-from ground_tools.processes import Controller
 from ground_tools.scenario_flights import FlightQueue
-from ground_tools.scenario_run import RunResult
 from ground_tools.scenario_report import acceptance, usable_cpus, write_report
+from ground_tools.scenario_run import RunResult
 from scenarios.experiments import SCENARIOS
+from tiltrotor_sitl import Controller
 from transport.cli import bounded_int, positive_float, writable_folder
 
 PROG = "vtol"

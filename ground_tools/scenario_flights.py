@@ -25,10 +25,11 @@ from tqdm import tqdm
 
 from ground_tools.lockstep_client import START_MS, ScenarioError
 from ground_tools.lockstep_flight import FlightFailed
-from ground_tools.processes import Controller, follow_parent
 from ground_tools.scenario_figures import plot_scenario
 from ground_tools.scenario_run import RunResult, run_scenario
 from scenarios.experiments import SCENARIOS, Scenario
+from tiltrotor_sitl import Controller
+from tiltrotor_sitl._children import follow_parent
 from transport.flight_log import FlightLog, read_flight_log
 
 PROG = "vtol"

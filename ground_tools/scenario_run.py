@@ -16,7 +16,7 @@ autopilot's control and MPC samples. The run folder `<out>/<scenario>/<controlle
 from __future__ import annotations
 
 import json
-import subprocess
+import signal
 import sys
 import time
 from collections.abc import Callable
@@ -27,11 +27,11 @@ from typing import Any
 from aircraft.airframe import load_airframe
 from ground_tools.lockstep_client import START_MS, LockstepClient
 from ground_tools.lockstep_flight import FlightFailed
-from ground_tools.port_blocks import PortBlock
 from ground_tools.metrics import flight_metrics
-from ground_tools.processes import (AutopilotCommand, Controller, SimCommand, VehiclePorts, Zenoh, deterministic_argv,
-                                    deterministic_environment, die_with_parent)  # fmt: skip
 from scenarios.experiments import Scenario
+from tiltrotor_sitl._children import Child, Stream, start, stop
+from tiltrotor_sitl._commands import AutopilotCommand, Controller, SimCommand, VehiclePorts, Zenoh
+from tiltrotor_sitl._port_blocks import PortBlock
 from transport.flight_log import read_flight_log, write_flight_log
 from transport.ports import LOOPBACK, Ports
 
@@ -95,8 +95,7 @@ def run_scenario(
     sysid = Ports(instance).system_id if instance is not None else 1  # an instance's vehicle is I + 1, as in `vtol up`
     duration_s = START_MS / 1000.0 + scenario.duration_s
     airframe = load_airframe(None)
-    plant_err, autopilot_err = open(run_dir / "plant.log", "w"), open(run_dir / "autopilot.log", "w")
-    processes: list[subprocess.Popen] = []
+    processes: list[Child] = []
     recorder = None
     started = time.perf_counter()
     try:
@@ -105,8 +104,8 @@ def run_scenario(
             summary=True, zenoh=Zenoh.listening(ports.zenoh_plant) if record else Zenoh.off(),
             wind_ned=None if wind_ned == (0.0, 0.0, 0.0) else wind_ned, airframe=plant_airframe, sysid=sysid,
         )  # fmt: skip
-        plant = subprocess.Popen(deterministic_argv(plant_command.argv()), stdout=subprocess.PIPE, stderr=plant_err, text=True,
-                                 env=deterministic_environment(), preexec_fn=die_with_parent())  # fmt: skip
+        plant = start("vtol-sim", plant_command.argv(), stdout=Stream.CAPTURE, stderr=run_dir / "plant.log",
+                      deterministic=True)  # fmt: skip
         processes.append(plant)
         autopilot_command = AutopilotCommand(
             sim_port=ports.plant, links=ports.links, spawn_alt=SPAWN_ALT_M, controller=controller,
@@ -115,8 +114,8 @@ def run_scenario(
             params=run_dir / "params.json", summary=True, quiet=True, sysid=sysid,
             zenoh=Zenoh.listening(ports.zenoh_autopilot) if record else Zenoh.off(),
         )  # fmt: skip
-        autopilot = subprocess.Popen(deterministic_argv(autopilot_command.argv()), stdout=subprocess.PIPE, stderr=autopilot_err, text=True,
-                                     env=deterministic_environment(), preexec_fn=die_with_parent())  # fmt: skip
+        autopilot = start("vtol-autopilot", autopilot_command.argv(), stdout=Stream.CAPTURE,
+                          stderr=run_dir / "autopilot.log", deterministic=True)  # fmt: skip
         processes.append(autopilot)
 
         def start_recording(hold_ms: int) -> None:
@@ -145,9 +144,7 @@ def run_scenario(
                 if not first_exit:
                     first_exit.append(time.monotonic())
                 if time.monotonic() - first_exit[0] > EXIT_GRACE_S:
-                    for process in running:
-                        process.kill()
-                        process.wait()
+                    stop(running, signal.SIGKILL)
                     return True
             return not running
 
@@ -158,25 +155,16 @@ def run_scenario(
         problems = []
         for name, process in (("autopilot", autopilot), ("plant", plant)):
             if process.returncode != 0:
-                log = (run_dir / f"{name}.log").read_text().strip().splitlines()
+                log = process.stderr_text().strip().splitlines()
                 problems.append(f"{name} exited with {process.returncode}: {log[-1] if log else '(nothing on stderr)'}")
         if problems:
             raise FlightFailed("; ".join(problems) + f" (logs in {run_dir})")
-        summaries = {name: json.loads(process.stdout.read().strip().splitlines()[-1])
-                     for name, process in (("plant", plant), ("autopilot", autopilot))}  # fmt: skip
+        summaries = {"plant": plant.summary(), "autopilot": autopilot.summary()}
     finally:
-        for process in processes:  # every one killed before waiting for any: an interruption leaves none running
-            if process.poll() is None:
-                process.kill()
-        for process in processes:
-            process.wait()
-            if process.stdout:
-                process.stdout.close()
+        stop(processes, signal.SIGKILL)  # every one killed before waiting for any: an interruption leaves none running
         if recorder is not None:
             recorder.stop()
         gcs.close()
-        plant_err.close()
-        autopilot_err.close()
     wall_s = time.perf_counter() - started
 
     start_s = events.profile_start_ms / 1000.0

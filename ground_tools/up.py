@@ -2,26 +2,26 @@
 
 `--count N` starts N vehicles, instances I .. I+N-1, as PX4's multi-vehicle SITL does: system ids I+1 .. I+N, every
 GCS link sending to 14550 (one ground station sees the fleet), API links on 14540+I each, and the vehicles
-FLEET_SPACING_M apart in a row to the east (each one's home; ground_tools/processes.py fleet_home).
+FLEET_SPACING_M apart in a row to the east (each one's home; tiltrotor_sitl/_commands.py fleet_home).
 
 Both processes print to this terminal. Ctrl-C (SIGINT to the terminal's process group) or SIGTERM to `vtol` stops
 both: the signal is passed on to each, each stops at its next turn, and `vtol up` waits for them (killing a
 process that has not stopped after STOP_TIMEOUT_S). If either process ends by itself (a port in use, a bad
 parameter file), the other is stopped too and `vtol up` exits with its code. If `vtol up` is killed outright, the
-kernel sends both SIGTERM (processes.die_with_parent).
+kernel sends both SIGTERM (their parent-death signal, tiltrotor_sitl/_children.py).
 """
 
 from __future__ import annotations
 
 import argparse
 import signal
-import subprocess
 import sys
 import time
 from pathlib import Path
 
 from autopilot.storage.parameters import ParameterFileError, ParameterStore, default_parameter_path, vehicle_system_id
-from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, die_with_parent, fleet_home
+from tiltrotor_sitl._children import Child, Stream, start, stop
+from tiltrotor_sitl._commands import AutopilotCommand, SimCommand, Zenoh, fleet_home
 from transport.cli import fail, stop_on_signals
 from transport.ports import LOOPBACK, Ports
 
@@ -55,36 +55,22 @@ def system_id(args: argparse.Namespace, instance: int) -> int:
     return vehicle_system_id(params, instance)
 
 
-def stop(processes: list[subprocess.Popen], signum: int = signal.SIGTERM) -> None:
-    for process in processes:
-        if process.poll() is None:
-            try:
-                process.send_signal(signum)
-            except ProcessLookupError:
-                pass
-    deadline = time.monotonic() + STOP_TIMEOUT_S
-    for process in processes:
-        try:
-            process.wait(timeout=max(0.1, deadline - time.monotonic()))
-        except subprocess.TimeoutExpired:
-            print(f"{PROG}: pid {process.pid} did not stop within {STOP_TIMEOUT_S:g} s: killed", file=sys.stderr)
-            process.kill()
-            process.wait()
+def start_in_terminal(name: str, argv: list[str]) -> Child:
+    """One process of `vtol up`, printing to this terminal, in its process group (a Ctrl-C reaches it too)."""
+    return start(name, argv, stdout=Stream.INHERIT, stderr=Stream.INHERIT)
 
 
 def up(args: argparse.Namespace) -> int:
     stop_requested = stop_on_signals()
     if args.count > 1 and args.params:
         fail(PROG, "--params names one vehicle's parameter file: it does not go with --count")
-    names: dict[int, str] = {}
-    processes: list[subprocess.Popen] = []
+    processes: list[Child] = []
     sysids = [system_id(args, args.instance + index) for index in range(args.count)]
     for index, sysid in enumerate(sysids):
         ports = Ports(args.instance + index)
         plant_command, autopilot_command = commands(args, index, sysid)
-        plant = subprocess.Popen(plant_command, preexec_fn=die_with_parent())
-        autopilot = subprocess.Popen(autopilot_command, preexec_fn=die_with_parent())
-        names[plant.pid], names[autopilot.pid] = "vtol-sim", "vtol-autopilot"
+        plant = start_in_terminal("vtol-sim", plant_command)
+        autopilot = start_in_terminal("vtol-autopilot", autopilot_command)
         processes += [autopilot, plant]
         print(f"{PROG}: vehicle {sysid} (instance {ports.instance}): plant pid {plant.pid} "
               f"(real time x{args.speed:g}), autopilot pid {autopilot.pid}; "
@@ -100,10 +86,11 @@ def up(args: argparse.Namespace) -> int:
         if ended:
             process = ended[0]
             code = process.returncode or 1
-            print(f"{PROG}: {names[process.pid]} ended (exit code {process.returncode}) (pid {process.pid}); "
+            print(f"{PROG}: {process.name} ended (exit code {process.returncode}) (pid {process.pid}); "
                   f"stopping the {'other' if len(processes) == 2 else 'others'}", file=sys.stderr)  # fmt: skip
             break
         time.sleep(0.1)
-    stop(processes, signal.SIGINT if stop_requested() else signal.SIGTERM)
+    for process in stop(processes, signal.SIGINT if stop_requested() else signal.SIGTERM, STOP_TIMEOUT_S):
+        print(f"{PROG}: pid {process.pid} did not stop within {STOP_TIMEOUT_S:g} s: killed", file=sys.stderr)
     print(f"{PROG}: stopped", file=sys.stderr, flush=True)
     return code

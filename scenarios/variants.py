@@ -10,8 +10,15 @@ from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
 from aircraft.failures import Failure, FailureType, FailureUnit
-from scenarios.experiments import (SCENARIOS, Circle, Scenario, TriggeredFailure, ground_speed_reaches, servo_reaches,
-                                   yaw_reaches)  # fmt: skip
+from scenarios.experiments import (
+    SCENARIOS,
+    Circle,
+    Scenario,
+    TriggeredFailure,
+    ground_speed_reaches,
+    servo_reaches,
+    yaw_reaches,  # fmt: skip
+)
 from scenarios.profiles import CIRCLE_RADIUS, CIRCLE_SPEED, CircleProfile
 
 

@@ -37,8 +37,8 @@ from transport.mavlink import (
     Link,
     mavlink,
 )
-from transport.udp import SPIN_WINDOW_S, receive
 from transport.telemetry import PlantStateBatch, encode_event, plant_events_key, plant_state_key
+from transport.udp import SPIN_WINDOW_S, receive
 
 USEC_WRAP = 1 << 32
 LAG_LIMIT_S = 0.05  # paced: this far behind the wall clock, the schedule moves (the simulation slows down)

@@ -11,8 +11,8 @@ from dataclasses import dataclass
 import pytest
 
 from aircraft.airframe import Airframe, load_airframe
-from ground_tools.processes import SimCommand
 from tiltrotor_sitl import Vehicle
+from tiltrotor_sitl._commands import SimCommand
 from transport.plant_link import PlantLinkClient, PlantSample
 
 

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import subprocess
 from importlib import resources
 
 import pytest
 
 from aircraft.airframe import AirframeError, load_airframe
 from tests.conftest import vtol_sim_command
+from tiltrotor_sitl._children import run_to_end
 
 DEFAULT_TEXT = resources.files("aircraft.airframes").joinpath("chen2024_tiltrotor.toml").read_text()
 
@@ -57,8 +57,7 @@ def test_missing_file_is_refused(tmp_path):
 def test_vtol_sim_refuses_a_broken_airframe_with_one_line_and_exit_2(tmp_path, case):
     path = tmp_path / "broken.toml"
     path.write_text(BROKEN[case][0])
-    result = subprocess.run(vtol_sim_command("--airframe", str(path), "--no-zenoh"), capture_output=True,
-                            text=True, timeout=60)  # fmt: skip
+    result = run_to_end(vtol_sim_command("--airframe", str(path), "--no-zenoh"), timeout_s=60)
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("vtol-sim: error:") and BROKEN[case][1] in lines[0]

@@ -6,13 +6,13 @@ from __future__ import annotations
 import math
 import random
 import socket
-import subprocess
 import time
 
 import pytest
 
-from ground_tools.processes import AutopilotCommand
 from tiltrotor_sitl import Vehicle
+from tiltrotor_sitl._children import run_to_end
+from tiltrotor_sitl._commands import AutopilotCommand
 from transport.mavlink import Link
 from transport.udp import receive
 
@@ -160,7 +160,7 @@ def test_garbage_from_the_plant_is_dropped_and_said(autopilot_with_fake_plant):
     ],
 )
 def test_bad_autopilot_arguments_give_one_line_and_exit_2(args, expected):
-    result = subprocess.run(AutopilotCommand(extra=tuple(args)).argv(), capture_output=True, text=True, timeout=60)
+    result = run_to_end(AutopilotCommand(extra=tuple(args)).argv(), timeout_s=60)
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("vtol-autopilot: error:") and expected in lines[0]

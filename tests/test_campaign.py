@@ -21,11 +21,11 @@ from ground_tools.campaign.points import campaign_points
 from ground_tools.campaign.spec import CampaignError, flight_count, load_campaign
 from ground_tools.campaign.store import COLUMNS, ResultStore
 from ground_tools.cli import main
-from ground_tools.processes import SimCommand
 from scenarios.experiments import SCENARIOS
 from scenarios.profiles import CircleProfile, circle, circle_duration
 from scenarios.variants import VariantError, build_scenario
 from sim_bridge.cli import build_parser as build_sim_parser
+from tiltrotor_sitl._commands import SimCommand
 
 pytestmark = pytest.mark.timeout(600)
 

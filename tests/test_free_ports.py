@@ -1,4 +1,4 @@
-"""Free ports for started processes (ground_tools/free_ports.py): outside the kernel's ephemeral range, leased so
+"""Free ports for started processes (tiltrotor_sitl/_free_ports.py): outside the kernel's ephemeral range, leased so
 that no other caller gets them before the process binds them, never a port someone holds."""
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from ground_tools.free_ports import bindable, ephemeral_range, lease_folder, lease_ports, pool
-from ground_tools.processes import VehiclePorts
+from tiltrotor_sitl._commands import VehiclePorts
+from tiltrotor_sitl._free_ports import bindable, ephemeral_range, lease_folder, lease_ports, pool
 from transport.ports import LOOPBACK, endpoint_port
 
 UDP, TCP = socket.SOCK_DGRAM, socket.SOCK_STREAM

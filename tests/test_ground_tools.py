@@ -39,7 +39,7 @@ def test_vtol_bad_arguments_give_one_line_and_exit_2():
 
 # ---- the processes' command lines and the flight-log schema, without processes -----------------------------------
 def test_a_command_description_left_alone_adds_nothing_and_each_field_its_option(tmp_path):
-    from ground_tools.processes import AutopilotCommand, LinkPorts, SimCommand, Zenoh
+    from tiltrotor_sitl._commands import AutopilotCommand, LinkPorts, SimCommand, Zenoh
 
     assert SimCommand().argv() == [sys.executable, "-m", "sim_bridge"]
     assert AutopilotCommand().argv() == [sys.executable, "-m", "autopilot"]

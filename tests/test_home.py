@@ -4,8 +4,6 @@
 from __future__ import annotations
 
 import math
-import os
-import subprocess
 
 import numpy as np
 import pytest
@@ -13,9 +11,10 @@ from pymavlink import mavutil
 
 from autopilot.commander.home import HomeKeeper
 from autopilot.topics.home_position import home_at
-from ground_tools.free_ports import free_udp_port
-from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, free_link_ports
 from tiltrotor_sitl import Vehicle
+from tiltrotor_sitl._children import run_to_end
+from tiltrotor_sitl._commands import AutopilotCommand, SimCommand, Zenoh, free_link_ports
+from tiltrotor_sitl._free_ports import free_udp_port
 from transport.geodesy import Home, HomeRefused, home_from
 
 M = mavutil.mavlink
@@ -42,11 +41,11 @@ def test_a_home_that_cannot_be_one_is_refused(given, environ, message):
 
 @pytest.mark.parametrize("program", ["autopilot", "sim_bridge"])
 def test_a_bad_home_in_the_environment_stops_the_process_with_one_line(program):
-    environ = {**os.environ, "PX4_HOME_LAT": "north"}
+    environ = {"PX4_HOME_LAT": "north"}  # over this environment
     ports = free_link_ports()  # (refused before any port is bound, but a port in use must not be what stops it)
     command = (SimCommand(port=free_udp_port(), zenoh=Zenoh.off()) if program == "sim_bridge"
                else AutopilotCommand(sim_port=free_udp_port(), links=ports, zenoh=Zenoh.off()))
-    result = subprocess.run(command.argv(), env=environ, capture_output=True, text=True, timeout=60)
+    result = run_to_end(command.argv(), timeout_s=60, env=environ)
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "home refused: PX4_HOME_LAT='north' is not a number" in lines[0]

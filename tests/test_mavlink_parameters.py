@@ -25,8 +25,9 @@ from autopilot.storage.parameters import (
     decode_value,
     encode_value,
 )
-from ground_tools.processes import AutopilotCommand, Zenoh
 from tests.mavlink_sitl import start_sitl
+from tiltrotor_sitl._children import run_to_end
+from tiltrotor_sitl._commands import AutopilotCommand, Zenoh
 
 
 def as_int32_bytes(value: int) -> float:
@@ -100,8 +101,7 @@ def test_a_broken_parameter_file_is_refused(tmp_path, case):
 def test_the_autopilot_refuses_a_broken_parameter_file_with_one_line_and_exit_2(tmp_path):
     path = tmp_path / "params.json"
     path.write_text(BROKEN_FILES["truncated"])
-    result = subprocess.run(AutopilotCommand(params=path, zenoh=Zenoh.off()).argv(), capture_output=True, text=True,
-                            timeout=60)  # fmt: skip
+    result = run_to_end(AutopilotCommand(params=path, zenoh=Zenoh.off()).argv(), timeout_s=60)
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("vtol-autopilot: error:") and str(path) in lines[0]

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ground_tools.free_ports import free_udp_port
 from tiltrotor_sitl import Vehicle
+from tiltrotor_sitl._free_ports import free_udp_port
 from transport.flight_log import DOWN, read_flight_log
 from transport.mavlink import mavlink
 from transport.plant_handshake import hello_messages

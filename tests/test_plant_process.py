@@ -5,7 +5,6 @@ from __future__ import annotations
 import math
 import os
 import random
-import subprocess
 import time
 
 import pytest
@@ -13,6 +12,7 @@ import pytest
 from aircraft.actuators import command_to_pwm
 from sim_bridge.plant import hover_command
 from tests.conftest import vtol_sim_command
+from tiltrotor_sitl._children import run_to_end
 from transport.geodesy import Home
 from transport.mavlink import MAV_RESULT_ACCEPTED, MAV_RESULT_DENIED, MAV_RESULT_UNSUPPORTED, mavlink
 
@@ -279,7 +279,7 @@ def test_bad_input_does_not_crash_or_stall_the_plant(start_plant, airframe):
     ],
 )
 def test_bad_cli_arguments_give_one_line_and_exit_2(args, expected):
-    result = subprocess.run(vtol_sim_command(*args, "--no-zenoh"), capture_output=True, text=True, timeout=60)
+    result = run_to_end(vtol_sim_command(*args, "--no-zenoh"), timeout_s=60)
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("vtol-sim: error:") and expected in lines[0]
@@ -287,7 +287,7 @@ def test_bad_cli_arguments_give_one_line_and_exit_2(args, expected):
 
 def test_help_works_through_the_console_script():
     script = os.path.join(os.path.dirname(os.sys.executable), "vtol-sim")
-    result = subprocess.run([script, "--help"], capture_output=True, text=True, timeout=60)
+    result = run_to_end([script, "--help"], timeout_s=60)
     assert result.returncode == 0 and "--spawn-alt" in result.stdout
 
 

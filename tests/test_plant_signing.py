@@ -3,18 +3,17 @@ wrongly keyed sender never gets the plant, even before its autopilot arrives; a 
 
 from __future__ import annotations
 
-import json
 import secrets
 import signal
-import subprocess
 import time
 from pathlib import Path
 
 import pytest
 
-from ground_tools.free_ports import free_udp_port
-from ground_tools.processes import AutopilotCommand, SimCommand, Zenoh, free_link_ports
 from tests.test_plant_ownership import hellos_answered
+from tiltrotor_sitl._children import Child, Stream, read_summary, run_to_end, start, stop
+from tiltrotor_sitl._commands import AutopilotCommand, SimCommand, Zenoh, free_link_ports
+from tiltrotor_sitl._free_ports import free_udp_port
 from transport.link_signing import KeyFileRefused, parse_key
 
 
@@ -24,10 +23,10 @@ def key_file(folder: Path, name: str) -> Path:
     return path
 
 
-def start_plant(port: int, key: Path) -> subprocess.Popen:
+def start_plant(port: int, key: Path) -> Child:
     sim = SimCommand(port=port, spawn_alt=30.0, duration_s=2.0, summary=True, zenoh=Zenoh.off(), plant_signing_key=key)
-    plant = subprocess.Popen(sim.argv(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    assert plant.stderr is not None and "listening" in plant.stderr.readline()
+    plant = start("vtol-sim", sim.argv(), stdout=Stream.CAPTURE, stderr=Stream.CAPTURE)
+    assert "listening" in plant.stderr_line(timeout_s=60)
     return plant
 
 
@@ -37,23 +36,17 @@ def autopilot_command(port: int, key: Path | None) -> list[str]:
                             plant_signing_key=key).argv()  # fmt: skip
 
 
-def last_json(text: str) -> dict:
-    return json.loads(text.strip().splitlines()[-1])
-
-
 def test_the_keyed_autopilot_flies_and_unsigned_senders_never_get_the_plant(tmp_path):
     port, key = free_udp_port(), key_file(tmp_path, "plant.key")
     plant = start_plant(port, key)
     try:
         assert hellos_answered(port, 5) == 0  # before the autopilot: no candidate at all
-        pilot = subprocess.run(autopilot_command(port, key), capture_output=True, text=True, timeout=300)
-        out, _ = plant.communicate(timeout=60)
+        pilot = run_to_end(autopilot_command(port, key), timeout_s=300)
+        plant.wait(60)
     finally:
-        if plant.poll() is None:
-            plant.kill()
-            plant.wait()
+        stop([plant], signal.SIGKILL)
     assert pilot.returncode == 0, pilot.stderr
-    autopilot, summary = last_json(pilot.stdout), last_json(out)
+    autopilot, summary = read_summary(pilot.stdout), plant.summary()
     assert autopilot["steps"] >= 790 and autopilot["dropped_from_plant"] == {}
     assert summary["handshakes"] == 1 and summary["missed_commands"] == 0
     assert summary["foreign"] == {"datagrams": 5}  # from another address, and not one message fit to read
@@ -65,28 +58,23 @@ def test_an_autopilot_without_the_key_never_gets_the_plant(tmp_path, autopilot_k
     port = free_udp_port()
     plant = start_plant(port, key_file(tmp_path, "plant.key"))
     wrong = None if autopilot_key is None else key_file(tmp_path, autopilot_key)
-    said = tmp_path / "autopilot.stderr"
-    with said.open("w") as sink:
-        pilot = subprocess.Popen(autopilot_command(port, wrong), stdout=subprocess.PIPE, stderr=sink, text=True)
+    pilot = start("vtol-autopilot", autopilot_command(port, wrong), stdout=Stream.CAPTURE, stderr=Stream.CAPTURE)
     try:
         # Unanswered, it says HELLO every 0.25 s and, after 1 s of that, that the plant is silent: by then it has said
         # HELLO 4 times or more. Wall time: a plant no autopilot has is not stepped, so no simulated time passes.
         deadline = time.monotonic() + 60
-        while "the plant is silent" not in said.read_text():
-            assert time.monotonic() < deadline and pilot.poll() is None, said.read_text()
+        while "the plant is silent" not in pilot.stderr_text():
+            assert time.monotonic() < deadline and pilot.running(), pilot.stderr_text()
             time.sleep(0.05)
-        assert "plant link udp" in said.read_text().splitlines()[0]  # started, saying HELLO
+        assert "plant link udp" in pilot.stderr_text().splitlines()[0]  # started, saying HELLO
         assert pilot.poll() is None and plant.poll() is None
         for process in (pilot, plant):
             process.send_signal(signal.SIGTERM)
-        pilot_out, _ = pilot.communicate(timeout=60)
-        plant_out, _ = plant.communicate(timeout=60)
+        pilot.wait(60)
+        plant.wait(60)
     finally:
-        for process in (pilot, plant):
-            if process.poll() is None:
-                process.kill()
-                process.wait()
-    autopilot, summary = last_json(pilot_out), last_json(plant_out)
+        stop([pilot, plant], signal.SIGKILL)
+    autopilot, summary = pilot.summary(), plant.summary()
     assert summary["handshakes"] == 0 and summary["peer"] is None
     assert summary["dropped"]["bad_signature"] >= 2 * 4  # HEARTBEAT + PING in each HELLO
     assert autopilot["steps"] == 0
@@ -114,7 +102,7 @@ def test_a_bad_key_file_is_refused_with_one_line(tmp_path, program, content, rea
     port = free_udp_port()
     builder = (SimCommand(port=port, zenoh=Zenoh.off(), plant_signing_key=path) if program == "sim_bridge"
                else AutopilotCommand(sim_port=port, links=free_link_ports(), zenoh=Zenoh.off(), plant_signing_key=path))
-    result = subprocess.run(builder.argv(), capture_output=True, text=True, timeout=60)
+    result = run_to_end(builder.argv(), timeout_s=60)
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "--plant-signing-key" in lines[0] and reason in lines[0]

@@ -7,7 +7,7 @@ import re
 
 import pytest
 
-from ground_tools.port_blocks import NoFreeBlock, claim_block
+from tiltrotor_sitl._port_blocks import NoFreeBlock, claim_block
 from transport.ports import MAX_INSTANCE, Ports
 
 

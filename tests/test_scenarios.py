@@ -19,15 +19,16 @@ import pytest
 
 from autopilot.navigator.stamped_setpoints import StampedSetpoints
 from autopilot.topics.yaw_setpoint import YawSetpoint
-from ground_tools.free_ports import bindable
 from ground_tools.lockstep_client import PERIOD_MS, START_MS, grid_stamp, setpoint_for, tilt_commands_deg, yaw_turns
-from ground_tools.processes import AutopilotCommand
 from ground_tools.scenario_report import acceptance, velocity_rmse, write_report
 from ground_tools.scenario_run import WALL_CLOCK_KEYS
 from ground_tools.telemetry_record import decode_samples, read_recording
 from scenarios.experiments import BANK_THEORY_DEG, SCENARIOS, Telemetry, servo_reaches, yaw_reaches
 from scenarios.profiles import PROFILES, accel_decel_braking_at
 from tiltrotor_sitl import Vehicle
+from tiltrotor_sitl._children import run_to_end
+from tiltrotor_sitl._commands import AutopilotCommand
+from tiltrotor_sitl._free_ports import bindable
 from transport.flight_log import ALLOCATED, T, read_flight_log
 from transport.mavlink import Link, mavlink
 from transport.ports import Ports, endpoint_port
@@ -152,8 +153,7 @@ def test_offboard_lockstep_holds_the_simulation_until_stamped_setpoints_cover_it
 
 
 def test_offboard_lockstep_does_not_go_with_an_internal_profile() -> None:
-    result = subprocess.run(AutopilotCommand(profile="accel", offboard_lockstep=True).argv(), capture_output=True,
-                            text=True, timeout=60)  # fmt: skip
+    result = run_to_end(AutopilotCommand(profile="accel", offboard_lockstep=True).argv(), timeout_s=60)
     assert result.returncode == 2
     assert result.stderr.count("\n") == 1 and "--offboard-lockstep" in result.stderr
 

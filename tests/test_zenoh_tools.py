@@ -20,7 +20,6 @@ from aircraft.airframe import load_airframe
 from autopilot.controllers import build_flight_controller
 from autopilot.logger.control_telemetry import BATCH_SAMPLES, ControlTelemetry
 from ground_tools import cli
-from ground_tools.free_ports import free_zenoh_endpoint
 from ground_tools.telemetry_record import (
     TelemetryRecorder,
     decode_samples,
@@ -34,6 +33,7 @@ from ground_tools.telemetry_view import TelemetryView, euler_deg, push, status_l
 from ground_tools.watch import has_display, new_events, run_window
 from ground_tools.watch_figure import build_figure, draw, save_snapshot
 from tiltrotor_sitl import Vehicle
+from tiltrotor_sitl._free_ports import free_zenoh_endpoint
 from transport.telemetry import (
     PLANT_STATE_BYTES,
     PLANT_STATE_FIELDS,
@@ -43,7 +43,7 @@ from transport.telemetry import (
     encode_control,
     encode_plant_state,
     mpc_key,
-    plant_state_key,
+    plant_state_key,  # fmt: skip
 )
 
 VTOL = [sys.executable, "-m", "ground_tools"]

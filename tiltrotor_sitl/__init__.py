@@ -24,19 +24,19 @@ from __future__ import annotations
 
 import subprocess
 import time
-from collections.abc import Mapping, Sequence
 from pathlib import Path
 from types import TracebackType
+from typing import Unpack
 
-from ground_tools.processes import VehiclePorts
 from tiltrotor_sitl._children import Child
-from tiltrotor_sitl._launch import Controller, Options, Started, VehicleError, launch, stop
+from tiltrotor_sitl._commands import Controller, VehiclePorts
+from tiltrotor_sitl._launch import Options, Started, VehicleError, VehicleOptions, launch, stop
 from tiltrotor_sitl.truth import PlantTruth, TruthFeed, TruthTimeout
 from transport.geodesy import Home
 from transport.ports import LOOPBACK
 
 __all__ = ["Controller", "Fleet", "Home", "PlantTruth", "TruthFeed", "TruthTimeout", "Vehicle", "VehicleError",
-           "VehicleHandle", "VehiclePorts"]  # fmt: skip
+           "VehicleHandle", "VehicleOptions", "VehiclePorts"]  # fmt: skip
 
 
 class VehicleHandle:
@@ -112,7 +112,7 @@ class VehicleHandle:
 
     def stderr(self, process: str = "vtol-autopilot") -> str:
         """What `process` (vtol-autopilot or vtol-sim) has said on stderr so far (across restarts)."""
-        return self._child(process).stderr_path.read_text(errors="replace")
+        return self._child(process).stderr_text()
 
     def process(self, process: str = "vtol-autopilot") -> subprocess.Popen:
         """The running `process` (vtol-autopilot or vtol-sim), to signal it or wait for it (a test of a crash, a
@@ -137,7 +137,7 @@ class VehicleHandle:
         deadline = time.monotonic() + timeout_s
         while True:
             for child in self._started.children:
-                if not child.running() and child.process.returncode != 0:
+                if not child.running() and child.returncode != 0:
                     raise VehicleError(f"vehicle {self.sysid}: {child.describe_exit('before the end')}")
             running = [child for child in self._started.children if child.running()]
             if not running:
@@ -161,25 +161,10 @@ class Fleet:
     vehicle FLEET_SPACING_M (5 m) east of the previous one. Arguments as for Vehicle. A context manager; or call
     start() and stop(). params_file is for a single Vehicle only."""
 
-    def __init__(self, count: int, *, controller: Controller = "mpc", airframe: str | Path | None = None,
-                 spawn_alt: float = 0.0, home: Home | None = None, speed: float | None = 1.0,
-                 params: Mapping[str, float] | None = None, instance: int | None = None, sysid: int | None = None,
-                 gcs_port: int | None = None, truth: bool = True, ready_timeout_s: float = 60.0,
-                 folder: str | Path | None = None, summary: bool = False, autopilot_args: Sequence[str] = (),
-                 wait_ready: bool = True, params_file: str | Path | None = None, duration_s: float | None = None,
-                 plant_args: Sequence[str] = (), autopilot: bool = True,
-                 plant_port: int | None = None) -> None:  # fmt: skip
+    def __init__(self, count: int, **options: Unpack[VehicleOptions]) -> None:
         self.count = count
-        self.options = Options(controller=controller, airframe=None if airframe is None else Path(airframe),
-                               spawn_alt=float(spawn_alt), home=home, speed=speed, params=dict(params or {}),
-                               instance=instance, sysid=sysid, gcs_port=gcs_port, truth=truth,
-                               ready_timeout_s=ready_timeout_s, summary=summary,
-                               autopilot_args=tuple(autopilot_args), wait_ready=wait_ready,
-                               params_file=None if params_file is None else Path(params_file),
-                               duration_s=duration_s, plant_args=tuple(plant_args), autopilot=autopilot,
-                               plant_port=plant_port)  # fmt: skip
+        self.options = Options.of(options)
         self.options.check(count)
-        self._folder = None if folder is None else Path(folder)
         self._started: list[Started] = []
         self._root: Path | None = None
         self.vehicles: list[VehicleHandle] = []
@@ -188,13 +173,13 @@ class Fleet:
     def start(self) -> Fleet:
         if self._started:
             raise VehicleError("already started")
-        self._started, self._root, self.ready_s = launch(self.options, self.count, self._folder)
+        self._started, self._root, self.ready_s = launch(self.options, self.count)
         self.vehicles = [VehicleHandle(started) for started in self._started]
         return self
 
     def stop(self) -> None:
         """Stop every process started (SIGTERM, then SIGKILL after 5 s), by PID. Safe to call twice."""
-        stop(self._started, self._root if self._folder is None else None)
+        stop(self._started, self._root if self.options.folder is None else None)
         self._started = []
 
     def __enter__(self) -> Fleet:
@@ -223,24 +208,25 @@ class Vehicle(VehicleHandle):
     """One vehicle: the plant (`vtol-sim`) and the autopilot (`vtol-autopilot`), started on entering the block and
     ready to arm (HEARTBEAT past BOOT, HOME_POSITION, SYS_STATUS pre-arm check) when the block begins.
 
-    controller: "mpc" (the unified MPC) or "pid" (the PX4-style baseline). airframe: an airframe TOML for both
-    processes (default: the paper's vehicle). spawn_alt: metres; above 0 the vehicle starts hovering there, armed,
-    in Hold. home: its geodetic origin (Home(lat, lon, alt)). speed: simulated seconds per wall second (the
-    lockstep paced to the wall clock), or None: lockstep as fast as the processes go. params: PX4-style parameters
-    (name -> value) written to the vehicle's parameter file before the start (checked: an unknown name or a value
-    out of range is a ValueError). instance: None (default) for free ports, or I for instance I's ports (docs/plant-link.md:
-    plant 4560+I, API 14540+I, GCS to 14550, system id I+1). sysid: the system id (default: params' MAV_SYS_ID,
-    else I+1, else 1). gcs_port: where the GCS link sends (default: a free port, 14550 with an instance).
-    truth: subscribe to the plant's truth on zenoh. ready_timeout_s: wall seconds to wait for readiness. folder:
-    where the parameter file and the processes' stdout and stderr go (default: a temporary folder, removed at the
-    end). summary: both processes print their counters when they stop (see summary()). autopilot_args: further
-    vtol-autopilot options, as they are (`vtol-autopilot --help`, e.g. ["--quiet"]). wait_ready: False returns as
-    soon as both processes are started (to test start-up itself, e.g. a refused file). params_file: the parameter
-    file the autopilot keeps (default: params.json in the vehicle's folder); an existing one is used as it is, with
-    `params` set into it, and it stays after the stop, with the missions beside it: a later Vehicle given the same
-    file starts where this one stopped. duration_s: both processes stop by themselves after that many simulated
-    seconds (wait for it with wait_finished()). plant_args: further vtol-sim options, as they are (`vtol-sim
-    --help`, e.g. ["--wind", "0,3,0"]).
+    Its keyword arguments (VehicleOptions; a Fleet's are the same): controller: "mpc" (the unified MPC) or "pid"
+    (the PX4-style baseline). airframe: an airframe TOML for both processes (default: the paper's vehicle).
+    spawn_alt: metres; above 0 the vehicle starts hovering there, armed, in Hold. home: its geodetic origin
+    (Home(lat, lon, alt)). speed: simulated seconds per wall second (the lockstep paced to the wall clock), or None:
+    lockstep as fast as the processes go. params: PX4-style parameters (name -> value) written to the vehicle's
+    parameter file before the start (checked: an unknown name or a value out of range is a ValueError). instance:
+    None (default) for free ports, or I for instance I's ports (docs/plant-link.md: plant 4560+I, API 14540+I, GCS
+    to 14550, system id I+1). sysid: the system id (default: params' MAV_SYS_ID, else I+1, else 1). gcs_port: where
+    the GCS link sends (default: a free port, 14550 with an instance). truth: subscribe to the plant's truth on
+    zenoh. ready_timeout_s: wall seconds to wait for readiness. folder: where the parameter file and the processes'
+    stdout and stderr go (default: a temporary folder, removed at the end). summary: both processes print their
+    counters when they stop (see summary()). autopilot_args: further vtol-autopilot options, as they are
+    (`vtol-autopilot --help`, e.g. ["--quiet"]). wait_ready: False returns as soon as both processes are started (to
+    test start-up itself, e.g. a refused file). params_file: the parameter file the autopilot keeps (default:
+    params.json in the vehicle's folder); an existing one is used as it is, with `params` set into it, and it stays
+    after the stop, with the missions beside it: a later Vehicle given the same file starts where this one stopped.
+    duration_s: both processes stop by themselves after that many simulated seconds (wait for it with
+    wait_finished()). plant_args: further vtol-sim options, as they are (`vtol-sim --help`, e.g. ["--wind",
+    "0,3,0"]).
 
     Which processes: both (default); autopilot=False starts the plant alone, for a flight controller of your own or
     a test that plays one on `ports.plant` (ready when the plant says it listens; `truth` works); plant_port=P starts
@@ -248,20 +234,8 @@ class Vehicle(VehicleHandle):
     autopilot=False), ready to arm once that plant steps it (with a plant that a test steps by hand, pass
     wait_ready=False); `truth` then only turns the autopilot's zenoh telemetry on."""
 
-    def __init__(self, *, controller: Controller = "mpc", airframe: str | Path | None = None, spawn_alt: float = 0.0,
-                 home: Home | None = None, speed: float | None = 1.0, params: Mapping[str, float] | None = None,
-                 instance: int | None = None, sysid: int | None = None, gcs_port: int | None = None,
-                 truth: bool = True, ready_timeout_s: float = 60.0, folder: str | Path | None = None,
-                 summary: bool = False, autopilot_args: Sequence[str] = (), wait_ready: bool = True,
-                 params_file: str | Path | None = None, duration_s: float | None = None,
-                 plant_args: Sequence[str] = (), autopilot: bool = True,
-                 plant_port: int | None = None) -> None:  # fmt: skip
-        self._fleet = Fleet(1, controller=controller, airframe=airframe, spawn_alt=spawn_alt, home=home, speed=speed,
-                            params=params, instance=instance, sysid=sysid, gcs_port=gcs_port, truth=truth,
-                            ready_timeout_s=ready_timeout_s, folder=folder, summary=summary,
-                            autopilot_args=autopilot_args, wait_ready=wait_ready, params_file=params_file,
-                            duration_s=duration_s, plant_args=plant_args, autopilot=autopilot,
-                            plant_port=plant_port)  # fmt: skip
+    def __init__(self, **options: Unpack[VehicleOptions]) -> None:
+        self._fleet = Fleet(1, **options)
 
     def start(self) -> Vehicle:
         self._fleet.start()

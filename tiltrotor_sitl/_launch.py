@@ -6,26 +6,33 @@ from __future__ import annotations
 import math
 import os
 import shutil
+import signal
 import socket
 import tempfile
 import time
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Literal
+from typing import Any, TypedDict
 
 from autopilot.storage.parameters import ParameterFileError, ParameterRejected, ParameterStore, vehicle_system_id
-from ground_tools.free_ports import bind_error, free_udp_port, protocol
-from ground_tools.processes import (AutopilotCommand, LinkPorts, SimCommand, VehiclePorts, Zenoh,
-                                    deterministic_argv, fleet_home)  # fmt: skip
 from tiltrotor_sitl import _children
 from tiltrotor_sitl._children import Child
+from tiltrotor_sitl._commands import (
+    AutopilotCommand,
+    Controller,
+    LinkPorts,
+    SimCommand,
+    VehiclePorts,
+    Zenoh,
+    fleet_home,  # fmt: skip
+)
+from tiltrotor_sitl._free_ports import bind_error, free_udp_port, protocol
 from tiltrotor_sitl._readiness import ReadinessWatch
 from tiltrotor_sitl.truth import TruthFeed
 from transport.geodesy import Home, home_from
 from transport.ports import LOOPBACK, Ports, endpoint_port
 
-Controller = Literal["mpc", "pid"]
 PLANT_LISTENING = "listening on udp"  # what vtol-sim says on stderr once its port is bound (sim_bridge/cli.py)
 
 
@@ -33,9 +40,36 @@ class VehicleError(RuntimeError):
     """A vehicle could not be started (the message names the cause); nothing it started is left running."""
 
 
+class VehicleOptions(TypedDict, total=False):
+    """The keyword arguments of Vehicle and Fleet, as a caller gives them (what each means: Vehicle's docstring);
+    Options holds them checked and with their defaults."""
+
+    controller: Controller
+    airframe: str | Path | None
+    spawn_alt: float
+    home: Home | None
+    speed: float | None
+    params: Mapping[str, float] | None
+    instance: int | None
+    sysid: int | None
+    gcs_port: int | None
+    truth: bool
+    ready_timeout_s: float
+    folder: str | Path | None
+    summary: bool
+    autopilot_args: Sequence[str]
+    wait_ready: bool
+    params_file: str | Path | None
+    duration_s: float | None
+    plant_args: Sequence[str]
+    autopilot: bool
+    plant_port: int | None
+
+
 @dataclass(frozen=True)
 class Options:
-    """What every vehicle of one start shares (see Vehicle for the meaning of each)."""
+    """What every vehicle of one start shares (see Vehicle for the meaning of each): VehicleOptions with their
+    defaults, paths as Path, command-line words as tuples."""
 
     controller: Controller = "mpc"
     airframe: Path | None = None
@@ -48,6 +82,7 @@ class Options:
     gcs_port: int | None = None
     truth: bool = True
     ready_timeout_s: float = 60.0
+    folder: Path | None = None
     params_file: Path | None = None
     summary: bool = False
     autopilot_args: tuple[str, ...] = ()
@@ -56,6 +91,26 @@ class Options:
     plant_args: tuple[str, ...] = ()
     autopilot: bool = True
     plant_port: int | None = None
+
+    @classmethod
+    def of(cls, options: VehicleOptions) -> Options:
+        """The options Vehicle's or Fleet's keyword arguments give; TypeError for a keyword that is none of them."""
+        names = {option.name for option in fields(cls)}
+        for name in options:
+            if name not in names:
+                raise TypeError(f"unexpected keyword argument {name!r}")
+        given: dict[str, Any] = dict(options)
+        for name in ("airframe", "folder", "params_file"):
+            if given.get(name) is not None:
+                given[name] = Path(given[name])
+        for name in ("autopilot_args", "plant_args"):
+            if name in given:
+                given[name] = tuple(given[name])
+        if "params" in given:
+            given["params"] = dict(given["params"] or {})
+        if "spawn_alt" in given:
+            given["spawn_alt"] = float(given["spawn_alt"])
+        return cls(**given)
 
     def check(self, count: int) -> None:
         """Raise ValueError naming the first bad argument."""
@@ -207,17 +262,26 @@ def _start_one(options: Options, index: int, sysid: int, ports: VehiclePorts, ro
                                  summary=options.summary, extra=options.autopilot_args)  # fmt: skip
     started = Started(sysid, ports, home, [], folder, params_path)
     if options.starts_plant:
-        started.children.append(_children.start("vtol-sim", deterministic_argv(plant.argv()), folder))
+        started.children.append(_start_child("vtol-sim", plant.argv(), folder))
     if options.autopilot:
-        started.children.append(_children.start("vtol-autopilot", deterministic_argv(autopilot.argv()), folder))
+        started.children.append(_start_child("vtol-autopilot", autopilot.argv(), folder))
     return started
+
+
+def _start_child(name: str, argv: list[str], folder: Path) -> Child:
+    """One process of a vehicle, deterministic, with stdout in folder/<name>.stdout and stderr in folder/<name>.stderr
+    (so a process that dies during start-up can be quoted and a --summary line read back), in its own process group
+    and killed when this process dies."""
+    return _children.start(name, argv, stdout=folder / f"{name}.stdout", stderr=folder / f"{name}.stderr",
+                           env={"PYTHONUNBUFFERED": "1"}, deterministic=True, own_group=True,
+                           parent_death=signal.SIGKILL)  # fmt: skip
 
 
 def _wait_listening(plants: list[Started], timeout_s: float, keep_going: Callable[[], None]) -> bool:
     """Wait until every plant has said on stderr that it listens on its port (the plant alone: nobody steps it, so
     there is no readiness to arm to wait for)."""
     deadline = time.monotonic() + timeout_s
-    while not all(PLANT_LISTENING in child.stderr_path.read_text(errors="replace")
+    while not all(PLANT_LISTENING in child.stderr_text()
                   for vehicle in plants for child in vehicle.children):  # fmt: skip
         keep_going()
         if time.monotonic() > deadline:
@@ -245,7 +309,7 @@ def _watch(options: Options, vehicles: list[Started]) -> ReadinessWatch | None:
                            f"and their API ports {api} are in use ({exc.strerror})") from None  # fmt: skip
 
 
-def launch(options: Options, count: int, folder: Path | None = None) -> tuple[list[Started], Path, float]:
+def launch(options: Options, count: int) -> tuple[list[Started], Path, float]:
     """Start `count` vehicles and wait until each is ready to arm: (vehicles, their folder, seconds to ready).
     On any failure everything started is stopped and VehicleError (or ValueError for a bad argument) raised."""
     options.check(count)
@@ -256,7 +320,7 @@ def launch(options: Options, count: int, folder: Path | None = None) -> tuple[li
     plan = [(first + i, _vehicle_ports(options, i, gcs_remote)) for i in range(count)]
     for sysid, ports in plan:
         _check_free(options, ports, sysid)
-    root = Path(tempfile.mkdtemp(prefix="tiltrotor-sitl-")) if folder is None else Path(folder)
+    root = Path(tempfile.mkdtemp(prefix="tiltrotor-sitl-")) if options.folder is None else options.folder
     root.mkdir(parents=True, exist_ok=True)
     vehicles: list[Started] = []
     watch: ReadinessWatch | None = None
@@ -287,7 +351,7 @@ def launch(options: Options, count: int, folder: Path | None = None) -> tuple[li
             for vehicle in vehicles:
                 vehicle.truth = TruthFeed(vehicle.ports.zenoh_plant, vehicle.sysid)
     except BaseException:
-        stop(vehicles, root if folder is None else None)
+        stop(vehicles, root if options.folder is None else None)
         raise
     finally:
         if watch is not None:

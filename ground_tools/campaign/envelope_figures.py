@@ -9,9 +9,9 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
-from matplotlib import patheffects  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas  # noqa: E402
+from matplotlib import patheffects  # noqa: E402
 
 from ground_tools.campaign.envelope import MapAxes, PaperLine  # noqa: E402
 

@@ -17,9 +17,9 @@ from ground_tools.campaign.points import FlightPoint
 from ground_tools.campaign.spec import PLANT_AIRFRAME, WIND
 from ground_tools.lockstep_client import ScenarioError
 from ground_tools.lockstep_flight import FlightFailed
-from ground_tools.port_blocks import NoFreeBlock, claim_block
 from ground_tools.scenario_run import run_scenario
 from scenarios.variants import build_scenario
+from tiltrotor_sitl._port_blocks import NoFreeBlock, claim_block
 
 FIRST_INSTANCE = 100  # flights take instances 100 .. 999: `vtol up` and tests keep the low ones
 INSTANCES = 900

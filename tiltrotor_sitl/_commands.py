@@ -1,5 +1,6 @@
 """The command lines of the two processes, `vtol-sim` (the plant) and `vtol-autopilot`, built from typed
-descriptions, and the free ports to put them on.
+descriptions; the ports to put them on (an instance's or free ones), a fleet's homes, and the command line and
+environment of a run that must repeat bit for bit (tiltrotor_sitl/_children.py starts them).
 
 A description's defaults are the program's own: a field left alone adds nothing to the command line. Each
 `argv()` runs the program's module with this interpreter ([sys.executable, "-m", "sim_bridge" | "autopilot",
@@ -8,24 +9,20 @@ A description's defaults are the program's own: a field left alone adds nothing 
 
 from __future__ import annotations
 
-import ctypes
+import functools
 import os
-import signal
-import subprocess
+import platform
 import shutil
 import socket
-import platform
-import functools
-
+import subprocess
 import sys
-from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
-from ground_tools.free_ports import lease_ports
+from tiltrotor_sitl._free_ports import lease_ports
 from transport.geodesy import Home, LocalGeodetic, home_from
-from transport.ports import LOOPBACK, Ports, zenoh_endpoint
+from transport.ports import Ports, zenoh_endpoint
 
 FLEET_SPACING_M = 5.0  # vehicles of a fleet stand this far apart, in a row to the east
 SIM_MODULE = "sim_bridge"
@@ -64,41 +61,6 @@ def fleet_home(index: int, home: Home | None = None, spacing_m: float = FLEET_SP
     origin = home if home is not None else home_from(None, os.environ)
     lat, lon, alt = LocalGeodetic(origin).to_geodetic(0.0, index * spacing_m, 0.0)
     return Home(lat, lon, alt)
-
-
-# ---- children that end with their parent -----------------------------------------------------------------------
-PR_SET_PDEATHSIG = 1  # Linux prctl(2)
-
-
-@functools.cache
-def _prctl() -> Callable[..., int]:
-    return ctypes.CDLL(None).prctl
-
-
-def follow_parent(parent_pid: int, signum: int) -> bool:
-    """Ask the kernel to send this process `signum` when its parent ends, however it ends, SIGKILL included (Linux
-    PR_SET_PDEATHSIG; it goes when the parent's starting thread ends, so start children from a thread that waits for
-    them). Exits at once if the parent `parent_pid` has already ended. False where the request is refused or the
-    system has no such request."""
-    refused = not sys.platform.startswith("linux") or _prctl()(PR_SET_PDEATHSIG, int(signum), 0, 0, 0) != 0
-    if os.getppid() != parent_pid:
-        os._exit(1)
-    return not refused
-
-
-def die_with_parent(signum: int = signal.SIGTERM) -> Callable[[], None] | None:
-    """A `preexec_fn` for subprocess.Popen: the child gets `signum` when this process ends (`follow_parent`), so a
-    `vtol` command killed by SIGKILL leaves no plant or autopilot flying on. SIGTERM lets them stop as on a request.
-    None where there is no such request (not Linux): no preexec_fn, the plain spawn."""
-    if not sys.platform.startswith("linux"):
-        return None
-    parent = os.getpid()
-    _prctl()  # resolved here: between fork and exec the child only calls it
-
-    def preexec() -> None:
-        follow_parent(parent, signum)
-
-    return preexec
 
 
 def deterministic_environment() -> dict[str, str]:

@@ -10,7 +10,7 @@ from __future__ import annotations
 import socket
 from dataclasses import dataclass
 
-from ground_tools.processes import VehiclePorts
+from tiltrotor_sitl._commands import VehiclePorts
 from transport.ports import LOOPBACK, MAX_INSTANCE
 
 
