@@ -1,19 +1,15 @@
-"""Shared fixtures: the airframe, isolated parameter files, and the plant alone (started through the public API)."""
+"""Shared fixtures: the airframe and isolated parameter files; tests under tests/sitl/ are marked `sitl`."""
 
 from __future__ import annotations
 
 import os
-import subprocess
-import time
 from collections.abc import Iterator
-from dataclasses import dataclass
+from pathlib import Path
 
 import pytest
 
 from aircraft.airframe import Airframe, load_airframe
-from tiltrotor_sitl import Vehicle
 from tiltrotor_sitl._commands import SimCommand
-from transport.plant_link import PlantLinkClient, PlantSample
 
 
 @pytest.fixture(scope="session", autouse=True)
@@ -33,63 +29,14 @@ def airframe() -> Airframe:
     return load_airframe()
 
 
-@dataclass
-class PlantProcess:
-    """A plant alone (`vtol-sim` started through tiltrotor_sitl.Vehicle(autopilot=False)) and a plant-link client
-    talking to it: the test plays the autopilot."""
-
-    vehicle: Vehicle
-    client: PlantLinkClient
-
-    @property
-    def process(self) -> subprocess.Popen:
-        return self.vehicle.process("vtol-sim")
-
-    @property
-    def port(self) -> int:
-        return self.vehicle.ports.plant
-
-    @property
-    def zenoh_endpoint(self) -> str:
-        return self.vehicle.ports.zenoh_plant
-
-    def first_sample(self, timeout_s: float = 60.0) -> PlantSample:
-        """Say hello until the plant answers with its first state (it starts stepping on our first message)."""
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            if self.process.poll() is not None:
-                raise AssertionError(f"vtol-sim exited early: {self.vehicle.stderr('vtol-sim')}")
-            self.client.hello()
-            sample = self.client.receive_step(0.2)
-            if sample is not None:
-                return sample
-        raise AssertionError("vtol-sim did not start within the timeout")
-
-    def stop(self) -> dict:
-        """SIGTERM the plant, return its --summary counters."""
-        self.vehicle.stop()
-        return self.vehicle.summary("vtol-sim")
-
-
 def vtol_sim_command(*args: str) -> list[str]:
     """vtol-sim with exactly `args` (each test says what it wants), for the tests of its command line."""
     return SimCommand(extra=args).argv()
 
 
-@pytest.fixture
-def start_plant(tmp_path) -> Iterator:
-    """Factory: start_plant(*vtol-sim args, zenoh=False) -> PlantProcess: the plant alone on free ports, in
-    lockstep unless the args say otherwise, with --summary; zenoh (truth) only when asked."""
-    started: list[PlantProcess] = []
-
-    def start(*args: str, zenoh: bool = False) -> PlantProcess:
-        vehicle = Vehicle(autopilot=False, speed=None, truth=zenoh, summary=True, plant_args=args,
-                          folder=tmp_path / f"plant-{len(started)}").start()  # fmt: skip
-        plant = PlantProcess(vehicle, PlantLinkClient(vehicle.ports.plant))
-        started.append(plant)
-        return plant
-
-    yield start
-    for plant in started:
-        plant.client.close()
-        plant.vehicle.stop()
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Every test under tests/sitl/ starts processes or opens sockets: marked `sitl` (`-m "not sitl"` leaves them)."""
+    sitl = Path(__file__).parent / "sitl"
+    for item in items:
+        if sitl in Path(item.path).parents:
+            item.add_marker(pytest.mark.sitl)
