@@ -75,10 +75,14 @@ def wing_wrench(airframe: Airframe, v_air_body: ca.SX, rates_body: ca.SX) -> tup
     cos_a, sin_a = ca.cos(alpha), ca.sin(alpha)
     force = e * q_s * ca.vertcat(-c_d * cos_a + c_l * sin_a, a.CY_beta * beta, -c_d * sin_a - c_l * cos_a)
     damping = 0.25 * a.air_density * airspeed * a.wing_area
-    moment = e * damping * ca.vertcat(
-        a.wing_span**2 * a.Cl_p * rates_body[0],
-        a.mean_chord**2 * a.Cm_q * rates_body[1],
-        a.wing_span**2 * a.Cn_r * rates_body[2],
+    moment = (
+        e
+        * damping
+        * ca.vertcat(
+            a.wing_span**2 * a.Cl_p * rates_body[0],
+            a.mean_chord**2 * a.Cm_q * rates_body[1],
+            a.wing_span**2 * a.Cn_r * rates_body[2],
+        )
     )
     return force, moment
 

@@ -229,7 +229,7 @@ def parse_airframe(document: dict[str, Any], origin: str) -> Airframe:
             if entry is None:
                 raise AirframeError(f"{where}: missing")
             if not isinstance(entry, dict) or "value" not in entry:
-                raise AirframeError(f"{where}: expected {{ value = ..., source = \"...\" }}")
+                raise AirframeError(f'{where}: expected {{ value = ..., source = "..." }}')
             if not isinstance(entry.get("source"), str) or not entry["source"].strip():
                 raise AirframeError(f"{where}: every number needs a non-empty 'source'")
             attribute, shape, constraint = _SCHEMA[(section, key)]

@@ -74,7 +74,9 @@ def shared_library(
             shutil.copyfile(partial, staging)
             os.replace(staging, library)  # atomic: never a half-written library, even with racing processes
         except (OSError, subprocess.SubprocessError) as exc:
-            detail = exc.stderr.decode(errors="replace")[-300:] if isinstance(exc, subprocess.CalledProcessError) else exc
+            detail = (
+                exc.stderr.decode(errors="replace")[-300:] if isinstance(exc, subprocess.CalledProcessError) else exc
+            )
             print(f"{who}: compiling {name} failed ({detail})", file=sys.stderr)
             return None
     return library

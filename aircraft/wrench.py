@@ -39,9 +39,7 @@ def body_wrench(
     return f_rotor + f_wing, m_rotor + m_wing + m_surface
 
 
-def actuator_wrench(
-    airframe: Airframe, actuators: ca.SX, tilts: ca.SX, v_air_body: ca.SX, rates_body: ca.SX
-) -> ca.SX:
+def actuator_wrench(airframe: Airframe, actuators: ca.SX, tilts: ca.SX, v_air_body: ca.SX, rates_body: ca.SX) -> ca.SX:
     """6-vector (force, moment) of the allocated actuators u = (u1..u4 thrust fractions 0..1, daL, daR, de, dr)."""
     thrusts = actuators[ALLOCATED_ROTORS] * airframe.thrust_max
     deflections = actuators[ALLOCATED_SURFACES]

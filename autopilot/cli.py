@@ -72,14 +72,27 @@ def build_parser() -> OneLineArgumentParser:
     port = bounded_int(1, 65535)
     parser.add_argument("--instance", type=bounded_int(0, 999), default=0, help="shift every port by I")
     parser.add_argument("--sim-port", type=port, help="the plant's UDP port (default 4560+I)")
-    parser.add_argument("--sim-bind-port", type=port, default=0, metavar="P",
-                        help="bind the plant link to UDP P (default: any free port; for vtol-sim --autopilot-port P)")
+    parser.add_argument(
+        "--sim-bind-port",
+        type=port,
+        default=0,
+        metavar="P",
+        help="bind the plant link to UDP P (default: any free port; for vtol-sim --autopilot-port P)",
+    )
     parser.add_argument("--gcs-port", type=port, metavar="P", help="GCS link: bind UDP P (default 18570+I)")
-    parser.add_argument("--gcs-remote-port", type=port, metavar="P",
-                        help="GCS link: send to 127.0.0.1:P until a client speaks (default 14550, every instance)")
+    parser.add_argument(
+        "--gcs-remote-port",
+        type=port,
+        metavar="P",
+        help="GCS link: send to 127.0.0.1:P until a client speaks (default 14550, every instance)",
+    )
     parser.add_argument("--api-port", type=port, metavar="P", help="API (offboard) link: bind UDP P (default 14580+I)")
-    parser.add_argument("--api-remote-port", type=port, metavar="P",
-                        help="API link: send to 127.0.0.1:P until a client speaks (default 14540+I)")
+    parser.add_argument(
+        "--api-remote-port",
+        type=port,
+        metavar="P",
+        help="API link: send to 127.0.0.1:P until a client speaks (default 14540+I)",
+    )
     parser.add_argument("--controller", choices=("pid", "mpc"),
                         help="velocity controller: mpc (the unified MPC, the PID its back-up) or pid (the baseline); "
                              "default: the VT_CTRL parameter (1 = mpc)")  # fmt: skip
@@ -93,8 +106,13 @@ def build_parser() -> OneLineArgumentParser:
                         help="mission file: mission, geofence and rally points, kept across restarts (default "
                              "missions-I.json beside the parameter file)")  # fmt: skip
     parser.add_argument("--airframe", metavar="FILE", help="airframe TOML for the controllers' model")
-    parser.add_argument("--spawn-alt", type=nonnegative_float, default=0.0, metavar="M",
-                        help="the plant spawned hovering: start armed, in Hold (0 = on the ground, disarmed)")
+    parser.add_argument(
+        "--spawn-alt",
+        type=nonnegative_float,
+        default=0.0,
+        metavar="M",
+        help="the plant spawned hovering: start armed, in Hold (0 = on the ground, disarmed)",
+    )
     parser.add_argument("--profile", choices=sorted(PROFILES),
                         help="fly an internal velocity set-point profile (docs/scenarios.md) from the first step "
                              "instead of taking commands")  # fmt: skip
@@ -103,22 +121,48 @@ def build_parser() -> OneLineArgumentParser:
                              "stamp, and the simulation (in every mode, from the first step) advances only as far "
                              "as a client's stamped set-points reach (docs/mavlink.md)")  # fmt: skip
     parser.add_argument("--duration", type=positive_float, metavar="S", help="stop after S simulated seconds")
-    parser.add_argument("--failure", type=scheduled_failure, action="append", default=[],
-                        metavar="T,UNIT,TYPE,INSTANCE[,VALUE]",
-                        help="inject MAV_CMD_INJECT_FAILURE at simulated time T (repeatable)")
+    parser.add_argument(
+        "--failure",
+        type=scheduled_failure,
+        action="append",
+        default=[],
+        metavar="T,UNIT,TYPE,INSTANCE[,VALUE]",
+        help="inject MAV_CMD_INJECT_FAILURE at simulated time T (repeatable)",
+    )
     parser.add_argument("--log", metavar="FILE.csv", help="write the 100 Hz flight log (state, set-points, actuators)")
-    parser.add_argument("--sysid", type=bounded_int(1, 250), help="vehicle system id (default: MAV_SYS_ID when set in the parameter file, else I+1)")
-    parser.add_argument("--home", type=float_triple, default=None, metavar="LAT,LON,ALT",
-                        help="home position in degrees and metres AMSL, as the plant's --home "
-                             "(default PX4 SITL's 47.397742,8.545594,488, or PX4_HOME_LAT/LON/ALT)")
+    parser.add_argument(
+        "--sysid",
+        type=bounded_int(1, 250),
+        help="vehicle system id (default: MAV_SYS_ID when set in the parameter file, else I+1)",
+    )
+    parser.add_argument(
+        "--home",
+        type=float_triple,
+        default=None,
+        metavar="LAT,LON,ALT",
+        help="home position in degrees and metres AMSL, as the plant's --home "
+        "(default PX4 SITL's 47.397742,8.545594,488, or PX4_HOME_LAT/LON/ALT)",
+    )
     parser.add_argument("--no-zenoh", action="store_true", help="do not publish telemetry on zenoh")
-    parser.add_argument("--zenoh-listen", action="append", metavar="ENDPOINT",
-                        help="zenoh endpoint to listen on (default tcp/127.0.0.1:7547+I); repeatable")
-    parser.add_argument("--zenoh-connect", action="append", default=[], metavar="ENDPOINT",
-                        help="zenoh endpoint to connect to; repeatable")
+    parser.add_argument(
+        "--zenoh-listen",
+        action="append",
+        metavar="ENDPOINT",
+        help="zenoh endpoint to listen on (default tcp/127.0.0.1:7547+I); repeatable",
+    )
+    parser.add_argument(
+        "--zenoh-connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="zenoh endpoint to connect to; repeatable",
+    )
     parser.add_argument("--quiet", action="store_true", help="do not echo flight events (STATUSTEXT) on stderr")
-    parser.add_argument("--plant-signing-key", metavar="FILE",
-                        help="sign the plant link with this key (64 hex digits), as the plant's --plant-signing-key")
+    parser.add_argument(
+        "--plant-signing-key",
+        metavar="FILE",
+        help="sign the plant link with this key (64 hex digits), as the plant's --plant-signing-key",
+    )
     parser.add_argument("--summary", action="store_true", help="print a JSON line of counters on exit")
     return parser
 
@@ -180,7 +224,7 @@ def main(argv: list[str] | None = None) -> int:
                                  note=lambda text: print(f"{PROG}: {text}", file=sys.stderr, flush=True),
                                  scheduled=args.failure)  # fmt: skip
     try:
-        log = open(args.log, "w", newline="") if args.log else None
+        log = open(args.log, "w", newline="") if args.log else None  # noqa: SIM115 (closed when the loop ends)
     except OSError as exc:
         fail(PROG, f"cannot write the log {args.log}: {exc.strerror}")
     session = None
@@ -198,10 +242,13 @@ def main(argv: list[str] | None = None) -> int:
 
     def new_flight_controller() -> FlightController:
         """Built at start and at every takeoff from the ground, with the parameters of the moment."""
-        return build_flight_controller(airframe, controller_kind(args.controller, params.get_int("VT_CTRL")),
-                                       TransitionAirspeeds(params["VT_ARSP_BLEND"], params["VT_ARSP_TRANS"]),
-                                       mpc_horizon=mpc_horizon(args.mpc_horizon, params.get_int("VT_MPC_HRZN")),
-                                       mpc_overlap=params.get_int("VT_MPC_OVERLAP") == 1)
+        return build_flight_controller(
+            airframe,
+            controller_kind(args.controller, params.get_int("VT_CTRL")),
+            TransitionAirspeeds(params["VT_ARSP_BLEND"], params["VT_ARSP_TRANS"]),
+            mpc_horizon=mpc_horizon(args.mpc_horizon, params.get_int("VT_MPC_HRZN")),
+            mpc_overlap=params.get_int("VT_MPC_OVERLAP") == 1,
+        )
 
     outputs = LoopOutputs(
         log=None if log is None else FlightLogger(log),

@@ -67,7 +67,7 @@ class LoopCounters:
     notices: int = 0
 
 
-@dataclass
+@dataclass(frozen=True)
 class LoopOutputs:
     """Where the loop writes besides the plant link: the CSV log and zenoh (each optional)."""
 

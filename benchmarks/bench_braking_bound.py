@@ -40,15 +40,21 @@ SUBSTEP_S = 0.01  # RK4 steps of the MPC's own 10 ms inside each stage
 def cruise_state(horizon: str) -> np.ndarray:
     """The MPC's state x_0 at its last tick before the braking starts (read once that tick has run)."""
     controller = None
-    for _, controller, _ in velocity_ticks(HORIZONS[horizon], PROFILES["accel-decel"][0], BRAKING_S[0]):
+    for _, controller, _ in velocity_ticks(HORIZONS[horizon], PROFILES["accel-decel"][0], BRAKING_S[0]):  # noqa: B007 (the last one is kept)
         pass
     if controller is None or controller.mpc is None:
         raise SystemExit("the MPC did not fly up to the braking")
     return controller.mpc.last_x0.copy()
 
 
-def best_braking(x0: np.ndarray, seconds: float, stage_s: float, on_course: bool = False,
-                 guess: tuple[float, float, float] = (70.0, 5.0, 0.0), deceleration: float = 2.0) -> dict:
+def best_braking(
+    x0: np.ndarray,
+    seconds: float,
+    stage_s: float,
+    on_course: bool = False,
+    guess: tuple[float, float, float] = (70.0, 5.0, 0.0),
+    deceleration: float = 2.0,
+) -> dict:
     """A local minimum over the model's inputs of max_k |v_k - v_sp,k|, v_sp = (the ramp from t = 0, 0, 0), with
     |v_z| and |pitch| bounded (on_course: |v_y| too). guess: IPOPT's start, the tilts (deg), thrusts (N) and pitch
     (deg) all along. Raises RuntimeError (with IPOPT's status) when IPOPT does not converge."""
@@ -111,16 +117,20 @@ def main() -> None:
     parser.add_argument("--decel", type=float, default=2.0, help="the braking's deceleration (m/s^2; accel-decel: 2)")
     args = parser.parse_args()
     x0 = cruise_state(args.horizon)
-    print(f"cruise at {BRAKING_S[0]:g} s ({args.horizon} horizon): v_x {x0[0]:.2f} m/s, tilts "
-          f"{np.round(np.degrees(x0[CHI]), 1).tolist()} deg, pitch {math.degrees(x0[PITCH]):.2f} deg")
+    print(
+        f"cruise at {BRAKING_S[0]:g} s ({args.horizon} horizon): v_x {x0[0]:.2f} m/s, tilts "
+        f"{np.round(np.degrees(x0[CHI]), 1).tolist()} deg, pitch {math.degrees(x0[PITCH]):.2f} deg"
+    )
     tilt_deg, thrust, pitch_deg = (float(text) for text in args.guess.split(","))
     best = best_braking(x0, args.seconds, args.stage, args.on_course, (tilt_deg, thrust, pitch_deg), args.decel)
-    print(f"best braking over the first {args.seconds:g} s of the ramp (stages of {args.stage:g} s, IPOPT "
-          f"{best['solve_s']:.0f} s): largest |v - v_sp| {best['worst']:.3f} m/s at {best['at_s']:.2f} s "
-          f"(goal <= {GOALS['braking error']:g}), |pitch| up to {best['pitch_deg']:.1f} deg, |roll| up to "
-          f"{best['roll_deg']:.1f} deg, |v_z| up to {best['vz']:.2f} m/s, |v_y| up to {best['vy']:.2f} m/s; tilts "
-          f"{np.round(best['tilts_deg'][:, 0], 0).tolist()} -> "
-          f"{np.round(best['tilts_deg'][:, 1], 0).tolist()} deg")
+    print(
+        f"best braking over the first {args.seconds:g} s of the ramp (stages of {args.stage:g} s, IPOPT "
+        f"{best['solve_s']:.0f} s): largest |v - v_sp| {best['worst']:.3f} m/s at {best['at_s']:.2f} s "
+        f"(goal <= {GOALS['braking error']:g}), |pitch| up to {best['pitch_deg']:.1f} deg, |roll| up to "
+        f"{best['roll_deg']:.1f} deg, |v_z| up to {best['vz']:.2f} m/s, |v_y| up to {best['vy']:.2f} m/s; tilts "
+        f"{np.round(best['tilts_deg'][:, 0], 0).tolist()} -> "
+        f"{np.round(best['tilts_deg'][:, 1], 0).tolist()} deg"
+    )
 
 
 if __name__ == "__main__":

@@ -33,7 +33,9 @@ def main() -> None:
         root = Path(folder)
         quiet = fly_profile(root / "quiet", args.seconds, args.controller)
         print(line("quiet", quiet), flush=True)
-        busy = fly_profile(root / "busy", args.seconds, args.controller, beside=[*beside, "--out", str(root / "beside")])
+        busy = fly_profile(
+            root / "busy", args.seconds, args.controller, beside=[*beside, "--out", str(root / "beside")]
+        )
         print(line("lockstep scenario beside", busy), flush=True)
     ratios = [b / q for b, q in zip(busy.rms_ned, quiet.rms_ned, strict=True)]
     print("busy / quiet v RMS N/E/D: " + " / ".join(f"{r:.2f}" for r in ratios) + " (goal: each <= 1.20)")

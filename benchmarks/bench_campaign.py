@@ -38,8 +38,9 @@ def one_round(workers: int, text: str) -> tuple[float, float]:
                        check=True, capture_output=True, timeout=3600)  # fmt: skip
         elapsed = time.perf_counter() - started
         with duckdb.connect(str(Path(folder) / "out" / "campaign.duckdb"), read_only=True) as db:
-            count, done, wall = db.execute("SELECT count(*), count_if(status = 'done'), avg(wall_s) "
-                                           "FROM flights").fetchone()
+            count, done, wall = db.execute(
+                "SELECT count(*), count_if(status = 'done'), avg(wall_s) FROM flights"
+            ).fetchone()
     if done != count:
         raise SystemExit(f"{count - done} flight(s) failed")
     return count / elapsed * 60.0, wall
@@ -58,8 +59,11 @@ def main() -> None:
         rounds = [one_round(workers, text) for _ in range(args.repeats)]
         rates[workers] = statistics.median(rate for rate, _ in rounds)
         wall = statistics.median(w for _, w in rounds)
-        print(f"{workers} worker(s): {rates[workers]:.2f} flights/min ({args.flights} flights of {args.duration:g} s, "
-              f"{args.controller}; {wall:.1f} s per flight on a worker; median of {args.repeats})", flush=True)
+        print(
+            f"{workers} worker(s): {rates[workers]:.2f} flights/min ({args.flights} flights of {args.duration:g} s, "
+            f"{args.controller}; {wall:.1f} s per flight on a worker; median of {args.repeats})",
+            flush=True,
+        )
     print(f"scaling 1 -> 2 workers: {rates[2] / rates[1]:.2f}x")
 
 

@@ -107,10 +107,13 @@ def main() -> None:
             with tempfile.TemporaryDirectory() as out:
                 results.append(round_(args.flights, str(Path(out))))
         medians = {key: statistics.median(r[key] for r in results) for key in results[0]}
-        print(f"{name}: start {medians['start_s']:.2f} s, stop {medians['stop_s']:.2f} s, "
-              f"{medians['task_ms']:.2f} ms per empty task, cluster memory {medians['rss_mb']:.0f} MB, "
-              f"{medians['flights_per_min']:.1f} flights/min ({args.flights} flights of 0.5 s, PID, {WORKERS} workers; "
-              f"medians of {args.repeats})", flush=True)
+        print(
+            f"{name}: start {medians['start_s']:.2f} s, stop {medians['stop_s']:.2f} s, "
+            f"{medians['task_ms']:.2f} ms per empty task, cluster memory {medians['rss_mb']:.0f} MB, "
+            f"{medians['flights_per_min']:.1f} flights/min ({args.flights} flights of 0.5 s, PID, {WORKERS} workers; "
+            f"medians of {args.repeats})",
+            flush=True,
+        )
 
 
 if __name__ == "__main__":

@@ -31,14 +31,26 @@ def main() -> None:
         faulty = fly_plant_link(work, "faulty", faults, duration_s=args.flight_s, seed=args.seed)
         proxy = faulty.proxy or {}
         up, down = proxy.get(UPSTREAM, {}), proxy.get(DOWNSTREAM, {})
-        rows.append(("plant link, clean", "-", f"accel {args.flight_s:g} s, vx RMS {clean.figures.vx_rmse:.3f} m/s",
-                     f"missed {clean.plant['missed_commands']}", f"{clean.figures.altitude_deviation:.3f}"))
-        rows.append((f"plant link, {faults.describe()}",
-                     f"lost {up.get('lost')}+{down.get('lost')} of {up.get('received')}+{down.get('received')}",
-                     f"accel {args.flight_s:g} s, vx RMS {faulty.figures.vx_rmse:.3f} m/s, pitch max "
-                     f"{faulty.figures.pitch_max_deg:.1f} deg (clean {clean.figures.pitch_max_deg:.1f})",
-                     f"missed {faulty.plant['missed_commands']}, handshakes {faulty.plant['handshakes']}, "
-                     f"peer_lost {faulty.plant['peer_lost']}", f"{faulty.figures.altitude_deviation:.3f}"))
+        rows.append(
+            (
+                "plant link, clean",
+                "-",
+                f"accel {args.flight_s:g} s, vx RMS {clean.figures.vx_rmse:.3f} m/s",
+                f"missed {clean.plant['missed_commands']}",
+                f"{clean.figures.altitude_deviation:.3f}",
+            )
+        )
+        rows.append(
+            (
+                f"plant link, {faults.describe()}",
+                f"lost {up.get('lost')}+{down.get('lost')} of {up.get('received')}+{down.get('received')}",
+                f"accel {args.flight_s:g} s, vx RMS {faulty.figures.vx_rmse:.3f} m/s, pitch max "
+                f"{faulty.figures.pitch_max_deg:.1f} deg (clean {clean.figures.pitch_max_deg:.1f})",
+                f"missed {faulty.plant['missed_commands']}, handshakes {faulty.plant['handshakes']}, "
+                f"peer_lost {faulty.plant['peer_lost']}",
+                f"{faulty.figures.altitude_deviation:.3f}",
+            )
+        )
         junk = junk_while_hovering(work, args.per_port, seed=args.seed)
         links = junk.autopilot.get("links", {})
         for name, injected in junk.injected.items():
@@ -47,15 +59,24 @@ def main() -> None:
             else:
                 link = links[name]
                 counted = f"received {link['received']}, dropped {link['dropped']}, ignored {link['ignored']}"
-            rows.append((f"malformed at {name} port", f"{injected.total} ({dict(injected.sent)})",
-                         f"{junk.autopilot.get('flight_mode')}, armed {junk.autopilot.get('armed')}, crashed "
-                         f"{junk.crashed or 'none'}", counted, f"{junk.figures.altitude_deviation:.3f}"))
+            rows.append(
+                (
+                    f"malformed at {name} port",
+                    f"{injected.total} ({dict(injected.sent)})",
+                    f"{junk.autopilot.get('flight_mode')}, armed {junk.autopilot.get('armed')}, crashed "
+                    f"{junk.crashed or 'none'}",
+                    counted,
+                    f"{junk.figures.altitude_deviation:.3f}",
+                )
+            )
         elapsed = time.monotonic() - started
     print("| fault | injected | vehicle | counters | altitude dev. (m) |\n| --- | --- | --- | --- | --- |")
     for row in rows:
         print("| " + " | ".join(row) + " |")
-    print(f"\nparameter file intact: {junk.files_intact}; set-points dropped (NaN/Inf): {links.get('setpoints_dropped')};"
-          f" exit codes autopilot {junk.autopilot_rc}, plant {junk.plant_rc}; {elapsed:.0f} s wall")
+    print(
+        f"\nparameter file intact: {junk.files_intact}; set-points dropped (NaN/Inf): {links.get('setpoints_dropped')};"
+        f" exit codes autopilot {junk.autopilot_rc}, plant {junk.plant_rc}; {elapsed:.0f} s wall"
+    )
 
 
 if __name__ == "__main__":

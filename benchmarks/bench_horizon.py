@@ -51,8 +51,12 @@ def velocity_ticks(
         plant.step()
 
 
-def fly(horizon: MpcHorizon, profile: Callable[[float], np.ndarray], seconds: float,
-        braking_s: tuple[float, float] = BRAKING_S) -> dict:
+def fly(
+    horizon: MpcHorizon,
+    profile: Callable[[float], np.ndarray],
+    seconds: float,
+    braking_s: tuple[float, float] = BRAKING_S,
+) -> dict:
     rows, solve_ms = [], []
     for state, controller, v_sp in velocity_ticks(horizon, profile, seconds):
         if controller.mpc is not None and controller.mpc.solve_times.count > len(solve_ms):
@@ -118,8 +122,12 @@ def main() -> None:
     parser.add_argument("--grids", default="paper,long")
     parser.add_argument("--profile", default="accel-decel", choices=sorted(PROFILES))
     parser.add_argument("--seconds", type=float, help="default: the profile's length (accel-decel 32 s)")
-    parser.add_argument("--decel", type=float, metavar="A",
-                        help="accel-decel braking at A m/s^2 instead of 2 (the braking window and length follow)")
+    parser.add_argument(
+        "--decel",
+        type=float,
+        metavar="A",
+        help="accel-decel braking at A m/s^2 instead of 2 (the braking window and length follow)",
+    )
     args = parser.parse_args()
     profile, seconds = PROFILES[args.profile]
     braking_s = BRAKING_S

@@ -118,13 +118,19 @@ def main() -> None:
     runs = [lockstep_factor(args.seconds) for _ in range(args.repeats)]
     factors = [run["plant_real_time_factor"] for run in runs]
     per_step = [run["per_step_us"] for run in runs]
-    print(f"lockstep real-time factor     median {statistics.median(factors):.1f}x "
-          f"(min {min(factors):.1f}, max {max(factors):.1f}) over {args.repeats} runs of {args.seconds:g} s")
+    print(
+        f"lockstep real-time factor     median {statistics.median(factors):.1f}x "
+        f"(min {min(factors):.1f}, max {max(factors):.1f}) over {args.repeats} runs of {args.seconds:g} s"
+    )
     alone = [run["plant_alone_real_time_factor"] for run in runs]
-    print(f"plant alone (its busy time)   median {statistics.median(alone):.1f}x real time "
-          f"({1e6 / 400 / statistics.median(alone):.0f} us of plant work per step)")
-    print(f"wall time per physics step    median {statistics.median(per_step):.0f} us "
-          f"(budget for 40x: {1e6 / 400 / 40:.0f} us)")
+    print(
+        f"plant alone (its busy time)   median {statistics.median(alone):.1f}x real time "
+        f"({1e6 / 400 / statistics.median(alone):.0f} us of plant work per step)"
+    )
+    print(
+        f"wall time per physics step    median {statistics.median(per_step):.0f} us "
+        f"(budget for 40x: {1e6 / 400 / 40:.0f} us)"
+    )
     print(f"missed commands               {sum(run['missed_commands'] for run in runs)}")
 
 

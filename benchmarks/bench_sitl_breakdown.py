@@ -85,8 +85,10 @@ def main() -> None:
     wall_ms = pl["wall_time_s"] / sim_s * 1e3
     autopilot_busy_ms = ap["busy_us_per_step"] * steps / sim_s / 1e3
     plant_busy_ms = pl["busy_time_s"] / sim_s * 1e3
-    print(f"{args.profile}, {args.duration:g} s simulated, {args.controller}"
-          f"{f', VT_MPC_OVERLAP {args.overlap}' if args.controller == 'mpc' else ''}, lockstep, no ground station")
+    print(
+        f"{args.profile}, {args.duration:g} s simulated, {args.controller}"
+        f"{f', VT_MPC_OVERLAP {args.overlap}' if args.controller == 'mpc' else ''}, lockstep, no ground station"
+    )
     print(f"unprofiled: {pl['real_time_factor']:.1f}x real time; per simulated second: wall {wall_ms:.0f} ms, "
           f"autopilot work {autopilot_busy_ms:.0f} ms, plant work {plant_busy_ms:.0f} ms")  # fmt: skip
     run_s, _ = cumulative(stats, "plant_loop.py", "run")

@@ -143,8 +143,12 @@ def main() -> None:
     parser.add_argument("--controller", choices=("mpc", "pid", "both"), default="both")
     parser.add_argument("--minutes", type=float, default=120.0, help="simulated minutes after the warm-up")
     parser.add_argument("--warm-up-minutes", type=float, default=5.0, help="simulated minutes before measuring")
-    parser.add_argument("--speed", type=float, default=16.0,
-                        help="the plant's pace (simulated s per wall s); 0: lockstep as fast as the processes go")
+    parser.add_argument(
+        "--speed",
+        type=float,
+        default=16.0,
+        help="the plant's pace (simulated s per wall s); 0: lockstep as fast as the processes go",
+    )
     parser.add_argument("--sample-s", type=float, default=2.0, help="wall seconds between samples")
     args = parser.parse_args()
     for controller in ("mpc", "pid") if args.controller == "both" else (args.controller,):

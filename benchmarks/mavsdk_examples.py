@@ -197,7 +197,9 @@ def main(argv: list[str] | None = None) -> int:
     for name in args.only or names:
         outcome = run_example(name, work, python, vtol, args.timeout)
         results[name] = asdict(outcome)
-        print(f"{'pass' if outcome.passed else 'FAIL'}  {name:34s} {outcome.seconds:5.0f} s  {outcome.note}", flush=True)
+        print(
+            f"{'pass' if outcome.passed else 'FAIL'}  {name:34s} {outcome.seconds:5.0f} s  {outcome.note}", flush=True
+        )
         if args.results is not None:
             args.results.write_text(json.dumps(results, indent=1) + "\n")
     passed = sum(1 for name in names if results.get(name, {}).get("passed"))

@@ -91,9 +91,16 @@ def fly_profile(folder: Path, duration_s: float = 40.0, controller: Controller =
             stop_beside(other)
     error = np.array(errors)
     rms = tuple(float(math.sqrt(np.mean(error[:, axis] ** 2))) for axis in range(3))
-    return BusyFlight(rms, len(errors), bool(autopilot["controller"].get("fell_back_to_pid", False)), left,
-                      float(plant["real_time_factor"]), int(plant["slowdowns"]), time.monotonic() - started,
-                      beside_ran)
+    return BusyFlight(
+        rms,
+        len(errors),
+        bool(autopilot["controller"].get("fell_back_to_pid", False)),
+        left,
+        float(plant["real_time_factor"]),
+        int(plant["slowdowns"]),
+        time.monotonic() - started,
+        beside_ran,
+    )
 
 
 def _fly(link: mavutil.mavfile, target: int, duration_s: float) -> tuple[list[np.ndarray], bool]:

@@ -70,24 +70,49 @@ def main(argv: list[str] | None = None) -> int:
     fly_parser.add_argument("--out", default="runs", metavar="DIR", help="output folder (default ./runs)")
     fly_parser.add_argument("--duration", type=positive_float, metavar="S", help="default: the profile's")
     fly_parser.add_argument("--spawn-alt", type=positive_float, default=100.0, metavar="M")
-    add_scenario_arguments(commands.add_parser("scenario", help="fly a paper experiment through MAVLink, with "
-                                               "metrics, figures and recordings"))
-    add_mission_arguments(commands.add_parser("mission", help="fly a mission file (.plan, .waypoints) in lockstep "
-                                              "through MAVLink, with figures and waypoint errors"))
-    add_campaign_arguments(commands.add_parser("campaign", help="fly a campaign of scenario variants on a Dask "
-                                               "cluster, into a DuckDB store, with envelope maps"))
+    add_scenario_arguments(
+        commands.add_parser(
+            "scenario", help="fly a paper experiment through MAVLink, with metrics, figures and recordings"
+        )
+    )
+    add_mission_arguments(
+        commands.add_parser(
+            "mission",
+            help="fly a mission file (.plan, .waypoints) in lockstep through MAVLink, with figures and waypoint errors",
+        )
+    )
+    add_campaign_arguments(
+        commands.add_parser(
+            "campaign",
+            help="fly a campaign of scenario variants on a Dask cluster, into a DuckDB store, with envelope maps",
+        )
+    )
     up_parser = commands.add_parser("up", help="start the plant (real time) and the autopilot for a ground station")
     up_parser.add_argument("--instance", type=bounded_int(0, 999), default=0, help="shift every port by I")
-    up_parser.add_argument("--count", type=bounded_int(1, 100), default=1, metavar="N",
-                           help="start N vehicles: instances I..I+N-1, system ids I+1..I+N, 5 m apart (default 1)")
+    up_parser.add_argument(
+        "--count",
+        type=bounded_int(1, 100),
+        default=1,
+        metavar="N",
+        help="start N vehicles: instances I..I+N-1, system ids I+1..I+N, 5 m apart (default 1)",
+    )
     up_parser.add_argument("--controller", choices=("mpc", "pid"), help="default: the VT_CTRL parameter")
-    up_parser.add_argument("--spawn-alt", type=nonnegative_float, default=0.0, metavar="M",
-                           help="start hovering at M metres, armed, in Hold (default: on the ground, disarmed)")
-    up_parser.add_argument("--speed", type=positive_float, default=1.0, metavar="F",
-                           help="simulated seconds per wall second (default 1)")
+    up_parser.add_argument(
+        "--spawn-alt",
+        type=nonnegative_float,
+        default=0.0,
+        metavar="M",
+        help="start hovering at M metres, armed, in Hold (default: on the ground, disarmed)",
+    )
+    up_parser.add_argument(
+        "--speed", type=positive_float, default=1.0, metavar="F", help="simulated seconds per wall second (default 1)"
+    )
     up_parser.add_argument("--params", metavar="FILE", help="the autopilot's parameter file")
-    up_parser.add_argument("--plant-signing-key", metavar="FILE",
-                           help="sign each vehicle's plant link with this key (64 hex digits; docs/plant-link.md)")
+    up_parser.add_argument(
+        "--plant-signing-key",
+        metavar="FILE",
+        help="sign each vehicle's plant link with this key (64 hex digits; docs/plant-link.md)",
+    )
     up_parser.add_argument("--no-zenoh", action="store_true", help="no zenoh telemetry")
     add_record_arguments(commands.add_parser("record", help="record a vehicle's zenoh telemetry (JSON lines)"))
     add_watch_arguments(commands.add_parser("watch", help="live view of a vehicle's zenoh telemetry"))

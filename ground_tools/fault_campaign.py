@@ -167,9 +167,18 @@ def fly_plant_link(folder: Path, name: str, faults: Faults | None, *, duration_s
     sim = SimCommand(port=port, spawn_alt=spawn_alt, duration_s=duration_s, lockstep_timeout_s=lockstep_timeout_s,
                      summary=True, zenoh=Zenoh.off())  # fmt: skip
     proxy = FaultProxy(port, faults, seed=seed).start() if faults is not None else None
-    autopilot = AutopilotCommand(sim_port=proxy.port if proxy is not None else port, links=free_link_ports(),
-                                 spawn_alt=spawn_alt, profile=profile, duration_s=duration_s, controller=controller,
-                                 zenoh=Zenoh.off(), quiet=True, log=log, params=folder / f"{name}.params.json")
+    autopilot = AutopilotCommand(
+        sim_port=proxy.port if proxy is not None else port,
+        links=free_link_ports(),
+        spawn_alt=spawn_alt,
+        profile=profile,
+        duration_s=duration_s,
+        controller=controller,
+        zenoh=Zenoh.off(),
+        quiet=True,
+        log=log,
+        params=folder / f"{name}.params.json",
+    )
     plant = start("vtol-sim", sim.argv(), stdout=Stream.CAPTURE, stderr=Stream.DISCARD)
     pilot = start("vtol-autopilot", autopilot.argv(), stdout=Stream.DISCARD, stderr=Stream.DISCARD)
     try:

@@ -182,16 +182,32 @@ class LockstepClient:
                 out.append(mav.param_set_encode(self.target, 1, b"SYS_FAILURE_EN", enable, M.MAV_PARAM_TYPE_INT32))
         elif not self.mode_requested:
             self.mode_requested = True
-            out.append(mav.command_long_encode(self.target, 1, M.MAV_CMD_DO_SET_MODE, 0,
-                                               M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, PX4_OFFBOARD, 0, 0, 0, 0, 0))
+            out.append(
+                mav.command_long_encode(
+                    self.target,
+                    1,
+                    M.MAV_CMD_DO_SET_MODE,
+                    0,
+                    M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+                    PX4_OFFBOARD,
+                    0,
+                    0,
+                    0,
+                    0,
+                    0,
+                )
+            )
         elif now_ms >= START_MS and not self.offboard:
             raise ScenarioError("the vehicle did not acknowledge Offboard before the profile start")
         failure = self.scenario.failure
         if failure is not None and self.events.failure_ms is None and now_ms >= START_MS \
                 and failure.condition(self.telemetry):  # fmt: skip
             self.events.failure_ms = now_ms
-            out.append(mav.command_long_encode(self.target, 1, M.MAV_CMD_INJECT_FAILURE, 0,
-                                               *failure.injection.as_params(), 0, 0, 0))
+            out.append(
+                mav.command_long_encode(
+                    self.target, 1, M.MAV_CMD_INJECT_FAILURE, 0, *failure.injection.as_params(), 0, 0, 0
+                )
+            )
         # A trigger is checked at every hold, so while one is pending each answer covers one grid period.
         pending = failure is not None and self.events.failure_ms is None
         stamp = grid_stamp(now_ms)

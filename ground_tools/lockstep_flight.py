@@ -55,7 +55,9 @@ def fly_lockstep(
             controller=controller, summary=True, zenoh=Zenoh.off(), quiet=True, log=log_path, extra=autopilot_args,
         )  # fmt: skip
         argv = autopilot_command.argv()
-        if autopilot_profile is not None:  # [python, -m, module, ...] -> [python, -m, cProfile, -o, FILE, -m, module, ...]
+        if (
+            autopilot_profile is not None
+        ):  # [python, -m, module, ...] -> [python, -m, cProfile, -o, FILE, -m, module, ...]
             argv = [argv[0], "-m", "cProfile", "-o", str(autopilot_profile), *argv[1:]]
         autopilot = _start("vtol-autopilot", argv)
         children.append(autopilot)

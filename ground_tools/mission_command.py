@@ -31,8 +31,12 @@ FIGURE_FILES = ("ground_track.png", "speed.png", "tilt.png")
 
 def add_mission_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("file", help="a QGroundControl .plan or a QGC WPL 110 .waypoints file")
-    parser.add_argument("--controller", choices=("mpc", "pid", "both"), default="mpc",
-                        help="velocity controller(s) to fly (default mpc)")
+    parser.add_argument(
+        "--controller",
+        choices=("mpc", "pid", "both"),
+        default="mpc",
+        help="velocity controller(s) to fly (default mpc)",
+    )
     parser.add_argument("--out", default="runs", metavar="DIR", help="output folder (default ./runs)")
 
 

@@ -29,19 +29,31 @@ SHOWN = ("survived", "vx_rmse", "vz_max_abs", "pitch_max_abs_deg", "alt_change_m
 
 def add_scenario_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("name", choices=[*SCENARIOS, "all"], help="a paper experiment, or all five")
-    parser.add_argument("--controller", choices=("mpc", "pid", "both"), default="both",
-                        help="velocity controller(s) to fly (default both, overlaid in the figures)")
+    parser.add_argument(
+        "--controller",
+        choices=("mpc", "pid", "both"),
+        default="both",
+        help="velocity controller(s) to fly (default both, overlaid in the figures)",
+    )
     parser.add_argument("--mpc-horizon", choices=sorted(HORIZONS),
                         help="the MPC's horizon: paper (25 x 10 ms) or long (docs/mpc.md 2.9); default: the "
                              "autopilot's VT_MPC_HRZN")  # fmt: skip
     parser.add_argument("--out", default="runs", metavar="DIR", help="output folder (default ./runs)")
-    parser.add_argument("--instance", type=bounded_int(0, 999), metavar="I",
-                        help="use instance I's ports (docs/plant-link.md), e.g. for `vtol watch --instance I`; default: free ports")
+    parser.add_argument(
+        "--instance",
+        type=bounded_int(0, 999),
+        metavar="I",
+        help="use instance I's ports (docs/plant-link.md), e.g. for `vtol watch --instance I`; default: free ports",
+    )
     parser.add_argument("--jobs", type=bounded_int(1, 64), metavar="J",
                         help="runs flown at a time, each in a worker process (default: 2 on a machine with 2 or more "
                              "cores, else 1; 1 with --instance)")  # fmt: skip
-    parser.add_argument("--duration", type=positive_float, metavar="S",
-                        help="fly only the first S seconds of each profile (quick looks, tests; no acceptance checks)")
+    parser.add_argument(
+        "--duration",
+        type=positive_float,
+        metavar="S",
+        help="fly only the first S seconds of each profile (quick looks, tests; no acceptance checks)",
+    )
     parser.add_argument("--no-record", action="store_true", help="no zenoh telemetry and no recording of it")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
@@ -74,8 +86,10 @@ def scenario(args: argparse.Namespace) -> int:
                 failed.append(f"{name}/{controller}")
                 continue
             shown = {key: result.metrics.get(key) for key in SHOWN if result.metrics.get(key) is not None}
-            print(f"{PROG}: {name} ({controller}): {result.sim_s:g} s flown in {result.wall_s:.1f} s; "
-                  + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}" for k, v in shown.items()))
+            print(
+                f"{PROG}: {name} ({controller}): {result.sim_s:g} s flown in {result.wall_s:.1f} s; "
+                + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}" for k, v in shown.items())
+            )
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted: the runs in flight were stopped, their processes killed", file=sys.stderr)
         return 130

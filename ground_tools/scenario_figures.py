@@ -49,8 +49,14 @@ def _time_figure(runs, failures, panels, title: str, path: Path) -> Path:
             axis.plot(run[flight_log.T], y, color=colour, linestyle=line, label=controller.upper())
             if setpoint is not None:
                 sp = setpoint(run) if callable(setpoint) else run[setpoint]
-                axis.plot(run[flight_log.T], sp, color=colour, linestyle=":", linewidth=1.0,
-                          label=f"set-point ({controller.upper()})")
+                axis.plot(
+                    run[flight_log.T],
+                    sp,
+                    color=colour,
+                    linestyle=":",
+                    linewidth=1.0,
+                    label=f"set-point ({controller.upper()})",
+                )
         axis.set_ylabel(label)
         axis.grid(True, alpha=0.3)
         axis.legend(loc="best", fontsize="small")

@@ -69,13 +69,26 @@ def fly(name: str, controller: Controller, out: Path, args: argparse.Namespace, 
     """One run with its progress bar; its FlightFailed or ScenarioError as the outcome when it fails."""
     scenario = flown_scenario(name, args)
     total = START_MS / 1000.0 + scenario.duration_s
-    bar = tqdm(total=round(total, 2), desc=f"{scenario.name} ({controller})", unit="sim s", leave=True,
-               disable=True if args.no_progress else None, file=sys.stderr, position=bar_position,
-               bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]")
+    bar = tqdm(
+        total=round(total, 2),
+        desc=f"{scenario.name} ({controller})",
+        unit="sim s",
+        leave=True,
+        disable=True if args.no_progress else None,
+        file=sys.stderr,
+        position=bar_position,
+        bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]",
+    )
     try:
-        return run_scenario(scenario, controller, out, instance=args.instance, record=not args.no_record,
-                            mpc_horizon=args.mpc_horizon,
-                            on_progress=lambda sim_s: bar.update(round(min(sim_s, total) - bar.n, 2)))
+        return run_scenario(
+            scenario,
+            controller,
+            out,
+            instance=args.instance,
+            record=not args.no_record,
+            mpc_horizon=args.mpc_horizon,
+            on_progress=lambda sim_s: bar.update(round(min(sim_s, total) - bar.n, 2)),
+        )
     except (FlightFailed, ScenarioError) as exc:
         return exc
     finally:

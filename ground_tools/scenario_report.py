@@ -13,7 +13,7 @@ import platform
 import sys
 from collections.abc import Callable
 from dataclasses import dataclass
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
@@ -44,8 +44,10 @@ CHECKS: dict[str, list[Check]] = {
     "accel-decel": [Check("ends in hover (mean speed over the last second <= 0.5 m/s)", _at_most("final_speed", 0.5))],
     "circle": [
         Check("radial error RMS <= 5 m", _at_most("radial_rmse_m", 5.0)),
-        Check(f"mean bank within 3 deg of atan(v^2/(gR)) = {BANK_THEORY_DEG:.1f} deg",
-              lambda m: m.get("bank_mean_deg") is not None and abs(m["bank_mean_deg"] - BANK_THEORY_DEG) <= 3.0),
+        Check(
+            f"mean bank within 3 deg of atan(v^2/(gR)) = {BANK_THEORY_DEG:.1f} deg",
+            lambda m: m.get("bank_mean_deg") is not None and abs(m["bank_mean_deg"] - BANK_THEORY_DEG) <= 3.0,
+        ),
     ],  # fmt: skip
     "servo-failure": [Check("v_x RMS error after the jam <= 1.5 m/s", _at_most("vx_rmse_after_failure", 1.5))],
     "motor-failure": [
@@ -120,12 +122,15 @@ def write_report(out: Path, wall_s: float | None = None) -> Path:
     """<out>/report.md from the run folders under `out`."""
     runs = load_runs(out)
     lines = ["# Scenarios: the unified MPC against the PID baseline", ""]
-    stamp = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
     lines.append(f"Written by `vtol scenario` on {stamp}, {platform.machine()} with {usable_cpus()} CPU(s)"
                  + (f", {wall_s:.0f} s of wall time in all." if wall_s is not None else "."))  # fmt: skip
-    lines += ["Each run flies through MAVLink only (Offboard velocity set-points at 50 Hz, failures by "
-              "MAV_CMD_INJECT_FAILURE on their telemetry trigger), in lockstep; t = 0 is the profile start. "
-              "Solve times are wall-clock measurements of this machine; every other number repeats exactly.", ""]
+    lines += [
+        "Each run flies through MAVLink only (Offboard velocity set-points at 50 Hz, failures by "
+        "MAV_CMD_INJECT_FAILURE on their telemetry trigger), in lockstep; t = 0 is the profile start. "
+        "Solve times are wall-clock measurements of this machine; every other number repeats exactly.",
+        "",
+    ]
     failed_pid = [name for name, by in runs.items() if "pid" in by and not by["pid"][0]["survived"]]
     lines += ["## Acceptance (MPC)", "", "| scenario | check | result |", "| --- | --- | --- |"]
     for name, by in runs.items():

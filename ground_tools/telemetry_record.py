@@ -323,14 +323,34 @@ def sysid_or_all(text: str) -> int:
 def add_source_arguments(parser: argparse.ArgumentParser, *, allow_all: bool) -> None:
     """--instance I | --connect ENDPOINT..., --sysid N, --duration S (wall seconds)."""
     source = parser.add_mutually_exclusive_group()
-    source.add_argument("--instance", type=bounded_int(0, 999), default=0, metavar="I",
-                        help="connect to instance I's plant and autopilot (tcp/127.0.0.1:7447+I and :7547+I)")
-    source.add_argument("--connect", type=zenoh_endpoint, action="append", metavar="ENDPOINT",
-                        help="zenoh endpoint to connect to instead (repeatable), e.g. tcp/<host>:7447")
-    parser.add_argument("--sysid", type=sysid_or_all if allow_all else bounded_int(1, 255), default=None, metavar="N",
-                        help="vehicle system id (default I+1, the instance's; 1 with --connect)" + ("; 'all' for every vehicle" if allow_all else ""))
-    parser.add_argument("--duration", type=positive_float, metavar="S",
-                        help="stop after S wall-clock seconds (default: at Ctrl-C or SIGTERM)")
+    source.add_argument(
+        "--instance",
+        type=bounded_int(0, 999),
+        default=0,
+        metavar="I",
+        help="connect to instance I's plant and autopilot (tcp/127.0.0.1:7447+I and :7547+I)",
+    )
+    source.add_argument(
+        "--connect",
+        type=zenoh_endpoint,
+        action="append",
+        metavar="ENDPOINT",
+        help="zenoh endpoint to connect to instead (repeatable), e.g. tcp/<host>:7447",
+    )
+    parser.add_argument(
+        "--sysid",
+        type=sysid_or_all if allow_all else bounded_int(1, 255),
+        default=None,
+        metavar="N",
+        help="vehicle system id (default I+1, the instance's; 1 with --connect)"
+        + ("; 'all' for every vehicle" if allow_all else ""),
+    )
+    parser.add_argument(
+        "--duration",
+        type=positive_float,
+        metavar="S",
+        help="stop after S wall-clock seconds (default: at Ctrl-C or SIGTERM)",
+    )
 
 
 def add_record_arguments(parser: argparse.ArgumentParser) -> None:

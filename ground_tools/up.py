@@ -36,11 +36,24 @@ def commands(args: argparse.Namespace, index: int, sysid: int) -> tuple[list[str
     instance = args.instance + index
     home = fleet_home(index) if index > 0 else None
     key = Path(args.plant_signing_key) if args.plant_signing_key else None
-    plant = SimCommand(instance=instance, realtime_speed=args.speed, spawn_alt=args.spawn_alt, zenoh=zenoh, home=home,
-                       plant_signing_key=key, sysid=sysid)
-    autopilot = AutopilotCommand(instance=instance, spawn_alt=args.spawn_alt, zenoh=zenoh, home=home,
-                                 controller=args.controller, params=Path(args.params) if args.params else None,
-                                 plant_signing_key=key)
+    plant = SimCommand(
+        instance=instance,
+        realtime_speed=args.speed,
+        spawn_alt=args.spawn_alt,
+        zenoh=zenoh,
+        home=home,
+        plant_signing_key=key,
+        sysid=sysid,
+    )
+    autopilot = AutopilotCommand(
+        instance=instance,
+        spawn_alt=args.spawn_alt,
+        zenoh=zenoh,
+        home=home,
+        controller=args.controller,
+        params=Path(args.params) if args.params else None,
+        plant_signing_key=key,
+    )
     return plant.argv(), autopilot.argv()
 
 

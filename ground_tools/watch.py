@@ -34,6 +34,7 @@ REDRAW_S = 0.2  # window refresh period (wall)
 STATUS_S = 1.0  # text status period (wall)
 GUI_BACKENDS = ("QtAgg", "TkAgg", "GTK4Agg", "GTK3Agg")
 
+
 def add_watch_arguments(parser: Any) -> None:
     add_source_arguments(parser, allow_all=False)
     parser.add_argument("--snapshot", metavar="FILE.png", help="write the figure to FILE when the watch ends")
@@ -148,7 +149,7 @@ def _ended(stop_requested: Any, start: float, duration: float | None) -> bool:
 def new_events(view: TelemetryView, shown: int) -> list[str]:
     """The events filed since `shown` of them were (at most the ring's length)."""
     fresh = min(view.events_total - shown, len(view.events))
-    return list(view.events)[len(view.events) - fresh:] if fresh > 0 else []
+    return list(view.events)[len(view.events) - fresh :] if fresh > 0 else []
 
 
 def run_text(subscription: Subscription, view: TelemetryView, stop_requested: Any, start: float,

@@ -80,8 +80,10 @@ def draw(artists: dict[str, Any], view: TelemetryView) -> None:
             if view.last_control is not None:  # the set-point the horizon aims at (dashed)
                 artists[f"mpc_{name}_sp"].set_data(stages[[0, -1]], [view.last_control[f"{name}_sp"]] * 2)
         artists["mpc_note"].set_visible(False)
-        artists["mpc_title"].set_text(f"MPC predicted velocity (m/s) at t = {view.last_mpc['t']:.2f} s"
-                                      + ("" if view.last_mpc["ok"] else f" FAILED ({view.last_mpc['status']})"))
+        artists["mpc_title"].set_text(
+            f"MPC predicted velocity (m/s) at t = {view.last_mpc['t']:.2f} s"
+            + ("" if view.last_mpc["ok"] else f" FAILED ({view.last_mpc['status']})")
+        )
     latest = max((b[-1]["t"] for b in (view.plant, view.control, view.solves) if b), default=None)
     axes = artists["axes"]
     for axis in axes.flat:

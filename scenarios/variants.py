@@ -43,8 +43,13 @@ TURNS = Parameter("turns", 0.05, 5.0, 1.0, "turns of the circle")
 FAILURE_YAW = Parameter("failure_yaw_deg", 0.0, 359.99, 90.0, "the rotor fails when the yaw reaches this (deg)")
 ROTOR = Parameter("rotor", 1, 4, 1, "the rotor that fails", integer=True)
 JAM = Parameter("jam_deg", -7.0, 95.0, 60.0, "the servo jams at this tilt (deg)")
-JAM_SPEED = Parameter("jam_speed_mps", 0.0, 40.0, None,
-                      "jam when the ground speed reaches this (m/s); unset: when the servo's command reaches jam_deg")
+JAM_SPEED = Parameter(
+    "jam_speed_mps",
+    0.0,
+    40.0,
+    None,
+    "jam when the ground speed reaches this (m/s); unset: when the servo's command reaches jam_deg",
+)
 SERVO = Parameter("servo", 1, 4, 1, "the tilt servo that jams", integer=True)
 
 PARAMETERS: dict[str, tuple[Parameter, ...]] = {
@@ -84,8 +89,13 @@ def _value(values: Mapping[str, float], parameter: Parameter) -> float:
 def _circle(base: Scenario, values: Mapping[str, float]) -> Scenario:
     profile = CircleProfile(_value(values, SPEED), _value(values, RADIUS), _value(values, TURNS))
     summary = f"2 m/s^2 to {profile.speed:g} m/s, then {profile.turns:g} turn(s) of a {profile.radius:g} m circle"
-    return replace(base, profile=profile, duration_s=profile.duration_s, circle=Circle(profile.start_s, profile.radius),
-                   summary=summary)
+    return replace(
+        base,
+        profile=profile,
+        duration_s=profile.duration_s,
+        circle=Circle(profile.start_s, profile.radius),
+        summary=summary,
+    )
 
 
 def _motor_failure(base: Scenario, values: Mapping[str, float]) -> Scenario:
@@ -93,8 +103,9 @@ def _motor_failure(base: Scenario, values: Mapping[str, float]) -> Scenario:
     rotor, yaw = int(_value(values, ROTOR)), _value(values, FAILURE_YAW)
     failure = TriggeredFailure(Failure(FailureUnit.MOTOR, FailureType.OFF, rotor), yaw_reaches(yaw),
                                f"yaw reaches {yaw:g} deg")  # fmt: skip
-    return replace(circled, failure=failure,
-                   summary=f"{circled.summary}, rotor {rotor} off once the yaw reaches {yaw:g} deg")
+    return replace(
+        circled, failure=failure, summary=f"{circled.summary}, rotor {rotor} off once the yaw reaches {yaw:g} deg"
+    )
 
 
 def _servo_failure(base: Scenario, values: Mapping[str, float]) -> Scenario:

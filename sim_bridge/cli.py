@@ -41,12 +41,26 @@ def build_parser() -> OneLineArgumentParser:
     parser.add_argument("--autopilot-port", type=bounded_int(1, 65535), metavar="P",
                         help="belong only to the autopilot on udp 127.0.0.1:P (default: the first autopilot to "
                              "complete the handshake)")  # fmt: skip
-    parser.add_argument("--spawn-alt", type=nonnegative_float, default=0.0, metavar="M",
-                        help="start hovering at M metres (rotors at hover trim); 0 = on the ground, disarmed")
-    parser.add_argument("--spawn-rotors", choices=("spinning", "stopped"), default="spinning",
-                        help="with --spawn-alt: rotors at hover trim (default) or stopped (a drop test)")
-    parser.add_argument("--spawn-yaw", type=finite_float, default=0.0, metavar="DEG",
-                        help="initial heading in degrees (default 0, north)")
+    parser.add_argument(
+        "--spawn-alt",
+        type=nonnegative_float,
+        default=0.0,
+        metavar="M",
+        help="start hovering at M metres (rotors at hover trim); 0 = on the ground, disarmed",
+    )
+    parser.add_argument(
+        "--spawn-rotors",
+        choices=("spinning", "stopped"),
+        default="spinning",
+        help="with --spawn-alt: rotors at hover trim (default) or stopped (a drop test)",
+    )
+    parser.add_argument(
+        "--spawn-yaw",
+        type=finite_float,
+        default=0.0,
+        metavar="DEG",
+        help="initial heading in degrees (default 0, north)",
+    )
     parser.add_argument("--realtime", action="store_true",
                         help="pace the lockstep to the wall clock times --speed (interactive sessions); when the "
                              "autopilot cannot keep up the simulation slows down, never integrating on a stale "
@@ -55,35 +69,84 @@ def build_parser() -> OneLineArgumentParser:
                         help="with --realtime: step on the wall clock with the latest command whatever its age "
                              "(a slow autopilot then flies on stale commands; the vehicle may fall on a busy "
                              "machine)")  # fmt: skip
-    parser.add_argument("--speed", type=positive_float, default=1.0, metavar="F",
-                        help="with --realtime: simulated seconds per wall second (default 1)")
+    parser.add_argument(
+        "--speed",
+        type=positive_float,
+        default=1.0,
+        metavar="F",
+        help="with --realtime: simulated seconds per wall second (default 1)",
+    )
     parser.add_argument("--airframe", metavar="FILE", help="airframe TOML file (default: the paper's vehicle)")
-    parser.add_argument("--sysid", type=bounded_int(1, 255), default=None,
-                        help="vehicle system id (default I+1, as the autopilot's)")
+    parser.add_argument(
+        "--sysid", type=bounded_int(1, 255), default=None, help="vehicle system id (default I+1, as the autopilot's)"
+    )
     parser.add_argument("--compid", type=bounded_int(1, 255), default=200, help="plant component id (default 200)")
-    parser.add_argument("--home", type=float_triple, default=None, metavar="LAT,LON,ALT",
-                        help="home position in degrees and metres AMSL "
-                             "(default PX4 SITL's 47.397742,8.545594,488, or PX4_HOME_LAT/LON/ALT)")
-    parser.add_argument("--wind", type=float_triple, default=(0.0, 0.0, 0.0), metavar="N,E,D",
-                        help="constant wind in NED, m/s (default 0,0,0)")
-    parser.add_argument("--lockstep-timeout", type=positive_float, default=0.5, metavar="S",
-                        help="wall seconds to wait for the autopilot's command before holding the last one")
-    parser.add_argument("--peer-lost-after", type=bounded_int(1, 1_000_000), default=10, metavar="N",
-                        help="lockstep: after N missed commands in a row, pause until an autopilot speaks (default 10)")
-    parser.add_argument("--duration", type=positive_float, default=None, metavar="S",
-                        help="stop after S simulated seconds (default: run until stopped)")
-    parser.add_argument("--sensor-noise-seed", type=bounded_int(0, 2**31 - 1), default=None, metavar="N",
-                        help="add seeded sensor noise (default: none, runs repeat exactly)")
+    parser.add_argument(
+        "--home",
+        type=float_triple,
+        default=None,
+        metavar="LAT,LON,ALT",
+        help="home position in degrees and metres AMSL "
+        "(default PX4 SITL's 47.397742,8.545594,488, or PX4_HOME_LAT/LON/ALT)",
+    )
+    parser.add_argument(
+        "--wind",
+        type=float_triple,
+        default=(0.0, 0.0, 0.0),
+        metavar="N,E,D",
+        help="constant wind in NED, m/s (default 0,0,0)",
+    )
+    parser.add_argument(
+        "--lockstep-timeout",
+        type=positive_float,
+        default=0.5,
+        metavar="S",
+        help="wall seconds to wait for the autopilot's command before holding the last one",
+    )
+    parser.add_argument(
+        "--peer-lost-after",
+        type=bounded_int(1, 1_000_000),
+        default=10,
+        metavar="N",
+        help="lockstep: after N missed commands in a row, pause until an autopilot speaks (default 10)",
+    )
+    parser.add_argument(
+        "--duration",
+        type=positive_float,
+        default=None,
+        metavar="S",
+        help="stop after S simulated seconds (default: run until stopped)",
+    )
+    parser.add_argument(
+        "--sensor-noise-seed",
+        type=bounded_int(0, 2**31 - 1),
+        default=None,
+        metavar="N",
+        help="add seeded sensor noise (default: none, runs repeat exactly)",
+    )
     parser.add_argument("--no-zenoh", action="store_true", help="do not publish telemetry on zenoh")
-    parser.add_argument("--zenoh-listen", action="append", metavar="ENDPOINT",
-                        help="zenoh endpoint to listen on (default tcp/127.0.0.1:7447+I); repeatable")
-    parser.add_argument("--zenoh-connect", action="append", default=[], metavar="ENDPOINT",
-                        help="zenoh endpoint to connect to; repeatable")
-    parser.add_argument("--plant-signing-key", metavar="FILE",
-                        help="sign the plant link with this key (64 hex digits) and obey only frames signed with it; "
-                             "give the autopilot the same file")
-    parser.add_argument("--summary", action="store_true",
-                        help="print a JSON line of counters (steps, missed, dropped...) on exit")
+    parser.add_argument(
+        "--zenoh-listen",
+        action="append",
+        metavar="ENDPOINT",
+        help="zenoh endpoint to listen on (default tcp/127.0.0.1:7447+I); repeatable",
+    )
+    parser.add_argument(
+        "--zenoh-connect",
+        action="append",
+        default=[],
+        metavar="ENDPOINT",
+        help="zenoh endpoint to connect to; repeatable",
+    )
+    parser.add_argument(
+        "--plant-signing-key",
+        metavar="FILE",
+        help="sign the plant link with this key (64 hex digits) and obey only frames signed with it; "
+        "give the autopilot the same file",
+    )
+    parser.add_argument(
+        "--summary", action="store_true", help="print a JSON line of counters (steps, missed, dropped...) on exit"
+    )
     return parser
 
 
@@ -120,9 +183,12 @@ def main(argv: list[str] | None = None) -> int:
         yaw_deg=args.spawn_yaw,
     )
     plant = Plant(airframe, spawn, wind_ned=args.wind)
-    link = Link(args.sysid if args.sysid is not None else ports.system_id, args.compid,
-                signing_key=key_file_option(PROG, "--plant-signing-key", args.plant_signing_key),
-                fast=PLANT_STEP_FORMATS)
+    link = Link(
+        args.sysid if args.sysid is not None else ports.system_id,
+        args.compid,
+        signing_key=key_file_option(PROG, "--plant-signing-key", args.plant_signing_key),
+        fast=PLANT_STEP_FORMATS,
+    )
     sensors = SensorSuite(plant, link, LocalGeodetic(home), noise_seed=args.sensor_noise_seed)
     session = None
     if not args.no_zenoh:

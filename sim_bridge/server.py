@@ -21,9 +21,10 @@ import socket
 import sys
 import time
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Any, Callable
+from typing import Any
 
 from aircraft.actuators import pwm_to_command
 from aircraft.failures import FailureRejected
@@ -285,8 +286,12 @@ class PlantServer:
                     if silent_steps >= self.peer_lost_after:
                         # The autopilot is gone: pause (not integrate in slow motion) until one speaks again.
                         self.counters.peer_lost += 1
-                        print(f"vtol-sim: no command for {silent_steps} steps; paused at t = "
-                              f"{plant.time_usec / 1e6:.4f} s until an autopilot completes the handshake", file=sys.stderr, flush=True)
+                        print(
+                            f"vtol-sim: no command for {silent_steps} steps; paused at t = "
+                            f"{plant.time_usec / 1e6:.4f} s until an autopilot completes the handshake",
+                            file=sys.stderr,
+                            flush=True,
+                        )
                         self.gate.release()
                         if not self.wait_for_peer():
                             break

@@ -275,7 +275,9 @@ def stop(children: Sequence[Child], signum: int = signal.SIGTERM, timeout_s: flo
     return killed
 
 
-def run_to_end(argv: Sequence[str], timeout_s: float, env: Mapping[str, str] | None = None) -> subprocess.CompletedProcess:
+def run_to_end(
+    argv: Sequence[str], timeout_s: float, env: Mapping[str, str] | None = None
+) -> subprocess.CompletedProcess:
     """Run `argv` to its end (`env`'s variables set) with stdout and stderr captured (a command line refused, --help),
     as subprocess.run with capture_output and text does: after `timeout_s` it is killed and
     subprocess.TimeoutExpired raised."""

@@ -101,12 +101,16 @@ def bindable(kind: socket.SocketKind, port: int) -> bool:
 
 
 def protocol(kind: socket.SocketKind) -> str:
-    """"udp" or "tcp"."""
+    """ "udp" or "tcp"."""
     return "udp" if kind == socket.SOCK_DGRAM else "tcp"
 
 
-def lease_ports(kinds: Iterable[socket.SocketKind], folder: Path | None = None, candidates: range | None = None,
-                lease_s: float = LEASE_S) -> list[int]:
+def lease_ports(
+    kinds: Iterable[socket.SocketKind],
+    folder: Path | None = None,
+    candidates: range | None = None,
+    lease_s: float = LEASE_S,
+) -> list[int]:
     """One free loopback port for each socket kind in `kinds` (SOCK_DGRAM or SOCK_STREAM), all different, leased
     for `lease_s` seconds in the lease file of `folder` (default: `lease_folder()`), drawn from `candidates`
     (default: the pool outside the ephemeral range). OSError if the lease file cannot be used or no free port is

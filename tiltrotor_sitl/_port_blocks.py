@@ -44,7 +44,7 @@ class PortBlock:
 def claim_block(first: int, count: int, start: int = 0) -> PortBlock:
     """The first instance of `first` .. `first + count - 1`, trying from `first + start % count` on (wrapping),
     whose API remote port nobody holds; raises NoFreeBlock."""
-    if not (0 <= first and count > 0 and first + count - 1 <= MAX_INSTANCE):
+    if not (first >= 0 and count > 0 and first + count - 1 <= MAX_INSTANCE):
         raise ValueError(f"instances {first} .. {first + count - 1} are not within 0 .. {MAX_INSTANCE}")
     for step in range(count):
         instance = first + (start + step) % count

@@ -36,8 +36,12 @@ class Link:
     """One MAVLink endpoint's encoder and robust parser with drop counters."""
 
     def __init__(
-        self, system_id: int, component_id: int, signing_key: bytes | None = None,
-        fast: tuple[FrameFormat, ...] = (), checked: tuple[FrameFormat, ...] = (),
+        self,
+        system_id: int,
+        component_id: int,
+        signing_key: bytes | None = None,
+        fast: tuple[FrameFormat, ...] = (),
+        checked: tuple[FrameFormat, ...] = (),
     ) -> None:
         """`signing_key`: sign everything sent and keep only frames signed with it (transport/link_signing.py).
         `fast`: message types parsed by precompiled structs (transport/mavlink_frames.py), of which `checked` are

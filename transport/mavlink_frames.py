@@ -82,7 +82,7 @@ class FrameFormat:
     def fields(self, payload: bytes) -> list[Any]:
         """The fields of a payload (zero-padded to full size) in argument order, arrays as lists."""
         flat = self.payload_struct.unpack(payload)
-        return [flat[start] if not length else list(flat[start:start + length]) for start, length in self.arguments]
+        return [flat[start] if not length else list(flat[start : start + length]) for start, length in self.arguments]
 
 
 class FastFrames:
@@ -132,13 +132,13 @@ class FastFrames:
             if length > size:
                 return None
             crc = CRC.unpack_from(data, crc_at)[0]
-            if crc != frame_crc(memoryview(data)[offset + 1:crc_at], frame_format.crc_extra):
+            if crc != frame_crc(memoryview(data)[offset + 1 : crc_at], frame_format.crc_extra):
                 return None
             if msgid in self.checked:
                 offset = crc_at + 2
                 continue
-            frame = bytearray(data[offset:crc_at + 2])
-            payload = data[offset + HEADER_LEN:crc_at]
+            frame = bytearray(data[offset : crc_at + 2])
+            payload = data[offset + HEADER_LEN : crc_at]
             if length < size:
                 payload += bytes(size - length)
             message = frame_format.message_class(*frame_format.fields(payload))

@@ -35,8 +35,14 @@ class PlantLinkClient:
     """UDP client of a plant listening on 127.0.0.1:port."""
 
     def __init__(
-        self, port: int, system_id: int = 1, component_id: int = 1, host: str = LOOPBACK, local_port: int = 0,
-        signing_key: bytes | None = None, sensors: bool = True,
+        self,
+        port: int,
+        system_id: int = 1,
+        component_id: int = 1,
+        host: str = LOOPBACK,
+        local_port: int = 0,
+        signing_key: bytes | None = None,
+        sensors: bool = True,
     ) -> None:
         """`local_port` 0: an ephemeral port; a plant started with `--autopilot-port P` accepts only local_port P.
         `signing_key`: sign the link, as a plant given the same key does (docs/plant-link.md#signing).

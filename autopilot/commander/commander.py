@@ -284,9 +284,13 @@ class Commander:
             return ACCEPTED, None
         if not self.started or not state.valid:
             return TEMPORARILY_REJECTED, "Arming denied: no vehicle state from the plant yet"
-        why = prearm_refusal(state, force=force, terminated=self.terminated,
-                             outside_fence=None if force else self.failsafe.outside_fence(state.position_ned),
-                             mission_invalid=not force and self.mode == MISSION and self.feasibility.check() is not None)
+        why = prearm_refusal(
+            state,
+            force=force,
+            terminated=self.terminated,
+            outside_fence=None if force else self.failsafe.outside_fence(state.position_ned),
+            mission_invalid=not force and self.mode == MISSION and self.feasibility.check() is not None,
+        )
         if why is not None:
             return DENIED, why
         self._set_armed(True, "Armed")

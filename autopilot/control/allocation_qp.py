@@ -73,11 +73,15 @@ def build_allocation_functions(airframe: Airframe) -> tuple[ca.Function, ca.Func
     names = ["effectiveness", "tilts", "v_air_body", "rates_body", "wrench_sp", "wrench_weights", "least_effort",
              "lower", "upper"]  # fmt: skip
     qp_function = ca.Function(
-        "allocation_qp", inputs, [ca.densify(e) for e in (hessian, gradient, lower - u, upper - u, jacobian, wrench)],
-        ["u_trim", *names], ["H", "g", "l_box", "u_box", "A", "W"],
+        "allocation_qp",
+        inputs,
+        [ca.densify(e) for e in (hessian, gradient, lower - u, upper - u, jacobian, wrench)],
+        ["u_trim", *names],
+        ["H", "g", "l_box", "u_box", "A", "W"],
     )
     stiffest = ca.mmax(ca.diag(hessian))
     gap = ca.mmax(ca.fabs(u - ca.fmin(ca.fmax(u - gradient / stiffest, lower), upper)))
-    wrench_function = ca.Function("allocation_wrench", inputs, [ca.densify(wrench), gap], ["u", *names],
-                                  ["W", "optimality_gap"])
+    wrench_function = ca.Function(
+        "allocation_wrench", inputs, [ca.densify(wrench), gap], ["u", *names], ["W", "optimality_gap"]
+    )
     return qp_function, wrench_function

@@ -211,8 +211,9 @@ class FlightController:
                                                                         self.yaw_reference)  # fmt: skip
             else:  # the velocity controller tracks the vehicle's own velocity, warm for when it flies again
                 self.velocity_controller.update(state, state.velocity_ned, tilts)
-                self.velocity_command = attitude_command(self.attitude_setpoint, state.euler,
-                                                         self.airframe.thrust_max * len(self.airframe.rotor_positions))
+                self.velocity_command = attitude_command(
+                    self.attitude_setpoint, state.euler, self.airframe.thrust_max * len(self.airframe.rotor_positions)
+                )
             if self.mpc is not None and self.mpc.fallback_requested and not self.fell_back_to_pid:
                 self._fall_back_to_pid(state, self.mpc)
         if t < self._next_attitude_usec:
@@ -240,8 +241,9 @@ class FlightController:
         (the PID's hover), and under the MPC when a servo is stuck. The MPC plans the tilts for force alone; a
         rotor stuck tilted forward at low speed makes a yaw moment the rotors' reaction torque cannot hold, and the
         aircraft spun up and fell (servo-jam campaign: 60-95 deg jams at 1-9 m/s)."""
-        return command.yaw_by_tilt or (self.velocity_controller is not self.pid
-                                       and not bool(np.all(np.isnan(self.servos.stuck))))
+        return command.yaw_by_tilt or (
+            self.velocity_controller is not self.pid and not bool(np.all(np.isnan(self.servos.stuck)))
+        )
 
     def _fall_back_to_pid(self, state: VehicleState, mpc: PrimaryVelocityController) -> None:
         """Paper: the PID is the MPC's back-up after repeated failed solves; it flies from this tick on."""

@@ -272,7 +272,9 @@ class CommandService:
         """MAV_CMD_DO_ORBIT: param1 radius (sign: direction, positive clockwise), param2 velocity (NaN: default),
         param3 ORBIT_YAW_BEHAVIOUR (NaN or UNCHANGED: HOLD_FRONT_TO_CIRCLE_CENTER, PX4's default), params 5-7 centre
         (NaN: here)."""
-        behaviour = ORBIT_YAW_DEFAULT if math.isnan(p[2]) or p[2] == M.ORBIT_YAW_BEHAVIOUR_UNCHANGED else int_param(p[2])
+        behaviour = (
+            ORBIT_YAW_DEFAULT if math.isnan(p[2]) or p[2] == M.ORBIT_YAW_BEHAVIOUR_UNCHANGED else int_param(p[2])
+        )
         if behaviour is None or behaviour not in ORBIT_YAW_BEHAVIOURS:
             return M.MAV_RESULT_DENIED, f"Orbit denied: param3 (yaw behaviour) {p[2]:g} not 0..5"
         radius = p[0] if math.isfinite(p[0]) and p[0] != 0 else ORBIT_DEFAULT_RADIUS

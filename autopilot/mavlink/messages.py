@@ -106,8 +106,14 @@ def gps_raw(mav: Any, status: VehicleStatus) -> Any:
 
 def vfr_hud(mav: Any, status: VehicleStatus) -> Any:
     s = status.estimate
-    return mav.vfr_hud_encode(s.airspeed, math.hypot(s.velocity_ned[0], s.velocity_ned[1]), heading_cdeg(status) // 100,
-                              status.throttle_percent, status.position.alt_mm / 1000.0, -float(s.velocity_ned[2]))
+    return mav.vfr_hud_encode(
+        s.airspeed,
+        math.hypot(s.velocity_ned[0], s.velocity_ned[1]),
+        heading_cdeg(status) // 100,
+        status.throttle_percent,
+        status.position.alt_mm / 1000.0,
+        -float(s.velocity_ned[2]),
+    )
 
 
 def servo_output(mav: Any, status: VehicleStatus) -> Any:
@@ -140,7 +146,9 @@ def mission_current(mav: Any, status: VehicleStatus) -> Any:
     """MISSION_CURRENT as PX4 fills it: total UINT16_MAX without a mission, mission_mode 1 in Mission mode else 2."""
     m = status.missions
     total = len(m.mission) if m.mission else 0xFFFF
-    return mav.mission_current_encode(m.current, total, m.state, 1 if (status.mode.main, status.mode.sub) == (PX4_MAIN_AUTO, PX4_AUTO_MISSION) else 2)
+    return mav.mission_current_encode(
+        m.current, total, m.state, 1 if (status.mode.main, status.mode.sub) == (PX4_MAIN_AUTO, PX4_AUTO_MISSION) else 2
+    )
 
 
 BUILDERS: dict[int, Callable[[Any, VehicleStatus], Any]] = {

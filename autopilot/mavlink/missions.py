@@ -299,8 +299,12 @@ class MissionService:
             if isinstance(transfer, Download) and transfer.all_sent:
                 return  # the client has every item and did not say so: nothing lost
             self.refused += 1
-            self._ack(transfer.partner, transfer.mission_type, M.MAV_MISSION_OPERATION_CANCELLED,
-                      f"Mission {'upload' if isinstance(transfer, Upload) else 'download'}: operation timeout")
+            self._ack(
+                transfer.partner,
+                transfer.mission_type,
+                M.MAV_MISSION_OPERATION_CANCELLED,
+                f"Mission {'upload' if isinstance(transfer, Upload) else 'download'}: operation timeout",
+            )
         elif isinstance(transfer, Upload) and transfer.retry_due(now):
             self._request(transfer, now)
 

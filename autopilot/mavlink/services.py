@@ -57,8 +57,9 @@ class MavlinkServices:
         self.view = StatusView(loaded_missions=missions)
         self._announced_home: HomePosition | None = None
         self.announcer = Announcer(router, self.view.clock, events_publisher, quiet)
-        self.commands = CommandService(flight_stack, self.view, self.announcer, system_id=system_id, home=home,
-                                       modes=modes)
+        self.commands = CommandService(
+            flight_stack, self.view, self.announcer, system_id=system_id, home=home, modes=modes
+        )
         self.offboard = OffboardService(flight_stack, self.view, self.announcer, system_id=system_id, origin=home)
         self.offboard_attitude = OffboardAttitudeService(flight_stack, self.announcer, system_id=system_id)
         self.manual_control = ManualControlService(flight_stack, self.announcer, system_id=system_id)
@@ -157,8 +158,12 @@ class MavlinkServices:
                 sent = now
                 if not said and now - waiting_since >= HOLD_NOTICE_S:
                     said = True
-                    print(f"vtol-autopilot: --offboard-lockstep: holding the simulation at {time_usec / 1e6:.3f} s "
-                          "until a client streams set-points stamped with time_boot_ms", file=sys.stderr, flush=True)
+                    print(
+                        f"vtol-autopilot: --offboard-lockstep: holding the simulation at {time_usec / 1e6:.3f} s "
+                        "until a client streams set-points stamped with time_boot_ms",
+                        file=sys.stderr,
+                        flush=True,
+                    )
         self.hold_wall_s += time.monotonic() - waiting_since
 
     def restart(self, now_usec: int) -> None:
@@ -207,12 +212,16 @@ class MavlinkServices:
 
     # ---- the end ------------------------------------------------------------------------------------------------
     def summary(self) -> dict[str, Any]:
-        return {link.name.lower(): link.summary() for link in self.router.links} | {
-            "setpoints_dropped": self.offboard.dropped + self.offboard_attitude.dropped,
-            "notices_suppressed": self.announcer.suppressed,
-            "lockstep_holds": self.holds,
-            "lockstep_hold_wall_s": round(self.hold_wall_s, 3),
-        } | self.signing.summary()
+        return (
+            {link.name.lower(): link.summary() for link in self.router.links}
+            | {
+                "setpoints_dropped": self.offboard.dropped + self.offboard_attitude.dropped,
+                "notices_suppressed": self.announcer.suppressed,
+                "lockstep_holds": self.holds,
+                "lockstep_hold_wall_s": round(self.hold_wall_s, 3),
+            }
+            | self.signing.summary()
+        )
 
     def close(self) -> None:
         self.router.close()

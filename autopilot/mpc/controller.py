@@ -79,8 +79,9 @@ class MpcVelocityController:
         self.limits = limits
         self.horizon = horizon
         grid = horizon.grid
-        self.solver = RtiSolver(airframe, grid, limits, weights=horizon.weights,
-                                gauss_newton_steps=horizon.gauss_newton_steps)
+        self.solver = RtiSolver(
+            airframe, grid, limits, weights=horizon.weights, gauss_newton_steps=horizon.gauss_newton_steps
+        )
         self.solver.levenberg = LEVENBERG
         self.force_function = BufferedFunction(planned_force_function(airframe))
         self.params = np.zeros((NP, grid.stages + 1))

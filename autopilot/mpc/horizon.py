@@ -81,6 +81,7 @@ class StageGrid:
         lengths = np.append(np.array(self.ticks), 1)
         return interval, (wanted - nodes[interval]) / lengths[interval]
 
+
 @dataclass(frozen=True)
 class MpcHorizon:
     """A named horizon of the MPC: its grid and the weights that go with it."""
@@ -121,7 +122,5 @@ def extrapolate_setpoint(
 
 PAPER = MpcHorizon("paper", StageGrid.uniform(25))
 # 10 stages of 10 ms, then 15 of 130 ms: 2.05 s. See docs/mpc.md 2.9 for the variants measured.
-LONG = MpcHorizon(
-    "long", StageGrid((1,) * 10 + (13,) * 15), gauss_newton_steps=2, turning_setpoint=True
-)
+LONG = MpcHorizon("long", StageGrid((1,) * 10 + (13,) * 15), gauss_newton_steps=2, turning_setpoint=True)
 HORIZONS = {h.name: h for h in (PAPER, LONG)}

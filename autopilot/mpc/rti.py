@@ -358,4 +358,3 @@ class RtiSolver:
         if ok:
             self.w += dw
         return ok, status, int(stats.get("iter_count", -1)), float(qp_cost)
-

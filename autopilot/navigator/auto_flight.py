@@ -243,8 +243,13 @@ class AutoFlight:
 
     def _vertical(self, state: VehicleState, down: float, up_limit: float | None = None) -> float:
         p = self.params
-        return vertical_velocity(float(state.position_ned[2]), down, p["MPC_Z_P"],
-                                 p["MPC_Z_VEL_MAX_UP"] if up_limit is None else up_limit, p["MPC_Z_VEL_MAX_DN"])
+        return vertical_velocity(
+            float(state.position_ned[2]),
+            down,
+            p["MPC_Z_P"],
+            p["MPC_Z_VEL_MAX_UP"] if up_limit is None else up_limit,
+            p["MPC_Z_VEL_MAX_DN"],
+        )
 
     def _to_point(self, state: VehicleState, xy: np.ndarray) -> np.ndarray:
         p = self.params
@@ -263,15 +268,34 @@ class AutoFlight:
             case FlyTo(position=end, acceptance=acceptance, speed=speed):
                 start = self.leg_start
                 offset = end - position
-                if (float(np.hypot(offset[0], offset[1])) <= acceptance and abs(float(offset[2])) <= ALTITUDE_ACCEPTANCE
-                        and self._yaw_reached(state, self._target_yaw(state, target))):
+                if (
+                    float(np.hypot(offset[0], offset[1])) <= acceptance
+                    and abs(float(offset[2])) <= ALTITUDE_ACCEPTANCE
+                    and self._yaw_reached(state, self._target_yaw(state, target))
+                ):
                     return None
                 length = float(np.hypot(*(end[0:2] - start[0:2])))
-                cruise = speed if speed is not None else leg_cruise_speed(
-                    length, self.mission_speed, p["MPC_XY_CRUISE"], p["FW_AIRSPD_TRIM"], p["MPC_ACC_HOR"],
-                    self.forward_flight)
-                horizontal = leg_velocity(position[0:2], start[0:2], end[0:2], cruise, p["MPC_ACC_HOR"], p["MPC_XY_P"],
-                                          brake=not self.forward_flight)
+                cruise = (
+                    speed
+                    if speed is not None
+                    else leg_cruise_speed(
+                        length,
+                        self.mission_speed,
+                        p["MPC_XY_CRUISE"],
+                        p["FW_AIRSPD_TRIM"],
+                        p["MPC_ACC_HOR"],
+                        self.forward_flight,
+                    )
+                )
+                horizontal = leg_velocity(
+                    position[0:2],
+                    start[0:2],
+                    end[0:2],
+                    cruise,
+                    p["MPC_ACC_HOR"],
+                    p["MPC_XY_P"],
+                    brake=not self.forward_flight,
+                )
                 return np.array([*horizontal, self._vertical(state, float(end[2]))])
             case HoldAt(position=point, seconds=seconds):
                 if seconds is not None and state.time_usec - self._target_since_usec >= seconds * 1e6:

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from autopilot.navigator.guidance import ORIGIN_NED
 from autopilot.topics.mission_items import FENCE_CIRCLES, FENCE_POLYGONS, MissionItem
 from transport.geodesy import Home, ned_from_geodetic
 from transport.mavlink import mavlink as M
@@ -65,7 +66,7 @@ def fence_from_items(items: tuple[MissionItem, ...], home: Home) -> Fence:
             index += 1
             continue
         count = int(item.param1)
-        group = items[index:index + count]
+        group = items[index : index + count]
         if len(group) < count or any(vertex.command != item.command for vertex in group):
             ignored.append(f"fence item {index}: a polygon of {count} vertices without all of them")
             index += 1
@@ -95,7 +96,7 @@ def inside_zone(north: float, east: float, zone: Zone) -> bool:
 
 
 def breach(position_ned: np.ndarray, fence: Fence, max_horizontal: float, max_vertical: float,
-           home_ned: np.ndarray = np.zeros(3)) -> str | None:  # fmt: skip
+           home_ned: np.ndarray = ORIGIN_NED) -> str | None:  # fmt: skip
     """Why `position_ned` is outside the geofence, or None when it is inside (0 disables a distance; the distances
     are from home, `home_ned`)."""
     north, east, down = (float(x) for x in position_ned[0:3])

@@ -1,14 +1,14 @@
 """Guidance maths for the automatic modes: positions to velocity set-points (NED, m/s). Pure functions, no state.
 
-    leg_velocity      along a straight leg at the cruise speed, converging to the line (cross-track term) and
-                      braking into its end with the stopping-distance law sqrt(2 a d) (P near it)
-    circle_velocity   a vector field onto a circle (the fixed-wing Hold and Orbit)
-    vertical_velocity P on the altitude error, bounded by the climb and descent limits
-    ramp              a set-point changed by at most `accel` per second (the velocity controller gets a ramp)
-    turn_ramp         in forward flight: the speed ramped, its direction not (the course loop turns)
-    leg_cruise_speed  the speed a leg is flown at: the mission's own (DO_CHANGE_SPEED); else, after a
-                      DO_VTOL_TRANSITION item, the cruise speed of the phase it asked for; else the forward-flight
-                      cruise speed when the leg is long enough to reach it and stop again, the multicopter one otherwise
+leg_velocity      along a straight leg at the cruise speed, converging to the line (cross-track term) and
+                  braking into its end with the stopping-distance law sqrt(2 a d) (P near it)
+circle_velocity   a vector field onto a circle (the fixed-wing Hold and Orbit)
+vertical_velocity P on the altitude error, bounded by the climb and descent limits
+ramp              a set-point changed by at most `accel` per second (the velocity controller gets a ramp)
+turn_ramp         in forward flight: the speed ramped, its direction not (the course loop turns)
+leg_cruise_speed  the speed a leg is flown at: the mission's own (DO_CHANGE_SPEED); else, after a
+                  DO_VTOL_TRANSITION item, the cruise speed of the phase it asked for; else the forward-flight
+                  cruise speed when the leg is long enough to reach it and stop again, the multicopter one otherwise
 """
 
 from __future__ import annotations
@@ -18,6 +18,8 @@ import math
 import numpy as np
 
 TICK_S = 0.01  # the navigator and the commander run at the velocity controller's 100 Hz
+ORIGIN_NED = np.zeros(3)  # the local frame's origin (read-only)
+ORIGIN_NED.flags.writeable = False
 CROSS_TRACK_LIMIT = 0.5  # fraction of the leg speed the cross-track correction may add (at most)
 
 

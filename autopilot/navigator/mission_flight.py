@@ -73,11 +73,21 @@ from autopilot.topics.vehicle_state import VehicleState
 from transport.geodesy import ned_from_geodetic
 from transport.mavlink import mavlink as M
 
-YAW_ITEMS = (M.MAV_CMD_NAV_WAYPOINT, M.MAV_CMD_NAV_LOITER_UNLIM, M.MAV_CMD_NAV_TAKEOFF, M.MAV_CMD_NAV_VTOL_TAKEOFF,
-             M.MAV_CMD_NAV_LAND, M.MAV_CMD_NAV_VTOL_LAND)  # param4 is their yaw (deg)
+YAW_ITEMS = (
+    M.MAV_CMD_NAV_WAYPOINT,
+    M.MAV_CMD_NAV_LOITER_UNLIM,
+    M.MAV_CMD_NAV_TAKEOFF,
+    M.MAV_CMD_NAV_VTOL_TAKEOFF,
+    M.MAV_CMD_NAV_LAND,
+    M.MAV_CMD_NAV_VTOL_LAND,
+)  # param4 is their yaw (deg)
 TAKEOFFS = (M.MAV_CMD_NAV_TAKEOFF, M.MAV_CMD_NAV_VTOL_TAKEOFF)
-TAKEOFF_BEFORE = (M.MAV_CMD_NAV_WAYPOINT, M.MAV_CMD_NAV_LOITER_TIME, M.MAV_CMD_NAV_LOITER_UNLIM,
-                  M.MAV_CMD_NAV_LOITER_TO_ALT)
+TAKEOFF_BEFORE = (
+    M.MAV_CMD_NAV_WAYPOINT,
+    M.MAV_CMD_NAV_LOITER_TIME,
+    M.MAV_CMD_NAV_LOITER_UNLIM,
+    M.MAV_CMD_NAV_LOITER_TO_ALT,
+)
 
 
 def item_yaw(item: MissionItem) -> float | None:
@@ -102,6 +112,8 @@ def takeoff_down(item_down: float, ground_down: float, takeoff_alt: float) -> fl
     """The altitude (NED down) of the takeoff a mission started on the ground flies before its first item: the
     item's, but at least `takeoff_alt` (MIS_TAKEOFF_ALT) above the ground (PX4's calculate_takeoff_altitude)."""
     return min(item_down, ground_down - takeoff_alt)
+
+
 VTOL_FW, VTOL_MC = M.MAV_VTOL_STATE_FW, M.MAV_VTOL_STATE_MC
 
 

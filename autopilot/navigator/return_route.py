@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from autopilot.navigator.auto_flight import Climb, FlyTo, HoldAt, LandAt, Target
+from autopilot.navigator.guidance import ORIGIN_NED
 from autopilot.storage.parameters import ParameterStore
 from autopilot.topics.mission_items import LANDS, MissionItem
 from autopilot.topics.vehicle_state import VehicleState
@@ -48,13 +49,18 @@ def mission_landing(items: tuple[MissionItem, ...],
     starts = [seq for seq, item in enumerate(items) if item.command == M.MAV_CMD_DO_LAND_START]
     if not starts:
         return None
-    land = next((item for item in items[starts[0]:] if item.command in LANDS), None)
+    land = next((item for item in items[starts[0] :] if item.command in LANDS), None)
     point = None if land is None else position_of(land)
     return None if point is None else MissionLanding(starts[0], point[0:2].copy())
 
 
-def return_destination(rtl_type: int, position_ned: np.ndarray, rally_points: list[np.ndarray],
-                       home_ned: np.ndarray, landing: MissionLanding | None) -> np.ndarray | MissionLanding:
+def return_destination(
+    rtl_type: int,
+    position_ned: np.ndarray,
+    rally_points: list[np.ndarray],
+    home_ned: np.ndarray,
+    landing: MissionLanding | None,
+) -> np.ndarray | MissionLanding:
     """Where Return goes (the module's docstring): a point (NE) or the mission's landing."""
     if rtl_type != RTL_MISSION_LANDING:
         return closest_safe_point(position_ned, rally_points, home_ned)
@@ -68,7 +74,7 @@ def return_destination(rtl_type: int, position_ned: np.ndarray, rally_points: li
 
 
 def closest_safe_point(position_ned: np.ndarray, rally_points: list[np.ndarray],
-                       home_ned: np.ndarray = np.zeros(3)) -> np.ndarray:  # fmt: skip
+                       home_ned: np.ndarray = ORIGIN_NED) -> np.ndarray:  # fmt: skip
     """The closest (horizontally) of home and the rally points, (north, east) from the local origin (PX4's RTL_TYPE
     0)."""
     return min([home_ned[0:2].copy(), *(point[0:2] for point in rally_points)],

@@ -83,8 +83,9 @@ class BackgroundWriter:
         with self._condition:
             self._pending = text
             if self._thread is None:
-                self._thread = threading.Thread(target=self._run, name=self.what.replace(" ", "-") + "-writer",
-                                                daemon=True)
+                self._thread = threading.Thread(
+                    target=self._run, name=self.what.replace(" ", "-") + "-writer", daemon=True
+                )
                 self._thread.start()
             self._condition.notify_all()
 

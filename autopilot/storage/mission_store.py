@@ -53,8 +53,6 @@ class MissionFileError(ValueError):
     """The mission file cannot be used (not JSON, wrong shape, an item this vehicle refuses)."""
 
 
-
-
 def default_mission_path(parameter_path: Path, instance: int) -> Path:
     """missions-<instance>.json in the parameter file's folder."""
     return parameter_path.parent / f"missions-{instance}.json"

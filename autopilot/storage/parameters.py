@@ -50,52 +50,169 @@ class ParameterDefinition:
 P = ParameterDefinition
 DEFINITIONS: tuple[ParameterDefinition, ...] = (
     P("MAV_SYS_ID", INT32, 1, 1, 250, "", "MAVLink system id of the vehicle (at the next start; --sysid overrides)"),
-    P("MAV_SIGN_REQ", INT32, 1, 0, 1, "", "with a signing key set (SETUP_SIGNING): 1 refuses unsigned commands, 0 "
-      "accepts them (outgoing messages are signed either way)", px4=False),
-    P("VT_CTRL", INT32, 1, 0, 1, "", "velocity controller: 0 PID baseline, 1 unified MPC (at the next start or "
-      "takeoff from the ground; --controller overrides at start)", px4=False),
-    P("VT_MPC_HRZN", INT32, 0, 0, 1, "", "the MPC's horizon: 0 the paper's 25 stages of 10 ms, 1 the long one "
-      "(2.05 s, docs/mpc.md 2.9) (at the next start or takeoff from the ground; --mpc-horizon overrides at start)",
-      px4=False),
-    P("VT_MPC_OVERLAP", INT32, 0, 0, 1, "", "MPC solve: 0 synchronous (the paper's), 1 one control tick ahead on a "
-      "second core, from the predicted state (at the next start or takeoff from the ground)", px4=False),
+    P(
+        "MAV_SIGN_REQ",
+        INT32,
+        1,
+        0,
+        1,
+        "",
+        "with a signing key set (SETUP_SIGNING): 1 refuses unsigned commands, 0 "
+        "accepts them (outgoing messages are signed either way)",
+        px4=False,
+    ),
+    P(
+        "VT_CTRL",
+        INT32,
+        1,
+        0,
+        1,
+        "",
+        "velocity controller: 0 PID baseline, 1 unified MPC (at the next start or "
+        "takeoff from the ground; --controller overrides at start)",
+        px4=False,
+    ),
+    P(
+        "VT_MPC_HRZN",
+        INT32,
+        0,
+        0,
+        1,
+        "",
+        "the MPC's horizon: 0 the paper's 25 stages of 10 ms, 1 the long one "
+        "(2.05 s, docs/mpc.md 2.9) (at the next start or takeoff from the ground; --mpc-horizon overrides at start)",
+        px4=False,
+    ),
+    P(
+        "VT_MPC_OVERLAP",
+        INT32,
+        0,
+        0,
+        1,
+        "",
+        "MPC solve: 0 synchronous (the paper's), 1 one control tick ahead on a "
+        "second core, from the predicted state (at the next start or takeoff from the ground)",
+        px4=False,
+    ),
     P("SYS_FAILURE_EN", INT32, 0, 0, 1, "", "1 enables MAV_CMD_INJECT_FAILURE"),
-    P("SYS_FAILURE_DLY", REAL32, 0.0, 0.0, 60.0, "s", "delay before the controllers learn of an injected failure",
-      px4=False),
+    P(
+        "SYS_FAILURE_DLY",
+        REAL32,
+        0.0,
+        0.0,
+        60.0,
+        "s",
+        "delay before the controllers learn of an injected failure",
+        px4=False,
+    ),
     P("COM_OF_LOSS_T", REAL32, 1.0, 0.1, 60.0, "s", "offboard set-point loss timeout: then COM_OBL_RC_ACT"),
-    P("COM_OBL_RC_ACT", INT32, 0, 0, 5, "", "offboard loss failsafe: 0 Position, 1 Altitude (with MANUAL_CONTROL "
-      "heard in the last COM_RC_LOSS_T; without, Hold), 2 Stabilized (Hold: there is no Stabilized), 3 Return, "
-      "4 Land, 5 Hold (PX4's 6 Terminate and 7 Disarm are refused)"),
+    P(
+        "COM_OBL_RC_ACT",
+        INT32,
+        0,
+        0,
+        5,
+        "",
+        "offboard loss failsafe: 0 Position, 1 Altitude (with MANUAL_CONTROL "
+        "heard in the last COM_RC_LOSS_T; without, Hold), 2 Stabilized (Hold: there is no Stabilized), 3 Return, "
+        "4 Land, 5 Hold (PX4's 6 Terminate and 7 Disarm are refused)",
+    ),
     P("COM_DL_LOSS_T", INT32, 10, 5, 300, "s", "data-link loss: no ground-station HEARTBEAT for this long"),
-    P("NAV_DLL_ACT", INT32, 0, 0, 3, "", "data-link loss failsafe: 0 disabled, 1 Hold, 2 Return, 3 Land (PX4's 5 "
-      "Terminate and 6 Disarm are refused)"),
-    P("COM_RC_IN_MODE", INT32, 3, 0, 8, "", "manual control source: 0 RC only (no RC here: MANUAL_CONTROL ignored), "
-      "1 MAVLink only, 2 RC or MAVLink with fallback, 3 RC or MAVLink keep first, 4 disabled, 5-8 priorities"),
+    P(
+        "NAV_DLL_ACT",
+        INT32,
+        0,
+        0,
+        3,
+        "",
+        "data-link loss failsafe: 0 disabled, 1 Hold, 2 Return, 3 Land (PX4's 5 Terminate and 6 Disarm are refused)",
+    ),
+    P(
+        "COM_RC_IN_MODE",
+        INT32,
+        3,
+        0,
+        8,
+        "",
+        "manual control source: 0 RC only (no RC here: MANUAL_CONTROL ignored), "
+        "1 MAVLink only, 2 RC or MAVLink with fallback, 3 RC or MAVLink keep first, 4 disabled, 5-8 priorities",
+    ),
     P("COM_RC_LOSS_T", REAL32, 0.5, 0.0, 35.0, "s", "manual control loss: no MANUAL_CONTROL for this long"),
-    P("NAV_RCL_ACT", INT32, 2, 0, 6, "", "manual control loss failsafe (Position, Altitude): 0 disabled, 1 Hold, "
-      "2 Return, 3 Land, 5 Terminate, 6 Disarm (motors off)"),
+    P(
+        "NAV_RCL_ACT",
+        INT32,
+        2,
+        0,
+        6,
+        "",
+        "manual control loss failsafe (Position, Altitude): 0 disabled, 1 Hold, "
+        "2 Return, 3 Land, 5 Terminate, 6 Disarm (motors off)",
+    ),
     P("MPC_VEL_MANUAL", REAL32, 10.0, 3.0, 20.0, "m/s", "Position: horizontal speed at full stick"),
     P("MPC_HOLD_DZ", REAL32, 0.1, 0.0, 1.0, "", "stick deadzone of Position and Altitude (centred: hold)"),
-    P("MPC_MAN_Y_MAX", REAL32, 150.0, 0.0, 400.0, "deg/s", "yaw stick: yaw rate at full stick (Position, Altitude, "
-      "Orbit with yaw behaviour 4)"),
-    P("MPC_YAWRAUTO_MAX", REAL32, 30.0, 5.0, 360.0, "deg/s", "fastest turn to a yaw set-point (Offboard, Mission, "
-      "Go-to, Orbit; PX4's default 45: docs/autopilot.md section 6)"),
-    P("MIS_YAW_ERR", REAL32, 12.0, 1.0, 90.0, "deg", "a mission waypoint with a yaw (param4) is reached once the "
-      "heading is within this of it (flown as a multicopter)"),
-    P("MIS_YAW_TMT", REAL32, -1.0, -1.0, 20.0, "s", "mission yaw timeout: above 0, a waypoint's yaw is not waited "
-      "for (PX4 then waits only for forced headings, which these missions have not); -1 (and 0): wait for "
-      "MIS_YAW_ERR"),
+    P(
+        "MPC_MAN_Y_MAX",
+        REAL32,
+        150.0,
+        0.0,
+        400.0,
+        "deg/s",
+        "yaw stick: yaw rate at full stick (Position, Altitude, Orbit with yaw behaviour 4)",
+    ),
+    P(
+        "MPC_YAWRAUTO_MAX",
+        REAL32,
+        30.0,
+        5.0,
+        360.0,
+        "deg/s",
+        "fastest turn to a yaw set-point (Offboard, Mission, "
+        "Go-to, Orbit; PX4's default 45: docs/autopilot.md section 6)",
+    ),
+    P(
+        "MIS_YAW_ERR",
+        REAL32,
+        12.0,
+        1.0,
+        90.0,
+        "deg",
+        "a mission waypoint with a yaw (param4) is reached once the "
+        "heading is within this of it (flown as a multicopter)",
+    ),
+    P(
+        "MIS_YAW_TMT",
+        REAL32,
+        -1.0,
+        -1.0,
+        20.0,
+        "s",
+        "mission yaw timeout: above 0, a waypoint's yaw is not waited "
+        "for (PX4 then waits only for forced headings, which these missions have not); -1 (and 0): wait for "
+        "MIS_YAW_ERR",
+    ),
     P("COM_POS_FS_DELAY", INT32, 1, 1, 100, "s", "position loss failsafe (GPS OFF): Descend after this long"),
-    P("GF_ACTION", INT32, 2, 0, 5, "", "geofence breach action: 0 none, 1 warning, 2 Hold, 3 Return, 4 terminate "
-      "(motors off), 5 Land"),
-    P("GF_MAX_HOR_DIST", REAL32, 0.0, 0.0, 10000.0, "m", "geofence: the farthest from home horizontally (0: no "
-      "limit)"),
+    P(
+        "GF_ACTION",
+        INT32,
+        2,
+        0,
+        5,
+        "",
+        "geofence breach action: 0 none, 1 warning, 2 Hold, 3 Return, 4 terminate (motors off), 5 Land",
+    ),
+    P("GF_MAX_HOR_DIST", REAL32, 0.0, 0.0, 10000.0, "m", "geofence: the farthest from home horizontally (0: no limit)"),
     P("GF_MAX_VER_DIST", REAL32, 0.0, 0.0, 10000.0, "m", "geofence: the highest above home (0: no limit)"),
     P("COM_DISARM_LAND", REAL32, 2.0, 0.0, 20.0, "s", "disarm this long after a landing is detected"),
-    P("COM_DISARM_PRFLT", REAL32, 10.0, -1.0, 300.0, "s", "disarm when armed on the ground without taking off for "
-      "this long (negative: never)"),
-    P("COM_MOT_TEST_EN", INT32, 1, 0, 1, "", "1 allows MAV_CMD_DO_MOTOR_TEST and MAV_CMD_ACTUATOR_TEST while "
-      "disarmed"),
+    P(
+        "COM_DISARM_PRFLT",
+        REAL32,
+        10.0,
+        -1.0,
+        300.0,
+        "s",
+        "disarm when armed on the ground without taking off for this long (negative: never)",
+    ),
+    P("COM_MOT_TEST_EN", INT32, 1, 0, 1, "", "1 allows MAV_CMD_DO_MOTOR_TEST and MAV_CMD_ACTUATOR_TEST while disarmed"),
     P("MIS_TAKEOFF_ALT", REAL32, 2.5, 1.0, 1000.0, "m", "takeoff altitude above home"),
     P("MPC_TKO_SPEED", REAL32, 1.5, 0.5, 5.0, "m/s", "takeoff climb speed"),
     P("MPC_Z_VEL_MAX_UP", REAL32, 3.0, 0.5, 8.0, "m/s", "fastest climb when holding or returning to an altitude"),
@@ -103,32 +220,105 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
     P("MPC_LAND_SPEED", REAL32, 0.7, 0.2, 3.0, "m/s", "landing descent speed below MPC_LAND_ALT2"),
     P("MPC_LAND_ALT2", REAL32, 5.0, 0.0, 100.0, "m", "below this height above home land at MPC_LAND_SPEED"),
     P("MPC_XY_CRUISE", REAL32, 5.0, 0.5, 12.0, "m/s", "fastest horizontal speed when returning to a hold point"),
-    P("MPC_XY_VEL_MAX", REAL32, 12.0, 1.0, 30.0, "m/s", "fastest horizontal speed flying to an Offboard position "
-      "set-point"),
-    P("MPC_ACC_HOR", REAL32, 2.0, 0.5, 10.0, "m/s^2", "acceleration of the velocity set-points that fly to an "
-      "Offboard position set-point"),
+    P(
+        "MPC_XY_VEL_MAX",
+        REAL32,
+        12.0,
+        1.0,
+        30.0,
+        "m/s",
+        "fastest horizontal speed flying to an Offboard position set-point",
+    ),
+    P(
+        "MPC_ACC_HOR",
+        REAL32,
+        2.0,
+        0.5,
+        10.0,
+        "m/s^2",
+        "acceleration of the velocity set-points that fly to an Offboard position set-point",
+    ),
     P("MPC_XY_P", REAL32, 0.95, 0.0, 2.0, "1/s", "horizontal position gain (Hold, Takeoff, Land, Offboard position)"),
     P("MPC_Z_P", REAL32, 1.0, 0.0, 2.0, "1/s", "vertical position gain (Hold, Takeoff)"),
     P("VT_ARSP_BLEND", REAL32, 13.5, 5.0, 40.0, "m/s", "PID baseline: airspeed where MC/FW blending starts"),
     P("VT_ARSP_TRANS", REAL32, 23.0, 5.0, 40.0, "m/s", "PID baseline: airspeed where the transition completes"),
-    P("FW_AIRSPD_TRIM", REAL32, 26.0, 21.0, 30.0, "m/s", "cruise speed of the fixed-wing Hold (loiter) after a "
-      "transition to fixed wing"),
-    P("NAV_ACC_RAD", REAL32, 10.0, 0.05, 200.0, "m", "mission waypoint acceptance radius (when the item's param2 is "
-      "0)"),
-    P("RTL_TYPE", INT32, 0, 0, 1, "", "Return's destination: 0 the closest of home and the rally points; 1 the "
-      "closest of the rally points and the mission's landing (the land item after its DO_LAND_START), home only "
-      "when there is neither; a mission landing is flown from its DO_LAND_START item (PX4's 2, the mission path, "
-      "and 3 are refused)"),
-    P("RTL_RETURN_ALT", REAL32, 60.0, 0.0, 1000.0, "m", "Return: climb to this height above home (if lower) before "
-      "flying to its destination"),
-    P("RTL_CONE_ANG", INT32, 45, 0, 90, "deg", "Return: half-angle of the cone over the destination that lowers the "
-      "return altitude within RTL_MIN_DIST of it (0: always RTL_RETURN_ALT)"),
-    P("RTL_MIN_DIST", REAL32, 10.0, 0.5, 10000.0, "m", "Return: within this horizontal distance of the destination "
-      "the return altitude is the RTL_CONE_ANG cone's"),
-    P("RTL_DESCEND_ALT", REAL32, 30.0, 0.0, 1000.0, "m", "Return: with RTL_LAND_DELAY not 0, descend over the "
-      "destination to this height above home (if lower) and wait there before landing"),
-    P("RTL_LAND_DELAY", REAL32, 0.0, -1.0, 3600.0, "s", "Return: wait this long at RTL_DESCEND_ALT before landing "
-      "(0: land at once; -1: wait for ever, no landing)"),
+    P(
+        "FW_AIRSPD_TRIM",
+        REAL32,
+        26.0,
+        21.0,
+        30.0,
+        "m/s",
+        "cruise speed of the fixed-wing Hold (loiter) after a transition to fixed wing",
+    ),
+    P(
+        "NAV_ACC_RAD",
+        REAL32,
+        10.0,
+        0.05,
+        200.0,
+        "m",
+        "mission waypoint acceptance radius (when the item's param2 is 0)",
+    ),
+    P(
+        "RTL_TYPE",
+        INT32,
+        0,
+        0,
+        1,
+        "",
+        "Return's destination: 0 the closest of home and the rally points; 1 the "
+        "closest of the rally points and the mission's landing (the land item after its DO_LAND_START), home only "
+        "when there is neither; a mission landing is flown from its DO_LAND_START item (PX4's 2, the mission path, "
+        "and 3 are refused)",
+    ),
+    P(
+        "RTL_RETURN_ALT",
+        REAL32,
+        60.0,
+        0.0,
+        1000.0,
+        "m",
+        "Return: climb to this height above home (if lower) before flying to its destination",
+    ),
+    P(
+        "RTL_CONE_ANG",
+        INT32,
+        45,
+        0,
+        90,
+        "deg",
+        "Return: half-angle of the cone over the destination that lowers the "
+        "return altitude within RTL_MIN_DIST of it (0: always RTL_RETURN_ALT)",
+    ),
+    P(
+        "RTL_MIN_DIST",
+        REAL32,
+        10.0,
+        0.5,
+        10000.0,
+        "m",
+        "Return: within this horizontal distance of the destination the return altitude is the RTL_CONE_ANG cone's",
+    ),
+    P(
+        "RTL_DESCEND_ALT",
+        REAL32,
+        30.0,
+        0.0,
+        1000.0,
+        "m",
+        "Return: with RTL_LAND_DELAY not 0, descend over the "
+        "destination to this height above home (if lower) and wait there before landing",
+    ),
+    P(
+        "RTL_LAND_DELAY",
+        REAL32,
+        0.0,
+        -1.0,
+        3600.0,
+        "s",
+        "Return: wait this long at RTL_DESCEND_ALT before landing (0: land at once; -1: wait for ever, no landing)",
+    ),
     P("NAV_LOITER_RAD", REAL32, 250.0, 100.0, 2000.0, "m", "radius of the fixed-wing Hold circle"),
 )
 del P
@@ -281,12 +471,12 @@ class ParameterStore:
         except ValueError as exc:
             raise ParameterFileError(f"{where} is not valid JSON ({exc})") from None
         if not isinstance(document, dict) or document.get("format") != FILE_FORMAT:
-            raise ParameterFileError(f"{where}: not a tiltrotor-sitl parameter file (no \"format\": \"{FILE_FORMAT}\")")
+            raise ParameterFileError(f'{where}: not a tiltrotor-sitl parameter file (no "format": "{FILE_FORMAT}")')
         if document.get("version") != FILE_VERSION:
             raise ParameterFileError(f"{where}: version {document.get('version')!r}, expected {FILE_VERSION}")
         parameters = document.get("parameters")
         if not isinstance(parameters, dict):
-            raise ParameterFileError(f"{where}: \"parameters\" must be an object of NAME: value")
+            raise ParameterFileError(f'{where}: "parameters" must be an object of NAME: value')
         loaded: dict[str, float] = {}
         for name, value in parameters.items():
             if name not in self.index:

@@ -64,6 +64,10 @@ def update_from_hil_state(state: VehicleState, message, geodetic: LocalGeodetic,
     state.euler[:] = euler_from_quaternion(w, x, y, z)
     state.body_rates[:] = (message.rollspeed, message.pitchspeed, message.yawspeed)
     state.airspeed = message.true_airspeed * 0.01
-    state.specific_force[:] = (message.xacc * gravity / 1000, message.yacc * gravity / 1000, message.zacc * gravity / 1000)
+    state.specific_force[:] = (
+        message.xacc * gravity / 1000,
+        message.yacc * gravity / 1000,
+        message.zacc * gravity / 1000,
+    )
     state.valid = True
     return True

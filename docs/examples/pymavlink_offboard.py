@@ -16,8 +16,10 @@ VELOCITY_ONLY = 0b0000_1001_1100_0111  # type_mask: ignore position, acceleratio
 
 vehicle = mavutil.mavlink_connection(f"udpin:127.0.0.1:{PORT}", source_system=255, source_component=190)
 heartbeat = vehicle.wait_heartbeat()
-print(f"heartbeat from {heartbeat.get_srcSystem()}/{heartbeat.get_srcComponent()}: type {heartbeat.type} "
-      f"(VTOL tiltrotor), autopilot {heartbeat.autopilot} (PX4), mode {vehicle.flightmode}")
+print(
+    f"heartbeat from {heartbeat.get_srcSystem()}/{heartbeat.get_srcComponent()}: type {heartbeat.type} "
+    f"(VTOL tiltrotor), autopilot {heartbeat.autopilot} (PX4), mode {vehicle.flightmode}"
+)
 vehicle.mav.heartbeat_send(mavutil.mavlink.MAV_TYPE_GCS, mavutil.mavlink.MAV_AUTOPILOT_INVALID, 0, 0, 0)
 sim_ms = 0  # the vehicle's clock (simulation time) from its telemetry
 
@@ -65,8 +67,9 @@ print(f"holding at {altitude():.2f} m, mode {vehicle.flightmode}")
 
 
 def north():  # a velocity set-point, stamped with the vehicle's clock
-    vehicle.mav.set_position_target_local_ned_send(sim_ms, 1, 1, mavutil.mavlink.MAV_FRAME_LOCAL_NED,
-                                                   VELOCITY_ONLY, 0, 0, 0, 3.0, 0, 0, 0, 0, 0, 0, 0)
+    vehicle.mav.set_position_target_local_ned_send(
+        sim_ms, 1, 1, mavutil.mavlink.MAV_FRAME_LOCAL_NED, VELOCITY_ONLY, 0, 0, 0, 3.0, 0, 0, 0, 0, 0, 0, 0
+    )
 
 
 north()  # Offboard needs a set-point first

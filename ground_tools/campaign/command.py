@@ -33,8 +33,9 @@ def _bar(total: int, done: int, disable: bool) -> tqdm:
                 bar_format="{desc}: {n}/{total} |{bar}| {postfix} [{elapsed}, {remaining} left]")  # fmt: skip
 
 
-def fly_campaign(spec: CampaignSpec, out: Path, store: ResultStore, engine: DaskEngine,
-                 progress: bool) -> tuple[int, int]:
+def fly_campaign(
+    spec: CampaignSpec, out: Path, store: ResultStore, engine: DaskEngine, progress: bool
+) -> tuple[int, int]:
     """Fly the points the store does not have; (flown, failed)."""
     points = campaign_points(spec)
     finished = store.finished_keys()

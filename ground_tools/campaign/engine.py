@@ -52,8 +52,9 @@ class DaskEngine:
         where = f"local cluster on {LOOPBACK}" if self.address is None else f"cluster {self.address}"
         return f"{where}: {len(self.client.nthreads())} worker(s), {threads} flight(s) at a time"
 
-    def run(self, fn: Callable[..., Any], items: Sequence[Any], *args: Any,
-            name: Callable[[Any], str]) -> Iterator[tuple[Any, Any | BaseException]]:
+    def run(
+        self, fn: Callable[..., Any], items: Sequence[Any], *args: Any, name: Callable[[Any], str]
+    ) -> Iterator[tuple[Any, Any | BaseException]]:
         """(item, fn(item, *args)) as each finishes, or (item, the exception) when the task itself failed (a
         worker lost too often)."""
         assert self.client is not None

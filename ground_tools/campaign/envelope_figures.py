@@ -45,9 +45,18 @@ def _draw_paper(ax: plt.Axes, lines: list[PaperLine], axes: MapAxes, xs: list, y
             rule(end, color="black", linewidth=1.5, linestyle="--")
 
 
-def plot_map(per_controller: dict[str, pandas.DataFrame], axes: MapAxes, lines: list[PaperLine], title: str,
-             colorbar: str, path: Path, vmin: float | None = None, vmax: float | None = None, cmap: str = "RdYlGn",
-             fmt: str = "{:.2f}") -> Path:
+def plot_map(
+    per_controller: dict[str, pandas.DataFrame],
+    axes: MapAxes,
+    lines: list[PaperLine],
+    title: str,
+    colorbar: str,
+    path: Path,
+    vmin: float | None = None,
+    vmax: float | None = None,
+    cmap: str = "RdYlGn",
+    fmt: str = "{:.2f}",
+) -> Path:
     """One map per controller, side by side on a shared colour scale; NaN cells left blank."""
     controllers = sorted(per_controller)
     xs = sorted(set().union(*(frame.columns for frame in per_controller.values())))
@@ -56,16 +65,28 @@ def plot_map(per_controller: dict[str, pandas.DataFrame], axes: MapAxes, lines: 
     finite = np.concatenate([v[np.isfinite(v)] for v in values.values()]) if values else np.array([])
     low = vmin if vmin is not None else (float(finite.min()) if finite.size else 0.0)
     high = vmax if vmax is not None else (float(finite.max()) if finite.size else 1.0)
-    fig, panels = plt.subplots(1, len(controllers), figsize=(1.2 + 0.9 * len(xs) * len(controllers) + 1.5,
-                                                             1.6 + 0.55 * len(ys)), squeeze=False, sharey=True)
+    fig, panels = plt.subplots(
+        1,
+        len(controllers),
+        figsize=(1.2 + 0.9 * len(xs) * len(controllers) + 1.5, 1.6 + 0.55 * len(ys)),
+        squeeze=False,
+        sharey=True,
+    )
     image = None
     for ax, controller in zip(panels[0], controllers):
         grid = values[controller]
         image = ax.imshow(grid, origin="lower", aspect="auto", cmap=cmap, vmin=low, vmax=max(high, low + 1e-9))
         for (row, column), value in np.ndenumerate(grid):
             if np.isfinite(value):
-                ax.text(column, row, fmt.format(value), ha="center", va="center", fontsize=7,
-                        path_effects=[patheffects.withStroke(linewidth=2.5, foreground="white")])
+                ax.text(
+                    column,
+                    row,
+                    fmt.format(value),
+                    ha="center",
+                    va="center",
+                    fontsize=7,
+                    path_effects=[patheffects.withStroke(linewidth=2.5, foreground="white")],
+                )
         ax.set_xticks(range(len(xs)), [f"{x:g}" if isinstance(x, (int, float)) else str(x) for x in xs], fontsize=7)
         ax.set_yticks(range(len(ys)), [f"{y:g}" if isinstance(y, (int, float)) else str(y) for y in ys], fontsize=7)
         ax.set_xlabel(axes.x)

@@ -83,8 +83,12 @@ def write_report(spec: CampaignSpec, frame: pandas.DataFrame, out: Path) -> Path
     """Write `out`/report.md and the figures in `out`/figures/; returns the report's path."""
     figures = out / FIGURES
     figures.mkdir(parents=True, exist_ok=True)
-    lines = [f"# Campaign {spec.name}", "",
-             f"Written {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC from the store `campaign.duckdb`.", ""]
+    lines = [
+        f"# Campaign {spec.name}",
+        "",
+        f"Written {datetime.datetime.now(datetime.UTC):%Y-%m-%d %H:%M} UTC from the store `campaign.duckdb`.",
+        "",
+    ]
     lines += _summary(spec, frame)
     axes = map_axes(spec)
     per_controller = maps(frame, axes) if axes is not None else {}
@@ -100,8 +104,12 @@ def write_report(spec: CampaignSpec, frame: pandas.DataFrame, out: Path) -> Path
         if errors:
             error_png = plot_map(errors, axes, lines_drawn, f"{spec.name}: median {axes.error}", axes.error,
                                  figures / "error.png", cmap="viridis", fmt="{:.3g}")  # fmt: skip
-            lines += [f"## Tracking error (`{axes.error}`, median per cell)", "",
-                      f"![error map]({FIGURES}/{error_png.name})", ""]
+            lines += [
+                f"## Tracking error (`{axes.error}`, median per cell)",
+                "",
+                f"![error map]({FIGURES}/{error_png.name})",
+                "",
+            ]
             for controller, frame_ in errors.items():
                 name = NAMES.get(controller, controller)
                 lines += [f"{name}, median {axes.error}:", "", *_table(frame_, axes, 3), ""]

@@ -84,8 +84,11 @@ class GroundStation:
     def pump(self, timeout_s: float = 0.05) -> None:
         """Handle everything that arrives within timeout_s (wall); a HEARTBEAT each wall second, as GCSs do."""
         deadline = time.monotonic() + timeout_s
-        if (self.sends_heartbeats and deadline - self._last_heartbeat > 1.0
-                and ("HEARTBEAT" in self.latest or self.speaks_first)):
+        if (
+            self.sends_heartbeats
+            and deadline - self._last_heartbeat > 1.0
+            and ("HEARTBEAT" in self.latest or self.speaks_first)
+        ):
             self.heartbeat()
         while True:
             message = self.conn.recv_match(blocking=True, timeout=max(0.0, deadline - time.monotonic()))
@@ -185,7 +188,22 @@ class GroundStation:
 
     def velocity_setpoint(self, vn: float, ve: float, vd: float) -> None:
         self.conn.mav.set_position_target_local_ned_send(
-            self.time_boot_ms, self.vehicle, 1, mavlink.MAV_FRAME_LOCAL_NED, VELOCITY_MASK, 0, 0, 0, vn, ve, vd, 0, 0, 0, 0.0, 0
+            self.time_boot_ms,
+            self.vehicle,
+            1,
+            mavlink.MAV_FRAME_LOCAL_NED,
+            VELOCITY_MASK,
+            0,
+            0,
+            0,
+            vn,
+            ve,
+            vd,
+            0,
+            0,
+            0,
+            0.0,
+            0,
         )
 
     def param_set(self, name: str, value: float, kind: int) -> Any:
@@ -227,7 +245,9 @@ class MissionClient:
 
     def send_item(self, seq: int, row: tuple, kind: int, *, current: int = 0) -> None:
         frame, command, p1, p2, p3, p4, x, y, z = row
-        self.mav.mission_item_int_send(self.gs.vehicle, 1, seq, frame, command, current, 1, p1, p2, p3, p4, x, y, z, kind)
+        self.mav.mission_item_int_send(
+            self.gs.vehicle, 1, seq, frame, command, current, 1, p1, p2, p3, p4, x, y, z, kind
+        )
 
     def upload(self, kind: int, rows: list[tuple]) -> int:
         self.mav.mission_count_send(self.gs.vehicle, 1, len(rows), kind)

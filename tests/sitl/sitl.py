@@ -32,15 +32,26 @@ class Flight:
 
 
 def fly(
-    tmp_path: Path, profile: str, duration: float, *autopilot_args: str, spawn_alt: float = 100.0,
+    tmp_path: Path,
+    profile: str,
+    duration: float,
+    *autopilot_args: str,
+    spawn_alt: float = 100.0,
     controller: Controller = "pid",
 ) -> Flight:
     """Plant spawned hovering at spawn_alt, the autopilot flying `profile` for `duration` simulated seconds, in
     lockstep as fast as the processes go (tiltrotor_sitl.Vehicle with speed=None)."""
     log_path = tmp_path / f"{profile}-{controller}.csv"
-    with Vehicle(controller=controller, spawn_alt=spawn_alt, speed=None, truth=False, summary=True,
-                 duration_s=duration, wait_ready=False,
-                 autopilot_args=("--profile", profile, "--log", str(log_path), "--quiet", *autopilot_args)) as vehicle:
+    with Vehicle(
+        controller=controller,
+        spawn_alt=spawn_alt,
+        speed=None,
+        truth=False,
+        summary=True,
+        duration_s=duration,
+        wait_ready=False,
+        autopilot_args=("--profile", profile, "--log", str(log_path), "--quiet", *autopilot_args),
+    ) as vehicle:
         vehicle.wait_finished(timeout_s=900.0)
         autopilot, plant = vehicle.summary("vtol-autopilot"), vehicle.summary("vtol-sim")
     log = read_flight_log(log_path)

@@ -18,7 +18,7 @@ from tests.unit.test_api import children_of
 from tiltrotor_sitl import Vehicle, VehicleError
 from transport.ports import Ports
 
-USER_TEST = '''
+USER_TEST = """
 import math
 import os
 import time
@@ -117,7 +117,7 @@ class _Closing:
 
     def __exit__(self, *exc):
         self.s.close()
-'''
+"""
 
 
 def alive(pid: int) -> bool:
@@ -136,9 +136,27 @@ def test_a_users_own_tests_pass_under_xdist_and_leave_nothing_running(tmp_path: 
     pids_file = tmp_path / "pids.txt"
     env = {**os.environ, "PIDS_FILE": str(pids_file)}
     env.pop("PYTEST_ADDOPTS", None)
-    result = subprocess.run([sys.executable, "-m", "pytest", "-n", "2", "-q", "-p", "no:cacheprovider",
-                             "--vtol-controller", "pid", "--vtol-speed", "2"],  # fmt: skip
-                            cwd=folder, env=env, capture_output=True, text=True, timeout=400)
+    result = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "pytest",
+            "-n",
+            "2",
+            "-q",
+            "-p",
+            "no:cacheprovider",
+            "--vtol-controller",
+            "pid",
+            "--vtol-speed",
+            "2",
+        ],  # fmt: skip
+        cwd=folder,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=400,
+    )
     assert result.returncode == 0, result.stdout[-4000:] + result.stderr[-2000:]
     assert "3 passed" in result.stdout
     pids = [int(line) for line in pids_file.read_text().split()]
@@ -198,5 +216,3 @@ def test_a_process_that_dies_before_its_duration_is_quoted() -> None:
         with pytest.raises(VehicleError, match="vtol-sim .* exited with code -9 before the end"):
             plant.wait_finished(timeout_s=30)
     assert children_of(os.getpid()) == []
-
-

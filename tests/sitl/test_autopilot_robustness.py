@@ -163,5 +163,3 @@ def test_bad_autopilot_arguments_give_one_line_and_exit_2(args, expected):
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("vtol-autopilot: error:") and expected in lines[0]
-
-

@@ -77,5 +77,3 @@ def test_a_clean_proxy_passes_everything_in_order_and_delay_is_applied():
     start = time.monotonic()
     back, _ = exchange(Faults(delay_s=0.2), 1)
     assert back == [0] and time.monotonic() - start > 0.2
-
-

@@ -72,5 +72,3 @@ def test_a_broken_lease_file_is_read_past(tmp_path: Path) -> None:
     given = {port for _ in range(3) for port in lease_ports([UDP], tmp_path, range(11400, 11404))}
     assert given == {11400, 11402, 11403}  # 11401's lease holds; the unreadable lines are dropped
     assert "garbage" not in (tmp_path / "ports.leases").read_text()
-
-

@@ -35,5 +35,3 @@ def test_vtol_bad_arguments_give_one_line_and_exit_2():
         assert result.returncode == 2
         lines = result.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("vtol")
-
-

@@ -19,8 +19,11 @@ from transport.geodesy import Home
 def test_a_bad_home_in_the_environment_stops_the_process_with_one_line(program):
     environ = {"PX4_HOME_LAT": "north"}  # over this environment
     ports = free_link_ports()  # (refused before any port is bound, but a port in use must not be what stops it)
-    command = (SimCommand(port=free_udp_port(), zenoh=Zenoh.off()) if program == "sim_bridge"
-               else AutopilotCommand(sim_port=free_udp_port(), links=ports, zenoh=Zenoh.off()))
+    command = (
+        SimCommand(port=free_udp_port(), zenoh=Zenoh.off())
+        if program == "sim_bridge"
+        else AutopilotCommand(sim_port=free_udp_port(), links=ports, zenoh=Zenoh.off())
+    )
     result = run_to_end(command.argv(), timeout_s=60, env=environ)
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
@@ -46,5 +49,3 @@ def test_the_vehicle_reports_the_home_px4_home_variables_give(monkeypatch):
     assert 58000 < home.altitude < 59000 and abs(home.altitude - position.alt) < 50
     assert abs(home.z + (home.altitude - 58000) / 1000) < 0.01  # its place in the local frame: over the origin
     assert math.hypot(position.lat - home.latitude, position.lon - home.longitude) < 100  # within ~1 m
-
-

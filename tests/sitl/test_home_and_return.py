@@ -165,7 +165,6 @@ def test_return_altitude_descend_altitude_and_land_delay(tmp_path):
         assert math.hypot(*here(gs)[0:2]) < 1.0
 
 
-
 def mission_landing_rows(waypoint: tuple[float, float], landing: tuple[float, float]) -> list[tuple]:
     """A waypoint at 10 m, then the landing: DO_LAND_START and a NAV_LAND."""
     far, over = latlon_e7(*waypoint), latlon_e7(*landing)

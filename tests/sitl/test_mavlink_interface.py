@@ -125,12 +125,17 @@ def test_identity_streams_and_requests(hovering, airframe):
     capabilities = gs.latest["AUTOPILOT_VERSION"].capabilities
     assert capabilities & M.MAV_PROTOCOL_CAPABILITY_PARAM_ENCODE_BYTEWISE
     assert capabilities & M.MAV_PROTOCOL_CAPABILITY_MAVLINK2
-    for mission_protocol in (M.MAV_PROTOCOL_CAPABILITY_MISSION_INT, M.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE,
-                             M.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY):
+    for mission_protocol in (
+        M.MAV_PROTOCOL_CAPABILITY_MISSION_INT,
+        M.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE,
+        M.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY,
+    ):
         assert capabilities & mission_protocol
     assert gs.command(M.MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES, 1).result == M.MAV_RESULT_ACCEPTED
     # HOME_POSITION on request, its 0.5 Hz stream stopped first: what arrives is the answer, once.
-    assert gs.command(M.MAV_CMD_SET_MESSAGE_INTERVAL, M.MAVLINK_MSG_ID_HOME_POSITION, -1).result == M.MAV_RESULT_ACCEPTED
+    assert (
+        gs.command(M.MAV_CMD_SET_MESSAGE_INTERVAL, M.MAVLINK_MSG_ID_HOME_POSITION, -1).result == M.MAV_RESULT_ACCEPTED
+    )
     try:
         with gs.recording("HOME_POSITION") as homes:
             gs.wait_sim(3.0)  # more than the stream's 2 s period
@@ -142,7 +147,10 @@ def test_identity_streams_and_requests(hovering, airframe):
         home = homes[0]
         assert (home.latitude, home.longitude, home.altitude) == (473977420, 85455940, 488000)  # PX4 SITL's
     finally:  # the stream at its default rate again, for the tests that share this vehicle
-        assert gs.command(M.MAV_CMD_SET_MESSAGE_INTERVAL, M.MAVLINK_MSG_ID_HOME_POSITION, 0).result == M.MAV_RESULT_ACCEPTED
+        assert (
+            gs.command(M.MAV_CMD_SET_MESSAGE_INTERVAL, M.MAVLINK_MSG_ID_HOME_POSITION, 0).result
+            == M.MAV_RESULT_ACCEPTED
+        )
     gs.conn.mav.mission_request_list_send(gs.vehicle, 1, M.MAV_MISSION_TYPE_MISSION)
     gs.wait(lambda: "MISSION_COUNT" in gs.latest, "MISSION_COUNT")
     assert gs.latest["MISSION_COUNT"].count == 0
@@ -277,8 +285,9 @@ def test_offboard_set_point_checks_and_frames(hovering):
                                            0, 0)  # fmt: skip
     mav.set_position_target_local_ned_send(0, gs.vehicle, 1, M.MAV_FRAME_LOCAL_NED, VELOCITY_MASK, 0, 0, 0, math.inf, 0, 0, 0, 0,
                                            0, 0, 0)  # fmt: skip
-    mav.set_position_target_local_ned_send(0, gs.vehicle, 1, M.MAV_FRAME_LOCAL_NED, 0b110000111111, 0, 0, 0, 0, 0, 0, 1, 0, 0,
-                                           0, 0)  # fmt: skip  (an acceleration set-point)
+    mav.set_position_target_local_ned_send(
+        0, gs.vehicle, 1, M.MAV_FRAME_LOCAL_NED, 0b110000111111, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 0
+    )  # fmt: skip  (an acceleration set-point)
     mav.set_position_target_local_ned_send(0, gs.vehicle, 1, 99, VELOCITY_MASK, 0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0)
     gs.wait(lambda: sum("Set-point dropped" in t for t in gs.statustexts[texts:]) >= 3, "the drops")
     assert gs.set_mode(OFFBOARD).result == M.MAV_RESULT_TEMPORARILY_REJECTED  # nothing valid received
@@ -336,8 +345,11 @@ def test_junk_on_both_links_is_dropped_while_the_vehicle_hovers(own_hovering):
     other = ardupilotmega.MAVLink(None, 255, 190)
     unknown = other.wind_encode(10.0, 5.0, 0.0).pack(other)  # an ArduPilot-only message: unknown to `common`
     arm_junk = junk.pack(junk.mav.command_long_encode(1, 1, M.MAV_CMD_COMPONENT_ARM_DISARM, 0, NAN, NAN, 0, 0, 0, 0, 0))
-    absurd = junk.pack(junk.mav.set_position_target_local_ned_encode(0, 1, 1, M.MAV_FRAME_LOCAL_NED, VELOCITY_MASK, 0,
-                                                                      0, 0, NAN, math.inf, -math.inf, 0, 0, 0, 0, 0))
+    absurd = junk.pack(
+        junk.mav.set_position_target_local_ned_encode(
+            0, 1, 1, M.MAV_FRAME_LOCAL_NED, VELOCITY_MASK, 0, 0, 0, NAN, math.inf, -math.inf, 0, 0, 0, 0, 0
+        )
+    )
     param_junk = junk.pack(junk.mav.param_set_encode(1, 1, bytes(rng.getrandbits(8) | 1 for _ in range(16)), NAN, 77))
     sender = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     targets = [("127.0.0.1", hovering.ports["gcs"]), ("127.0.0.1", hovering.ports["api"])]

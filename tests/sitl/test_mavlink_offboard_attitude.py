@@ -55,8 +55,14 @@ def test_offboard_attitude_lifts_off_rolls_turns_and_hands_back_to_the_mpc(tmp_p
         # Bad input: a NaN quaternion is dropped, a thrust above 1 clamped, both said.
         mav.set_attitude_target_send(gs.time_boot_ms, gs.vehicle, 1, ATTITUDE_MASK, [math.nan, 0, 0, 0], 0, 0, 0, 0.5)
         mav.set_attitude_target_send(gs.time_boot_ms, gs.vehicle, 1, ATTITUDE_MASK, [1, 0, 0, 0], 0, 0, 0, 1.5)
-        gs.wait(lambda: any("quaternion not finite" in text for text in gs.statustexts)
-                and any("Attitude set-point clamped" in text for text in gs.statustexts), "the refusals", 20)
+        gs.wait(
+            lambda: (
+                any("quaternion not finite" in text for text in gs.statustexts)
+                and any("Attitude set-point clamped" in text for text in gs.statustexts)
+            ),
+            "the refusals",
+            20,
+        )
         assert gs.set_mode(HOLD).result == M.MAV_RESULT_ACCEPTED
         gs.wait_sim(5.0, timeout_s=60)
         print(f"Hold: speed {math.hypot(*gs.velocity):.2f} m/s at {gs.altitude:.1f} m")

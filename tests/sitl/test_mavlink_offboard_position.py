@@ -51,8 +51,13 @@ def test_offboard_position_in_local_body_and_global_frames(hovering):
     gs = hovering.gs
     mav = gs.conn.mav
     local = (30.0, -20.0, -60.0)
-    fly_to(gs, lambda: mav.set_position_target_local_ned_send(gs.time_boot_ms, gs.vehicle, 1, M.MAV_FRAME_LOCAL_NED,
-                                                              POSITION_MASK, *local, 0, 0, 0, 0, 0, 0, 0, 0), local)
+    fly_to(
+        gs,
+        lambda: mav.set_position_target_local_ned_send(
+            gs.time_boot_ms, gs.vehicle, 1, M.MAV_FRAME_LOCAL_NED, POSITION_MASK, *local, 0, 0, 0, 0, 0, 0, 0, 0
+        ),
+        local,
+    )
     assert gs.mode == OFFBOARD
 
     # Body frame: an offset from where the vehicle is when the set-point arrives, rotated by its yaw (sent once, so
@@ -83,8 +88,9 @@ def test_offboard_position_with_velocity_feed_forward_and_bad_ones(hovering):
     for x, vx in ((math.nan, 0.0), (0.0, math.inf)):
         mav.set_position_target_local_ned_send(gs.time_boot_ms, gs.vehicle, 1, M.MAV_FRAME_LOCAL_NED, POSITION_VELOCITY_MASK,
                                                x, 0, -50, vx, 0, 0, 0, 0, 0, 0, 0)  # fmt: skip
-    mav.set_position_target_local_ned_send(gs.time_boot_ms, gs.vehicle, 1, M.MAV_FRAME_LOCAL_NED, 0b110111111011,
-                                           0, 0, -50, 0, 0, 0, 0, 0, 0, 0, 0)  # fmt: skip  (z alone)
+    mav.set_position_target_local_ned_send(
+        gs.time_boot_ms, gs.vehicle, 1, M.MAV_FRAME_LOCAL_NED, 0b110111111011, 0, 0, -50, 0, 0, 0, 0, 0, 0, 0, 0
+    )  # fmt: skip  (z alone)
     for why in ("not finite", "all three of x y z"):
         gs.wait(lambda: any(why in t for t in gs.statustexts[texts:]), f"the drop: {why}")
     target = (-20.0, 15.0, -55.0)

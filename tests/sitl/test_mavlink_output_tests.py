@@ -46,7 +46,7 @@ def test_motor_and_actuator_tests_drive_one_output_of_a_disarmed_vehicle_for_the
             shown = [(m.time_usec, pwm_of(m)) for m in stream]
             assert {pwm for _, pwm in shown} == {disarmed, driven}, shown
             on = [i for i, (_, pwm) in enumerate(shown) if pwm == driven]
-            assert on == list(range(on[0], on[-1] + 1)) and 0 < on[0] and on[-1] + 1 < len(shown)
+            assert on == list(range(on[0], on[-1] + 1)) and on[0] > 0 and on[-1] + 1 < len(shown)
             around = shown[on[0] - 1 : on[-1] + 2]  # from the last message before to the first one after
             assert {b - a for (a, _), (b, _) in pairwise(around)} == {STREAM_PERIOD_USEC}, around
             return shown[on[-1] + 1][0] - shown[on[0]][0]

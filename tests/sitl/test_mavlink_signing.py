@@ -47,7 +47,9 @@ def test_a_keyed_client_flies_an_unkeyed_one_is_refused_and_the_key_survives_a_r
         assert unkeyed.command(mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0).result == MAV_RESULT_DENIED
         assert unkeyed.command(mavlink.MAV_CMD_NAV_LAND).result == MAV_RESULT_DENIED
         assert unkeyed.set_mode((4 << 16) | (6 << 24)).result == MAV_RESULT_DENIED
-        unkeyed.conn.mav.command_int_send(unkeyed.vehicle, 1, 0, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, 0, 0, 0, 0, 0, 0, 0, 0)
+        unkeyed.conn.mav.command_int_send(
+            unkeyed.vehicle, 1, 0, mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 0, 0, 0, 0, 0, 0, 0, 0, 0
+        )
         unkeyed.conn.mav.param_set_send(unkeyed.vehicle, 1, b"MIS_TAKEOFF_ALT", 50.0, mavlink.MAV_PARAM_TYPE_REAL32)
         unkeyed.conn.mav.set_mode_send(1, mavlink.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, 6 << 16)
         unkeyed.velocity_setpoint(0, 0, 5)

@@ -14,5 +14,3 @@ def test_without_a_compiler_the_mpc_says_so_and_solves_through_casadi(airframe, 
     assert solver.backend is QpBackend.CASADI_CONIC
     assert "conic interface" in capsys.readouterr().err
     assert all(solution.ok for solution in iterate(solver, 2))
-
-

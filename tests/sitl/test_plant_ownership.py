@@ -117,8 +117,9 @@ def hover(tmp_path: Path, name: str, strays_at: str | None = None) -> Hover:
                  wait_ready=False, folder=tmp_path / name,
                  autopilot_args=("--profile", "hover", "--quiet", "--log", str(log), "--sim-bind-port", str(bind)),
                  ) as vehicle:  # fmt: skip
-        target, forge = (bind, forged_plant_states) if strays_at == "autopilot" else (vehicle.ports.plant,
-                                                                                       stray_datagrams)
+        target, forge = (
+            (bind, forged_plant_states) if strays_at == "autopilot" else (vehicle.ports.plant, stray_datagrams)
+        )
         sender = threading.Thread(target=send_strays, args=(target, stop, strays, forge))
         try:
             if strays_at is not None:
@@ -131,8 +132,9 @@ def hover(tmp_path: Path, name: str, strays_at: str | None = None) -> Hover:
             vehicle.wait_finished(timeout_s=300)  # (an autopilot that exits with an error fails the test here)
         finally:
             stop.set()
-    return Hover(read_flight_log(log).columns[DOWN], vehicle.summary("vtol-sim"), vehicle.summary("vtol-autopilot"),
-                 strays)
+    return Hover(
+        read_flight_log(log).columns[DOWN], vehicle.summary("vtol-sim"), vehicle.summary("vtol-autopilot"), strays
+    )
 
 
 def max_deviation(down: np.ndarray, clean_down: np.ndarray) -> float:
@@ -174,12 +176,25 @@ def test_forged_plant_states_sent_to_the_autopilot_change_nothing_and_are_counte
 def test_a_named_autopilot_alone_gets_the_plant(tmp_path):
     """vtol-sim --autopilot-port P: a HELLO from any other port is never answered; the named one flies."""
     bind = free_udp_port()
-    with Vehicle(autopilot=False, spawn_alt=50.0, speed=None, duration_s=1.0, summary=True, truth=False,
-                 plant_args=("--autopilot-port", str(bind))) as plant:  # started once it listens: the port is bound
+    with Vehicle(
+        autopilot=False,
+        spawn_alt=50.0,
+        speed=None,
+        duration_s=1.0,
+        summary=True,
+        truth=False,
+        plant_args=("--autopilot-port", str(bind)),
+    ) as plant:  # started once it listens: the port is bound
         port = plant.ports.plant
         assert hellos_answered(port, 10) == 0
-        with Vehicle(plant_port=port, spawn_alt=50.0, duration_s=1.0, truth=False, wait_ready=False,
-                     autopilot_args=("--sim-bind-port", str(bind), "--profile", "hover", "--quiet")) as autopilot:
+        with Vehicle(
+            plant_port=port,
+            spawn_alt=50.0,
+            duration_s=1.0,
+            truth=False,
+            wait_ready=False,
+            autopilot_args=("--sim-bind-port", str(bind), "--profile", "hover", "--quiet"),
+        ) as autopilot:
             autopilot.wait_finished(timeout_s=300)  # exit code 0, or VehicleError with its stderr
         plant.wait_finished(timeout_s=60)
         summary = plant.summary("vtol-sim")

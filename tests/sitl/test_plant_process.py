@@ -59,7 +59,9 @@ def test_at_hover_trim_it_holds_within_a_tenth_of_a_metre_per_second(start_plant
     speeds = [max(abs(s.state.vx), abs(s.state.vy), abs(s.state.vz)) / 100 for s in samples]
     assert max(speeds) < 0.1
     assert samples[-1].sensor.zacc == pytest.approx(-G, abs=0.01)
-    assert samples[-1].sensor.abs_pressure == pytest.approx(1013.25 * (1 - 2.25577e-5 * (HOME.alt + 100)) ** 5.25588, abs=0.01)
+    assert samples[-1].sensor.abs_pressure == pytest.approx(
+        1013.25 * (1 - 2.25577e-5 * (HOME.alt + 100)) ** 5.25588, abs=0.01
+    )
 
 
 def test_on_the_ground_disarmed_it_stays_put(start_plant, airframe):
@@ -329,5 +331,3 @@ def test_paced_lockstep_waits_for_every_command_and_slows_down_when_the_autopilo
     # 2 wall seconds (SPEED_WINDOW_S), so the flight lasts longer than that for the notice to be said.
     assert wall > 0.2 + 800 * 0.004
     assert any("slowed to" in text for text in texts)
-
-

@@ -88,8 +88,11 @@ def test_a_bad_key_file_is_refused_with_one_line(tmp_path, program, content, rea
     if content is not None:
         path.write_text(content)
     port = free_udp_port()
-    builder = (SimCommand(port=port, zenoh=Zenoh.off(), plant_signing_key=path) if program == "sim_bridge"
-               else AutopilotCommand(sim_port=port, links=free_link_ports(), zenoh=Zenoh.off(), plant_signing_key=path))
+    builder = (
+        SimCommand(port=port, zenoh=Zenoh.off(), plant_signing_key=path)
+        if program == "sim_bridge"
+        else AutopilotCommand(sim_port=port, links=free_link_ports(), zenoh=Zenoh.off(), plant_signing_key=path)
+    )
     result = run_to_end(builder.argv(), timeout_s=60)
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()

@@ -222,7 +222,9 @@ def test_mpc_scenario_run_folder_tlog_recording_and_report(tmp_path) -> None:
     assert run["recording"]["vtol/1/autopilot/mpc"] > 300
     # every plant step from the one after the first hold (t = 0) to the end, whatever the scheduling
     assert run["recording"]["vtol/1/plant/state"] == round(run["sim_s"] * 400)
-    states = [r["payload"]["t"] for r in read_recording(run_dir / "telemetry.jsonl.gz") if r["key"] == "vtol/1/plant/state"]
+    states = [
+        r["payload"]["t"] for r in read_recording(run_dir / "telemetry.jsonl.gz") if r["key"] == "vtol/1/plant/state"
+    ]
     assert states[0] == 0.0025 and states[-1] == run["sim_s"]
     # the status snapshot for the MAVLink services: built where a stream is due (the client streams at PX4's rates,
     # ATTITUDE at 50 Hz) or at least at 100 Hz, not at all 400 plant steps of a second

@@ -42,5 +42,3 @@ def test_the_pid_flies_the_survey_with_transition_items_driving_its_phases(tmp_p
     fly("survey_transitions.plan", "pid", tmp_path)
     phases = modes(tmp_path, "survey_transitions.plan", "pid")
     assert "FW" in phases and phases[-1] == "MC"  # forward flight on the legs, multicopter for the landing
-
-

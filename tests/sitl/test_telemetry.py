@@ -31,8 +31,14 @@ def fly_with_subscriber(controller: Controller, duration: str, *keys: str) -> di
         latest_t[key] = max([latest_t[key]] + [s["t"] for s in samples])
         payloads[key] += 1
 
-    with Vehicle(controller=controller, spawn_alt=100.0, speed=None, duration_s=float(duration), wait_ready=False,
-                 autopilot_args=("--profile", "accel")) as vehicle:
+    with Vehicle(
+        controller=controller,
+        spawn_alt=100.0,
+        speed=None,
+        duration_s=float(duration),
+        wait_ready=False,
+        autopilot_args=("--profile", "accel"),
+    ) as vehicle:
         endpoints = [vehicle.ports.zenoh_plant, vehicle.ports.zenoh_autopilot]
         session = zenoh.open(session_config(listen=[], connect=endpoints))
         try:

@@ -61,8 +61,9 @@ def test_offboard_yaw_turns_the_hover_to_it_and_a_yaw_rate_turns_at_that_rate(tm
         mav = gs.conn.mav
 
         def heading(yaw: float):
-            return lambda: mav.set_position_target_local_ned_send(gs.time_boot_ms, gs.vehicle, 1, M.MAV_FRAME_LOCAL_NED,
-                                                                  VELOCITY_YAW, 0, 0, 0, 0, 0, 0, 0, 0, 0, yaw, 0)
+            return lambda: mav.set_position_target_local_ned_send(
+                gs.time_boot_ms, gs.vehicle, 1, M.MAV_FRAME_LOCAL_NED, VELOCITY_YAW, 0, 0, 0, 0, 0, 0, 0, 0, 0, yaw, 0
+            )
 
         offboard(gs, heading(math.radians(90.0)))
         gs.wait_sim(6.0, every=heading(math.radians(90.0)))  # 90 deg at MPC_YAWRAUTO_MAX (30 deg/s) and settling
@@ -312,8 +313,10 @@ def test_a_region_of_interest_turns_the_nose_on_a_missions_legs_and_payload_item
 
     # DO_SET_ROI_NONE: the items' own yaw again (a waypoint's param4), in the next mission too.
     north, east = latlon_e7(20.0, 8.0)
-    rows = [(mission, M.MAV_CMD_DO_SET_ROI_NONE, 0, 0, 0, 0, 0, 0, 0.0),
-            (M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, M.MAV_CMD_NAV_WAYPOINT, 0, 2.0, 0, -60.0, north, east, ALTITUDE)]
+    rows = [
+        (mission, M.MAV_CMD_DO_SET_ROI_NONE, 0, 0, 0, 0, 0, 0, 0.0),
+        (M.MAV_FRAME_GLOBAL_RELATIVE_ALT_INT, M.MAV_CMD_NAV_WAYPOINT, 0, 2.0, 0, -60.0, north, east, ALTITUDE),
+    ]
     assert client.upload(M.MAV_MISSION_TYPE_MISSION, rows) == M.MAV_MISSION_ACCEPTED
     assert gs.set_mode(HOLD).result == M.MAV_RESULT_ACCEPTED
     fly_mission(gs)
@@ -341,5 +344,3 @@ def test_a_region_of_interest_turns_the_nose_on_a_missions_legs_and_payload_item
     gs.wait_sim(4.0)
     print(f"a new mission: heading {yaw_deg(gs):.2f} deg")
     assert abs(yaw_deg(gs) - 30.0) < 3.0
-
-

@@ -150,5 +150,3 @@ def test_vtol_watch_without_a_vehicle_says_so(tmp_path):
     assert result.returncode == 0, result.stderr
     assert result.stdout.splitlines() == ["t=- (no plant state yet)  mode=-  mpc=-  (no new samples)"]
     assert "vtol: 0 samples received" in result.stderr
-
-

@@ -49,5 +49,3 @@ def test_broken_airframe_is_refused_with_a_specific_message(tmp_path, case):
 def test_missing_file_is_refused(tmp_path):
     with pytest.raises(AirframeError, match="cannot read"):
         load_airframe(tmp_path / "nope.toml")
-
-

@@ -291,7 +291,7 @@ def test_effectiveness_matrix_matches_finite_differences(airframe: Airframe, mod
     for j in range(8):
         e = np.zeros(8)
         e[j] = step
-        numeric[:, j] = (wrench_of(model, u0 + e, tilts, v_air, rates) - wrench_of(model, u0 - e, tilts, v_air, rates))
+        numeric[:, j] = wrench_of(model, u0 + e, tilts, v_air, rates) - wrench_of(model, u0 - e, tilts, v_air, rates)
         numeric[:, j] /= 2 * step
     np.testing.assert_allclose(allocator.effectiveness_matrix, numeric, atol=1e-6)
     assert np.abs(numeric[3:6, ALLOCATED_SURFACES]).max() > 1.0  # the surfaces act at 15 m/s: the check covers them too

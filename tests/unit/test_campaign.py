@@ -77,8 +77,16 @@ def test_bad_campaign_files_are_refused_in_one_line(tmp_path: Path, capsys, text
 
 def test_a_cluster_address_dask_cannot_read_is_refused_in_one_line(tmp_path: Path, capsys) -> None:
     with pytest.raises(SystemExit) as exit_:
-        main(["campaign", str(_campaign(tmp_path, 'scenario = "accel"')), "--out", str(tmp_path / "out"),
-              "--address", "nonsense"])
+        main(
+            [
+                "campaign",
+                str(_campaign(tmp_path, 'scenario = "accel"')),
+                "--out",
+                str(tmp_path / "out"),
+                "--address",
+                "nonsense",
+            ]
+        )
     error = capsys.readouterr().err
     assert exit_.value.code == 2 and "cannot start or reach the cluster at nonsense" in error, error
 
@@ -101,15 +109,22 @@ def test_the_paper_experiments_are_the_variants_at_the_paper_values() -> None:
 
 def test_wind_and_airframe_reach_the_plants_command_line() -> None:
     argv = SimCommand(wind_ned=(-2.0, 0.5, -1.0), airframe=Path("other.toml")).argv()
-    options = build_sim_parser().parse_args(argv[argv.index("sim_bridge") + 1:])  # (a leading minus is no option)
+    options = build_sim_parser().parse_args(argv[argv.index("sim_bridge") + 1 :])  # (a leading minus is no option)
     assert options.wind == (-2.0, 0.5, -1.0) and options.airframe == "other.toml"
     assert not any(arg.startswith("--wind") for arg in SimCommand().argv())
 
 
 def test_the_same_key_twice_is_one_row(tmp_path: Path) -> None:
     store = ResultStore(tmp_path / "s.duckdb")
-    row = {"key": "k1", "scenario": "accel", "controller": "mpc", "repetition": 0, "params": {"duration_s": 1.0},
-           "status": "done", "metrics": {"survived": True, "vx_rmse": 0.5, "t_reach_s": float("nan")}}
+    row = {
+        "key": "k1",
+        "scenario": "accel",
+        "controller": "mpc",
+        "repetition": 0,
+        "params": {"duration_s": 1.0},
+        "status": "done",
+        "metrics": {"survived": True, "vx_rmse": 0.5, "t_reach_s": float("nan")},
+    }
     store.put("c", row)
     store.put("c", {**row, "metrics": {"survived": False, "vx_rmse": 0.7}})
     frame = store.frame()
@@ -126,11 +141,19 @@ def test_a_store_written_before_a_metric_existed_gets_its_column(tmp_path: Path)
     old.execute("INSERT INTO flights (key, status, vx_rmse) VALUES ('k0', 'done', 0.3)")
     old.close()
     store = ResultStore(path)
-    store.put("c", {"key": "k1", "scenario": "accel", "controller": "mpc", "repetition": 0, "params": {},
-                    "status": "done", "metrics": {"vx_rmse": 0.5, "heading_error_max_deg": 2.5}})
+    store.put(
+        "c",
+        {
+            "key": "k1",
+            "scenario": "accel",
+            "controller": "mpc",
+            "repetition": 0,
+            "params": {},
+            "status": "done",
+            "metrics": {"vx_rmse": 0.5, "heading_error_max_deg": 2.5},
+        },
+    )
     frame = store.frame().set_index("key")
     store.close()
     assert frame.loc["k1", "heading_error_max_deg"] == 2.5 and np.isnan(frame.loc["k0", "heading_error_max_deg"])
     assert frame.loc["k0", "vx_rmse"] == 0.3
-
-

@@ -271,9 +271,15 @@ def test_a_failsafe_decision_becomes_px4_s_plan():
     assert reaction(Decision("Warn", cause), HOLD, True) == Reaction(before=((M.MAV_SEVERITY_WARNING, cause),))
     assert reaction(Decision(RETURN, cause), LAND, True).mode is None  # not Return while landing
     descend = reaction(Decision("Descend", cause), HOLD, True)
-    assert (descend.mode, descend.descend, descend.after) == (LAND, True, ((M.MAV_SEVERITY_CRITICAL,
-                                                                             "Failsafe activated: Descend"),))
-    terminate, disarm = reaction(Decision("Terminate", cause), HOLD, True), reaction(Decision("Disarm", cause), HOLD, True)
+    assert (descend.mode, descend.descend, descend.after) == (
+        LAND,
+        True,
+        ((M.MAV_SEVERITY_CRITICAL, "Failsafe activated: Descend"),),
+    )
+    terminate, disarm = (
+        reaction(Decision("Terminate", cause), HOLD, True),
+        reaction(Decision("Disarm", cause), HOLD, True),
+    )
     assert terminate.cut_motors is not None and terminate.terminate  # the motors stay off until cleared
     assert disarm.cut_motors is not None and not disarm.terminate  # NAV_RCL_ACT 6: a disarm, no termination
     again = reaction(Decision(HOLD, cause), HOLD, False)  # Hold again stops a Go-to; nothing activated on the ground

@@ -11,8 +11,16 @@ def test_a_command_description_left_alone_adds_nothing_and_each_field_its_option
 
     assert SimCommand().argv() == [sys.executable, "-m", "sim_bridge"]
     assert AutopilotCommand().argv() == [sys.executable, "-m", "autopilot"]
-    plant = SimCommand(port=4600, spawn_alt=100.0, realtime_speed=2.0, duration_s=3.5, lockstep_timeout_s=9.0,
-                       summary=True, zenoh=Zenoh.listening("tcp/127.0.0.1:7000"), extra=("--sysid", "2"))
+    plant = SimCommand(
+        port=4600,
+        spawn_alt=100.0,
+        realtime_speed=2.0,
+        duration_s=3.5,
+        lockstep_timeout_s=9.0,
+        summary=True,
+        zenoh=Zenoh.listening("tcp/127.0.0.1:7000"),
+        extra=("--sysid", "2"),
+    )
     assert plant.argv()[3:] == ["--port", "4600", "--spawn-alt", "100.0", "--realtime", "--speed", "2.0",
                                 "--duration", "3.5", "--lockstep-timeout", "9.0", "--summary",
                                 "--zenoh-listen", "tcp/127.0.0.1:7000", "--sysid", "2"]  # fmt: skip

@@ -14,8 +14,9 @@ from transport.geodesy import Home, HomeRefused, home_from
 def test_px4s_home_is_the_default_and_each_environment_variable_replaces_its_part():
     assert home_from(None, {}) == Home(47.397742, 8.545594, 488.0)
     assert home_from(None, {"PX4_HOME_ALT": "100"}) == Home(47.397742, 8.545594, 100.0)
-    assert home_from(None, {"PX4_HOME_LAT": "-33.8688", "PX4_HOME_LON": " 151.2093 "}) == Home(-33.8688, 151.2093,
-                                                                                                488.0)
+    assert home_from(None, {"PX4_HOME_LAT": "-33.8688", "PX4_HOME_LON": " 151.2093 "}) == Home(
+        -33.8688, 151.2093, 488.0
+    )
     assert home_from((1.0, 2.0, 3.0), {"PX4_HOME_LAT": "10"}) == Home(1.0, 2.0, 3.0)  # --home wins
 
 

@@ -29,7 +29,9 @@ def random_value(rng: random.Random, field_type: str) -> float | int:
     if field_type == "float":
         return struct.unpack("<f", struct.pack("<f", rng.uniform(-1e4, 1e4)))[0]  # exactly representable
     bits = INTEGER_BITS[field_type.removeprefix("u")]
-    return rng.randrange(1 << bits) if field_type.startswith("u") else rng.randrange(-(1 << (bits - 1)), 1 << (bits - 1))
+    return (
+        rng.randrange(1 << bits) if field_type.startswith("u") else rng.randrange(-(1 << (bits - 1)), 1 << (bits - 1))
+    )
 
 
 def random_fields(rng: random.Random, frame_format: FrameFormat) -> list:

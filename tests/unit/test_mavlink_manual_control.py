@@ -16,5 +16,3 @@ def test_sticks_are_scaled_as_px4_reads_them():
     assert sticks_from_message(0, 0, -200, 0) == (sticks_from_message(0, 0, 0, 0)[0], True)
     assert climb_stick(0.5) == 0.0 and climb_stick(1.0) == 1.0 and climb_stick(0.0) == -1.0
     assert deadzone(0.05, 0.1) == 0.0 and deadzone(1.0, 0.1) == 1.0 and math.isclose(deadzone(-0.55, 0.1), -0.5)
-
-

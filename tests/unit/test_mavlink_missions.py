@@ -123,7 +123,9 @@ def test_a_region_of_interest_is_the_point_or_the_next_item_and_not_a_waypoint_f
     far_roi = item((REL, M.MAV_CMD_DO_SET_ROI_LOCATION, 0, 0, 0, 0, LAT, far, 0.0))
     far_waypoint = item((REL, M.MAV_CMD_NAV_WAYPOINT, 0, 0, 0, 0, LAT, far, 10.0))
     assert geofence_violation((far_roi, near_waypoint), position_of, outside) is None
-    assert geofence_violation((near_waypoint, far_waypoint), position_of, outside) == "Geofence violation for waypoint 2"
+    assert (
+        geofence_violation((near_waypoint, far_waypoint), position_of, outside) == "Geofence violation for waypoint 2"
+    )
     negative = item((REL, M.MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION, -5, 0, 0, 0, LAT, LON, 0.0))
     assert check_item(M.MAV_MISSION_TYPE_FENCE, negative) == M.MAV_MISSION_INVALID_PARAM1
 
@@ -147,5 +149,3 @@ def test_the_mission_file_round_trips_and_broken_ones_are_refused(tmp_path):
     for text in broken:
         with pytest.raises(MissionFileError):
             parse_document(text, "test file")
-
-

@@ -21,7 +21,9 @@ def test_leg_velocity_cruises_along_the_leg_converges_to_it_and_brakes_into_its_
     assert off_line[0] == 26.0 and off_line[1] < -5.0  # back towards the line
     braking = leg_velocity(np.array([384.0, 0.0]), start, end, 26.0, 2.0, 0.95)
     assert math.isclose(braking[0], math.sqrt(2 * 2.0 * 16.0)) and braking[1] == 0.0
-    assert leg_cruise_speed(400.0, None, 5.0, 26.0, 2.0) == 26.0 and leg_cruise_speed(100.0, None, 5.0, 26.0, 2.0) == 5.0
+    assert (
+        leg_cruise_speed(400.0, None, 5.0, 26.0, 2.0) == 26.0 and leg_cruise_speed(100.0, None, 5.0, 26.0, 2.0) == 5.0
+    )
     assert leg_cruise_speed(100.0, 12.0, 5.0, 26.0, 2.0) == 12.0
     on_circle = circle_velocity(np.array([20.0, 0.0]), np.zeros(2), 20.0, 5.0, True, 5.0)
     assert np.allclose(on_circle, [0.0, 5.0])  # clockwise seen from above: north -> east
@@ -31,5 +33,3 @@ def test_leg_velocity_cruises_along_the_leg_converges_to_it_and_brakes_into_its_
 def test_a_mission_started_landed_takes_off_to_its_first_item_or_mis_takeoff_alt():
     assert takeoff_down(-25.0, 0.0, 2.5) == -25.0  # the first waypoint's altitude
     assert takeoff_down(-1.0, 0.0, 2.5) == -2.5  # at least MIS_TAKEOFF_ALT above the ground
-
-

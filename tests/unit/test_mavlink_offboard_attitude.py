@@ -26,5 +26,3 @@ def test_type_mask_chooses_attitude_or_rates_and_bad_values_are_refused_or_clamp
     assert clamped and target.thrust == 1.0 and max(abs(target.body_rates)) == math.pi
     kept, clamped = attitude_in_limits(OffboardAttitude(level.euler, None, None), 0.6)
     assert not clamped and kept.thrust == 0.6  # thrust ignored: the last one stays
-
-

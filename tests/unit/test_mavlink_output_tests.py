@@ -22,5 +22,3 @@ def test_test_values_become_pwm_and_tests_end_at_their_time_out():
     tests.drive(True, 3, 0.5, 1.0, now_usec=0)
     tests.drive(True, 3, None, 0.0, now_usec=0)  # released
     assert tests.applied(disarmed, 0) is disarmed
-
-

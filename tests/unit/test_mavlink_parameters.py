@@ -86,5 +86,3 @@ def test_a_broken_parameter_file_is_refused(tmp_path, case):
     path.write_text(BROKEN_FILES[case], encoding="latin-1")
     with pytest.raises(ParameterFileError):
         ParameterStore(path).load()
-
-

@@ -91,8 +91,12 @@ def test_a_stuck_motor_and_a_slow_servo_enter_the_plan_too(solver):
     params = np.zeros((NP, solver.horizon + 1))
     params[0, :] = 3.0
     params[P_FREE_TILT, :] = 1.0
-    solver.set_actuator_limits(np.array([12.0, 23.0, 23.0, 23.0]), np.full(4, np.nan),
-                               thrust_min=np.array([12.0, 0.0, 0.0, 0.0]), tilt_rate_scale=np.array([1, 0.5, 1, 1]))
+    solver.set_actuator_limits(
+        np.array([12.0, 23.0, 23.0, 23.0]),
+        np.full(4, np.nan),
+        thrust_min=np.array([12.0, 0.0, 0.0, 0.0]),
+        tilt_rate_scale=np.array([1, 0.5, 1, 1]),
+    )
     converge(solver, x0, params, iterations=20)
     inputs = solver.inputs()
     assert inputs[:, 4] == pytest.approx(12.0, abs=1e-6)  # motor 1 stuck at 12 N

@@ -33,5 +33,3 @@ def test_velocity_estimate_removes_the_cm_per_s_quantisation_without_lag():
         previous, previous_truth = value, truth
     assert max(errors) < 2e-3  # the measurement alone is off by up to 5e-3
     assert max(steps) < 2e-4  # per 2.5 ms step, against quantisation jumps of 1e-2
-
-

@@ -73,5 +73,3 @@ def test_a_motor_failure_reaches_the_next_solve(airframe):
     assert thrusts[0] > 1.0 and max(abs(t) for t in thrusts[1:]) < 0.05
     assert controller.allocator.upper[ALLOCATED_ROTORS][0] == 0.0
     assert controller.controller_statistics()["solves_failed"] == 0
-
-

@@ -17,5 +17,3 @@ def test_a_key_must_be_64_hex_digits_and_not_zero(text, reason):
     with pytest.raises(KeyFileRefused, match=reason):
         parse_key(text)
     assert parse_key(" " + "ab" * 32 + "\n") == bytes([0xAB] * 32)
-
-

@@ -22,5 +22,3 @@ def test_no_port_of_an_instance_is_a_port_of_another() -> None:
             assert port != Ports(instance).gcs_remote and 1024 < port < 65536
     assert (Ports(9).api_remote, Ports(10).api_remote, Ports(99).zenoh_plant, Ports(100).zenoh_plant) == \
         (14549, 15580, "tcp/127.0.0.1:7546", "tcp/127.0.0.1:7647")  # fmt: skip
-
-

@@ -101,5 +101,3 @@ def test_course_rate_of_the_circle_setpoint_is_its_angular_rate() -> None:
         rate = 26.0 * omega * np.array([-math.sin(angle), math.cos(angle), 0.0])
         assert course_rate(v_sp, rate) == pytest.approx(omega)
     assert course_rate(np.array([1.0, 0.0, 0.0]), np.array([0.0, 5.0, 0.0])) == 0.0  # too slow to have a course
-
-

@@ -53,9 +53,20 @@ def control_payload(t: float = 1.0, mode: str = "MC") -> bytes:
 
 
 def mpc_payload(t: float = 1.0, n: int = 26) -> bytes:
-    return json.dumps({"t": t, "ok": True, "status": "solved", "solve_time_ms": 2.5, "qp_iterations": 7,
-                       "cost": 1.0, "predicted_velocity": [[0.1 * k, 0.0, 0.0] for k in range(n)],
-                       "predicted_tilt": [[0.0] * 4] * n, "thrust": [9.0] * 4, "attitude_sp": [0.0] * 3}).encode()
+    return json.dumps(
+        {
+            "t": t,
+            "ok": True,
+            "status": "solved",
+            "solve_time_ms": 2.5,
+            "qp_iterations": 7,
+            "cost": 1.0,
+            "predicted_velocity": [[0.1 * k, 0.0, 0.0] for k in range(n)],
+            "predicted_tilt": [[0.0] * 4] * n,
+            "thrust": [9.0] * 4,
+            "attitude_sp": [0.0] * 3,
+        }
+    ).encode()
 
 
 # ---- pure functions ------------------------------------------------------------------------------------------------
