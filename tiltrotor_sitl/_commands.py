@@ -18,8 +18,8 @@ import subprocess
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
 
+from autopilot.topics.controller_kind import ControllerKind
 from tiltrotor_sitl._free_ports import lease_ports
 from transport.geodesy import Home, LocalGeodetic, home_from
 from transport.ports import Ports, zenoh_endpoint
@@ -27,7 +27,7 @@ from transport.ports import Ports, zenoh_endpoint
 FLEET_SPACING_M = 5.0  # vehicles of a fleet stand this far apart, in a row to the east
 SIM_MODULE = "sim_bridge"
 AUTOPILOT_MODULE = "autopilot"
-Controller = Literal["mpc", "pid"]
+Controller = ControllerKind  # "mpc" (the unified MPC, the PID its back-up) or "pid" (the PID baseline alone)
 
 
 def python_module(module: str, args: list[str]) -> list[str]:

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Literal
 
 import casadi as ca
 import numpy as np
@@ -34,12 +33,10 @@ from autopilot.control.velocity_command import VelocityCommand
 from autopilot.control.velocity_controller import PrimaryVelocityController, VelocityController
 from autopilot.control.velocity_estimate import VelocityEstimate
 from autopilot.topics.attitude_target import AttitudeTarget
+from autopilot.topics.controller_kind import MPC, PID, ControllerKind
 from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.yaw_setpoint import YawReference
 
-ControllerKind = Literal["mpc", "pid"]
-MPC: ControllerKind = "mpc"  # the unified MPC, with the PID baseline as its back-up
-PID: ControllerKind = "pid"  # the PID baseline alone
 VELOCITY_PERIOD_USEC = 10_000  # 100 Hz
 ATTITUDE_PERIOD_USEC = 4_000  # 250 Hz
 # Priorities when the demand is infeasible, as PX4's allocation has them: roll and pitch first (1 N m of

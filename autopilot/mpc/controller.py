@@ -139,7 +139,7 @@ class MpcVelocityController:
 
     def start(self, state: VehicleState, v_sp: np.ndarray, tilts: np.ndarray,
               yaw_ref: YawReference | None = None) -> None:  # fmt: skip
-        """`update` in two halves: the solve runs on the solver's worker thread until `finish` (mpc_overlap.py)."""
+        """`update` in two halves: the solve runs on the solver's worker thread until `finish` (mpc/overlap.py)."""
         self.solver.start(self._prepare(state, v_sp, tilts, yaw_ref), self.params)
 
     def finish(self) -> VelocityCommand:

@@ -12,7 +12,7 @@ Cost per stage (paper eq. for J and Table 2): |v - v_sp,k|^2_Qref + |(phi - phi_
        (exp(s / 2))^2.
 No flight-mode logic anywhere: the soft tilt cost alone keeps the rotors up at low speed.
 The per-stage references (v_sp,k along the set-point's trajectory, and the coordinated-turn phi_ref,
-psi_rate_ref, psi_d_ref) come from the controller (mpc_controller, docs/mpc.md 2.5); for a constant set-point
+psi_rate_ref, psi_d_ref) come from the controller (mpc/controller.py, docs/mpc.md 2.5); for a constant set-point
 they are the paper's (v_sp, 0, 0, psi_ref).
 
 Deviation (docs/mpc.md): the paper weighs the thrust itself, 0.025 T^2 (T in N). Measured with this plant:
