@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from tests.unit.test_api import children_of
-from tiltrotor_sitl import Vehicle, VehicleError
+from tiltrotor_sitl import ProcessOptions, Vehicle, VehicleError
 from transport.ports import Ports
 
 USER_TEST = """
@@ -205,12 +205,14 @@ def test_a_process_dying_at_start_up_is_quoted(tmp_path: Path) -> None:
 
 def test_no_readiness_in_time_is_a_clear_error() -> None:
     with pytest.raises(VehicleError, match="not ready to arm within 0.05 s .*system id 1: no HEARTBEAT"):
-        Vehicle(controller="pid", truth=False, ready_timeout_s=0.05).start()
+        Vehicle(controller="pid", truth=False, processes=ProcessOptions(ready_timeout_s=0.05)).start()
     assert children_of(os.getpid()) == []
 
 
 def test_a_process_that_dies_before_its_duration_is_quoted() -> None:
-    with Vehicle(autopilot=False, speed=None, truth=False, duration_s=10.0) as plant:  # alone: nobody steps it
+    with Vehicle(
+        speed=None, truth=False, processes=ProcessOptions(autopilot=False, duration_s=10.0)
+    ) as plant:  # alone: nobody steps it
         assert plant.pids == [plant.process("vtol-sim").pid]
         plant.process("vtol-sim").kill()
         with pytest.raises(VehicleError, match="vtol-sim .* exited with code -9 before the end"):

@@ -17,7 +17,7 @@ from ground_tools.telemetry_record import (
     read_recording,
 )
 from tests.unit.test_zenoh_tools import control_payload, plant_payload
-from tiltrotor_sitl import Vehicle
+from tiltrotor_sitl import ProcessOptions, Vehicle
 from tiltrotor_sitl._free_ports import free_zenoh_endpoint
 from transport.telemetry import (
     PLANT_STATE_FIELDS,
@@ -79,7 +79,9 @@ def vehicle():
     yields its plant's and autopilot's endpoints. Real time x1: on a loaded 2-core machine an autopilot that cannot
     keep up with a faster real-time plant (x5 PID, x2 MPC were seen) lets the vehicle fall, and the tests check
     ~100 m."""
-    with Vehicle(controller="pid", spawn_alt=100.0, speed=1.0, autopilot_args=("--quiet",)) as started:
+    with Vehicle(
+        controller="pid", spawn_alt=100.0, speed=1.0, processes=ProcessOptions(autopilot_args=("--quiet",))
+    ) as started:
         yield [started.ports.zenoh_plant, started.ports.zenoh_autopilot]
 
 
