@@ -15,19 +15,26 @@ import time
 from pathlib import Path
 
 from autopilot.mpc.horizon import HORIZONS
+from ground_tools.exit_status import CHECK_FAILED, FAILED, INTERRUPTED, OK, epilog
 from ground_tools.scenario_flights import FlightQueue
 from ground_tools.scenario_report import acceptance, usable_cpus, write_report
 from ground_tools.scenario_run import RunResult
 from scenarios.experiments import SCENARIOS
 from tiltrotor_sitl import Controller
-from transport.cli import bounded_int, positive_float, writable_folder
+from transport.cli import bounded_int, fail, positive_float, writable_folder
 
 PROG = "vtol"
 SHOWN = ("survived", "vx_rmse", "vz_max_abs", "pitch_max_abs_deg", "alt_change_max_m", "t_reach_s", "radial_rmse_m",
          "radial_max_m", "bank_mean_deg", "vx_rmse_after_failure", "solve_ms_median", "solves_failed")  # fmt: skip
 
 
+EPILOG = epilog(ok="every run flown and every acceptance check passed",
+                failed="a run failed to fly (its error on stderr)",
+                check_failed="every run flew but an acceptance check printed FAIL")  # fmt: skip
+
+
 def add_scenario_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.epilog = EPILOG
     parser.add_argument("name", choices=[*SCENARIOS, "all"], help="a paper experiment, or all five")
     parser.add_argument(
         "--controller",
@@ -66,9 +73,7 @@ def default_jobs(instance: int | None) -> int:
 
 def scenario(args: argparse.Namespace) -> int:
     if args.jobs is not None and args.jobs > 1 and args.instance is not None:
-        print(f"{PROG} scenario: error: --instance gives one vehicle's ports; it cannot go with --jobs {args.jobs}",
-              file=sys.stderr)  # fmt: skip
-        return 2
+        fail(f"{PROG} scenario", f"--instance gives one vehicle's ports; it cannot go with --jobs {args.jobs}")
     out = writable_folder(PROG, Path(args.out))
     names = list(SCENARIOS) if args.name == "all" else [args.name]
     controllers: list[Controller] = ["mpc", "pid"] if args.controller == "both" else [args.controller]
@@ -92,7 +97,8 @@ def scenario(args: argparse.Namespace) -> int:
             )
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted: the runs in flight were stopped, their processes killed", file=sys.stderr)
-        return 130
+        return INTERRUPTED
+    checks_failed = []
     for name in names:
         figures = queue.figures.get(name)
         if figures:
@@ -103,10 +109,16 @@ def scenario(args: argparse.Namespace) -> int:
             pid = json.loads(pid_path.read_text()) if pid_path.is_file() else None
             for text, passed in acceptance(name, json.loads(mpc_metrics.read_text()), pid):
                 print(f"{PROG}: {name}: MPC {text}: {'pass' if passed else 'FAIL'}")
+                if not passed:
+                    checks_failed.append(f"{name}: {text}")
     if args.name == "all":
         report = write_report(out, time.perf_counter() - started)
         print(f"{PROG}: report {report}")
     if failed:
         print(f"{PROG}: error: {len(failed)} run(s) failed: {', '.join(failed)}", file=sys.stderr)
-        return 1
-    return 0
+        return FAILED
+    if checks_failed:
+        print(f"{PROG}: error: {len(checks_failed)} acceptance check(s) failed: {'; '.join(checks_failed)}",
+              file=sys.stderr)  # fmt: skip
+        return CHECK_FAILED
+    return OK
