@@ -103,22 +103,37 @@ def scenario(args: argparse.Namespace) -> int:
         figures = queue.figures.get(name)
         if figures:
             print(f"{PROG}: {name}: figures in {figures[0].parent.parent}/*/")
-        mpc_metrics = out / name / "mpc" / "metrics.json"
-        if "mpc" in controllers and mpc_metrics.is_file() and args.duration is None:
-            pid_path = out / name / "pid" / "metrics.json"
-            pid = json.loads(pid_path.read_text()) if pid_path.is_file() else None
-            for text, passed in acceptance(name, json.loads(mpc_metrics.read_text()), pid):
-                print(f"{PROG}: {name}: MPC {text}: {'pass' if passed else 'FAIL'}")
-                if not passed:
-                    checks_failed.append(f"{name}: {text}")
+        if "mpc" in controllers and args.duration is None:
+            checks_failed += checked(out, name)
     if args.name == "all":
         report = write_report(out, time.perf_counter() - started)
         print(f"{PROG}: report {report}")
-    if failed:
-        print(f"{PROG}: error: {len(failed)} run(s) failed: {', '.join(failed)}", file=sys.stderr)
+    return exit_status(failed, checks_failed)
+
+
+def checked(out: Path, name: str) -> list[str]:
+    """Print the MPC's acceptance checks of scenario `name` from its run folders under `out` (pass or FAIL); the
+    ones that failed."""
+    mpc_metrics = out / name / "mpc" / "metrics.json"
+    if not mpc_metrics.is_file():
+        return []
+    pid_path = out / name / "pid" / "metrics.json"
+    pid = json.loads(pid_path.read_text()) if pid_path.is_file() else None
+    failed = []
+    for text, passed in acceptance(name, json.loads(mpc_metrics.read_text()), pid):
+        print(f"{PROG}: {name}: MPC {text}: {'pass' if passed else 'FAIL'}")
+        if not passed:
+            failed.append(f"{name}: {text}")
+    return failed
+
+
+def exit_status(failed_runs: list[str], failed_checks: list[str]) -> int:
+    """FAILED when a run failed to fly, else CHECK_FAILED when an acceptance check failed, else OK; says why."""
+    if failed_runs:
+        print(f"{PROG}: error: {len(failed_runs)} run(s) failed: {', '.join(failed_runs)}", file=sys.stderr)
         return FAILED
-    if checks_failed:
-        print(f"{PROG}: error: {len(checks_failed)} acceptance check(s) failed: {'; '.join(checks_failed)}",
+    if failed_checks:
+        print(f"{PROG}: error: {len(failed_checks)} acceptance check(s) failed: {'; '.join(failed_checks)}",
               file=sys.stderr)  # fmt: skip
         return CHECK_FAILED
     return OK

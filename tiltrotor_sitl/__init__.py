@@ -61,6 +61,7 @@ from tiltrotor_sitl.ground_station import (
     GroundStation,
     StatusReport,
 )
+from tiltrotor_sitl.mission_items import landing, waypoint
 from tiltrotor_sitl.truth import PlantTruth, Trajectory, TruthFeed, TruthHistory, TruthTimeout
 from transport.geodesy import Home
 from transport.ports import LOOPBACK
@@ -69,7 +70,7 @@ __version__ = importlib.metadata.version("tiltrotor-sitl")
 __all__ = ["CommandError", "CommandRefused", "CommandTimeout", "Controller", "Faults", "Fleet", "FlightMode",
            "GroundStation", "Home", "MissionItem", "PlantTruth", "ProcessOptions", "StatusReport", "Trajectory",
            "TruthFeed", "TruthHistory", "TruthTimeout", "Vehicle", "VehicleError", "VehicleHandle", "VehicleOptions",
-           "VehiclePorts", "__version__"]  # fmt: skip
+           "VehiclePorts", "__version__", "landing", "waypoint"]  # fmt: skip
 TLOG_FILE = "gcs.tlog"  # the ground station's MAVLink log, in the folder of the Vehicle or Fleet
 
 

@@ -182,9 +182,8 @@ class GroundLink:
         self._inboxes_lock = threading.Lock()
         self._log: IO[bytes] | None = None
         if tlog is not None:
-            self.connection.setup_logfile(str(tlog))
-            self._log = self.connection.logfile
-            self.connection.mav.set_send_callback(self._log_sent)
+            self._log = open(tlog, "ab")  # noqa: SIM115 (closed in close(), after the reader has stopped)
+            self.connection.mav.set_send_callback(self._logged)
         self._stop = threading.Event()
         self._reader = threading.Thread(target=self._read, name=f"ground-link:{url}", daemon=True)
         self._reader.start()
@@ -219,7 +218,8 @@ class GroundLink:
         if self._log is not None:
             self._log.close()
 
-    def _log_sent(self, message: Any) -> None:
+    def _logged(self, message: Any) -> None:
+        """Into the .tlog: the time (us since the epoch, big-endian, as QGroundControl writes it) and the frame."""
         if self._log is not None and not self._log.closed:
             self._log.write(struct.pack(">Q", int(time.time() * 1e6) & ~3) + message.get_msgbuf())
 
@@ -235,6 +235,7 @@ class GroundLink:
             message = self.connection.recv_match(blocking=True, timeout=0.1)
             if message is None or message.get_type() == "BAD_DATA":
                 continue
+            self._logged(message)
             self.inbox(message.get_srcSystem()).put(message)
 
 

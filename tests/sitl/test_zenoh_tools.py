@@ -146,9 +146,18 @@ def test_vtol_watch_prints_status_lines_and_writes_a_snapshot(tmp_path, vehicle)
     assert re.search(r"vtol: \d+ samples received", result.stderr) and "Traceback" not in result.stderr
 
 
-def test_vtol_watch_without_a_vehicle_says_so(tmp_path):
+def test_vtol_watch_without_a_vehicle_says_so_and_exits_1(tmp_path):
     command = [*VTOL, "watch", "--text", "--duration", "1.2", "--connect", free_zenoh_endpoint()]
     result = subprocess.run(command, capture_output=True, text=True, timeout=60)
-    assert result.returncode == 0, result.stderr
+    assert result.returncode == 1, result.stderr
     assert result.stdout.splitlines() == ["t=- (no plant state yet)  mode=-  mpc=-  (no new samples)"]
     assert "vtol: 0 samples received" in result.stderr
+
+
+def test_vtol_record_without_a_vehicle_says_so_and_exits_1(tmp_path):
+    command = [*VTOL, "record", "--out", str(tmp_path / "r.jsonl"), "--duration", "1.2", "--no-progress",
+               "--connect", free_zenoh_endpoint()]  # fmt: skip
+    result = subprocess.run(command, capture_output=True, text=True, timeout=60)
+    assert result.returncode == 1, result.stderr
+    assert "vtol: error: nothing received: is a vehicle publishing on" in result.stderr
+    assert (tmp_path / "r.jsonl").read_text() == ""

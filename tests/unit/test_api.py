@@ -91,3 +91,14 @@ def test_instances_are_a_px4_fleet() -> None:
     assert [Ports(i).system_id for i in (0, 1, 2, 249, 250)] == [1, 2, 3, 250, 1]
     assert {Ports(i).gcs_remote for i in (0, 1, 7)} == {14550}
     assert (Ports(3).api_remote, Ports(3).api_bind) == (14543, 14583)
+
+
+def test_the_worked_example_of_testing_md_is_the_example_file_the_suite_runs() -> None:
+    """docs/testing.md shows docs/examples/test_takeoff_and_land.py (tests/sitl/test_api.py runs it), under 15 lines
+    of code."""
+    docs = Path(__file__).parents[2] / "docs"
+    example = (docs / "examples" / "test_takeoff_and_land.py").read_text()
+    code = example.split('"""', 2)[2].strip()
+    shown = (docs / "testing.md").read_text().split("```python\n", 1)[1].split("```", 1)[0].strip()
+    assert shown == code
+    assert len([line for line in code.splitlines() if line.strip()]) < 15

@@ -4,6 +4,8 @@ that see every sample, earlier ones too when asked; fed here with synthetic plan
 from __future__ import annotations
 
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 import numpy as np
 import pytest
@@ -57,47 +59,40 @@ def test_a_mark_lets_go_of_the_samples_before_it() -> None:
     assert history.min(lambda s: s.t).t == pytest.approx(1.0)
 
 
+@contextmanager
+def flying_on(history: TruthHistory, first_step: int) -> Iterator[None]:
+    """The plant flying on while the block runs: payloads of 10 steps (25 ms), one each wall millisecond."""
+    done = threading.Event()
+
+    def feed() -> None:
+        first = first_step
+        while not done.wait(0.001):
+            history.extend(states(first, 10))
+            first += 10
+
+    feeder = threading.Thread(target=feed)
+    feeder.start()
+    try:
+        yield
+    finally:
+        done.set()
+        feeder.join()
+
+
 def test_a_single_step_before_the_wait_is_found_with_include_past_and_only_then() -> None:
     history = TruthHistory(1, "test")
     history.extend(states(0, 1000))
     one_step = lambda s: abs(s.t - 1.0) < STEP_S / 2  # noqa: E731 (holds at t = 1.0 s alone)
     found = history.wait_until(one_step, timeout_sim_s=1.0, include_past=True)
     assert found.t == pytest.approx(1.0)
-    done = threading.Event()
-
-    def feed() -> None:  # the plant flying on, 25 ms of it each millisecond, until the wait has given up
-        first = 1000
-        while not done.wait(0.001):
-            history.extend(states(first, 10))
-            first += 10
-
-    feeder = threading.Thread(target=feed)
-    feeder.start()
-    try:
-        with pytest.raises(TruthTimeout, match="did not hold within 1 simulated seconds"):
-            history.wait_until(one_step, timeout_sim_s=1.0, timeout_wall_s=30.0)
-    finally:
-        done.set()
-        feeder.join()
+    with flying_on(history, 1000), pytest.raises(TruthTimeout, match="did not hold within 1 simulated seconds"):
+        history.wait_until(one_step, timeout_sim_s=1.0, timeout_wall_s=30.0)
 
 
 def test_a_wait_sees_every_sample_of_a_payload_not_only_the_last() -> None:
     history = TruthHistory(1, "test")
-    done = threading.Event()
-
-    def feed() -> None:  # payloads of 10 steps, one a millisecond, until the wait has returned
-        first = 0
-        while not done.wait(0.001):
-            history.extend(states(first, 10))
-            first += 10
-
-    feeder = threading.Thread(target=feed)
-    feeder.start()
-    try:
+    with flying_on(history, 0):
         middle = history.wait_until(lambda s: round(s.t / STEP_S) % 10 == 5, timeout_sim_s=1.0)  # never a last step
-    finally:
-        done.set()
-        feeder.join()
     assert round(middle.t / STEP_S) % 10 == 5
 
 
