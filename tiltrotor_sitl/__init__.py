@@ -335,9 +335,7 @@ class Fleet:
     @property
     def folder(self) -> Path:
         """Where the vehicles' folders (vehicle-<sysid>/) and the ground station's .tlog are."""
-        self._record(0)
-        assert self._root is not None
-        return self._root
+        return self._record(0).folder.parent
 
     @property
     def gcs_port(self) -> int:

@@ -23,7 +23,6 @@ sent, with its time, as QGroundControl and MAVProxy write them; `mavlogdump.py` 
 
 from __future__ import annotations
 
-import collections
 import math
 import struct
 import threading
@@ -115,12 +114,13 @@ def failure_params(unit: str, failure_type: str, instance: int, value: float) ->
 
 # ---- what one vehicle has said -------------------------------------------------------------------------------
 class _Inbox:
-    """The messages of one system as they arrive: numbered, the last MESSAGES_KEPT of them, the latest of each
-    type, and its STATUSTEXTs whole (chunks joined)."""
+    """The messages of one system as they arrive: numbered from 1, at least the last MESSAGES_KEPT of them, the
+    latest of each type, and its STATUSTEXTs whole (chunks joined)."""
 
     def __init__(self) -> None:
         self.changed = threading.Condition()
-        self.window: collections.deque[tuple[int, Any]] = collections.deque(maxlen=MESSAGES_KEPT)
+        self.window: list[Any] = []  # the messages numbered first .. received
+        self.first = 1
         self.received = 0  # messages numbered so far
         self.latest: dict[str, Any] = {}
         self.statustexts: list[str] = []
@@ -129,7 +129,10 @@ class _Inbox:
     def put(self, message: Any) -> None:
         with self.changed:
             self.received += 1
-            self.window.append((self.received, message))
+            self.window.append(message)
+            if len(self.window) > 2 * MESSAGES_KEPT:
+                del self.window[:MESSAGES_KEPT]
+                self.first += MESSAGES_KEPT
             kind = message.get_type()
             if kind == "HEARTBEAT" and message.get_srcComponent() != AUTOPILOT_COMPONENT:
                 kind = f"HEARTBEAT/{message.get_srcComponent()}"  # another component's: not the vehicle's state
@@ -148,6 +151,12 @@ class _Inbox:
             self.statustexts.append("".join(parts[i] for i in sorted(parts)))
             del self._chunks[message.id]
 
+    def wait_statustexts(self, count: int, timeout_s: float) -> list[str]:
+        """The whole STATUSTEXTs after the first `count`, once there is one (or `timeout_s` has passed)."""
+        with self.changed:
+            self.changed.wait_for(lambda: len(self.statustexts) > count, timeout_s)
+            return self.statustexts[count:]
+
     def wait(self, after: int, accept: Callable[[Any], bool], timeout_s: float) -> tuple[int, Any] | None:
         """The first message numbered after `after` that `accept` takes (its number and itself), waited for up to
         `timeout_s`; None."""
@@ -155,11 +164,11 @@ class _Inbox:
         seen = after
         with self.changed:
             while True:
-                for number, message in self.window:
-                    if number > seen:
-                        seen = number
-                        if accept(message):
-                            return number, message
+                start = max(seen + 1, self.first)
+                for number, message in enumerate(self.window[start - self.first :], start):
+                    if accept(message):
+                        return number, message
+                seen = self.received
                 left = deadline - time.monotonic()
                 if left <= 0:
                     return None
@@ -499,10 +508,9 @@ class GroundStation:
             return self._inbox.received
 
     def _reason(self, since: int) -> str:
-        """What the vehicle said after its refusal, which it says right after the answer (": <text>", or "")."""
-        if len(self.statustexts) == since:
-            self._inbox.wait(self._mark(), lambda m: m.get_type() == "STATUSTEXT", REASON_WAIT_S)
-        said = self.statustexts[since:]
+        """What the vehicle said after its refusal, which it says right after the answer, in one or more chunks
+        (": <text>", or "")."""
+        said = self._inbox.wait_statustexts(since, REASON_WAIT_S)
         return f": {said[-1]}" if said else ""
 
     def _last_words(self) -> str:
