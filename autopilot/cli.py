@@ -70,8 +70,8 @@ def build_parser() -> OneLineArgumentParser:
     parser = OneLineArgumentParser(prog=PROG, description="Tilt-rotor VTOL autopilot: flies the plant over MAVLink "
                                    "and is a PX4-like MAVLink vehicle for ground stations.")  # fmt: skip
     port = bounded_int(1, 65535)
-    parser.add_argument("--instance", type=bounded_int(0, 999), default=0, help="shift every port by I")
-    parser.add_argument("--sim-port", type=port, help="the plant's UDP port (default 4560+I)")
+    parser.add_argument("--instance", type=bounded_int(0, 999), default=0, metavar="I", help="shift every port by I")
+    parser.add_argument("--sim-port", type=port, metavar="P", help="the plant's UDP port (default 4560+I)")
     parser.add_argument(
         "--sim-bind-port",
         type=port,
@@ -133,6 +133,7 @@ def build_parser() -> OneLineArgumentParser:
     parser.add_argument(
         "--sysid",
         type=bounded_int(1, 250),
+        metavar="N",
         help="vehicle system id (default: MAV_SYS_ID when set in the parameter file, else I+1)",
     )
     parser.add_argument(

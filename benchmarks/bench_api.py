@@ -20,7 +20,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from tiltrotor_sitl import Controller, Fleet, PlantTruth, Vehicle, VehicleHandle
+from tiltrotor_sitl import Controller, Fleet, PlantTruth, ProcessOptions, Vehicle, VehicleHandle
 
 HOVER_ALT_M = 20.0
 HOVER_TOLERANCE_M = 2.0  # distance from the spawn point (0, 0, -20 m in the vehicle's own frame)
@@ -77,7 +77,13 @@ class HoverRun:
 
 def fleet_hovers(count: int, controller: Controller, seconds: float) -> HoverRun:
     with tempfile.TemporaryDirectory(prefix="bench-api-") as folder:
-        fleet = Fleet(count, controller=controller, spawn_alt=HOVER_ALT_M, summary=True, folder=Path(folder))
+        fleet = Fleet(
+            count,
+            controller=controller,
+            spawn_alt=HOVER_ALT_M,
+            folder=Path(folder),
+            processes=ProcessOptions(summary=True),
+        )
         with fleet:
             first = [vehicle.truth.latest() for vehicle in fleet.vehicles]
             began, worst, why = time.monotonic(), 0.0, ""

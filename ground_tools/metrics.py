@@ -22,6 +22,19 @@ FINAL_WINDOW_S = 1.0  # final_speed: mean speed over the last second
 COURSE_MIN_SPEED = 1.0  # m/s: heading_error_max_deg counts where the horizontal set-point is at least this fast
 
 
+METRIC_KINDS: dict[str, type] = {
+    **{key: float for key in (
+        "vx_rmse", "vy_rmse", "vz_rmse", "vz_max_abs", "roll_max_abs_deg", "pitch_max_abs_deg",
+        "heading_error_max_deg", "alt_change_max_m", "alt_loss_max_m", "t_reach_s", "tilt_tv_ratio", "radial_rmse_m",
+        "radial_max_m", "bank_mean_deg", "final_speed", "failure_t_s", "vx_rmse_after_failure", "solve_ms_median",
+        "solve_ms_p99", "solve_ms_max")},
+    "mode_switches": int,
+    "solves_failed": int,
+    "survived": bool,
+}  # fmt: skip
+"""Every metric flight_metrics gives, by name, and the kind of its value (None where it does not apply)."""
+
+
 def rms(values: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.square(values)))) if values.size else math.nan
 

@@ -11,6 +11,10 @@ autopilot's control and MPC samples. The run folder `<out>/<scenario>/<controlle
     telemetry.jsonl.gz the zenoh recording, gzip JSON lines (ground_tools/telemetry_record.py), unless --no-record
     run.json           the processes' summaries, the flight's events, ports and timings
     autopilot.log, plant.log   the processes' stderr
+
+Both processes run in a process group of their own (a Ctrl-C in the terminal reaches only the command, whose run
+kills them) and are killed (SIGKILL) by the kernel when the thread that started them ends, however it ends: the
+command's, a `vtol scenario` worker's, a campaign's Dask worker's (an abandoned run has nothing to save).
 """
 
 from __future__ import annotations
@@ -105,7 +109,7 @@ def run_scenario(
             wind_ned=None if wind_ned == (0.0, 0.0, 0.0) else wind_ned, airframe=plant_airframe, sysid=sysid,
         )  # fmt: skip
         plant = start("vtol-sim", plant_command.argv(), stdout=Stream.CAPTURE, stderr=run_dir / "plant.log",
-                      deterministic=True)  # fmt: skip
+                      deterministic=True, own_group=True, parent_death=signal.SIGKILL)  # fmt: skip
         processes.append(plant)
         autopilot_command = AutopilotCommand(
             sim_port=ports.plant, links=ports.links, spawn_alt=SPAWN_ALT_M, controller=controller,
@@ -115,7 +119,8 @@ def run_scenario(
             zenoh=Zenoh.listening(ports.zenoh_autopilot) if record else Zenoh.off(),
         )  # fmt: skip
         autopilot = start("vtol-autopilot", autopilot_command.argv(), stdout=Stream.CAPTURE,
-                          stderr=run_dir / "autopilot.log", deterministic=True)  # fmt: skip
+                          stderr=run_dir / "autopilot.log", deterministic=True, own_group=True,
+                          parent_death=signal.SIGKILL)  # fmt: skip
         processes.append(autopilot)
 
         def start_recording(hold_ms: int) -> None:

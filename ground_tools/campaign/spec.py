@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ground_tools.metrics import METRIC_KINDS
 from scenarios.variants import PARAMETERS, VariantError, checked_values
 
 CONTROLLERS = ("mpc", "pid")
@@ -144,6 +145,10 @@ def parse_campaign(data: dict[str, Any], name: str, folder: Path) -> CampaignSpe
     for key in ("x", "y"):
         if key in report and report[key] not in (*grid, *random):
             raise CampaignError(f"report.{key} = {report[key]!r} is not an axis")
+    if "error" in report and METRIC_KINDS.get(report["error"]) not in (float, int):
+        numeric = ", ".join(name for name, kind in METRIC_KINDS.items() if kind in (float, int))
+        raise CampaignError(f"report.error = {report['error']!r} is not a metric the error map can show: one of "
+                            f"{numeric}")  # fmt: skip
     spec = CampaignSpec(
         name=str(data.get("name", name)), scenario=scenario, controllers=tuple(controllers),
         repetitions=_whole("repetitions", data.get("repetitions", 1), 1, 1000), fixed=dict(fixed), grid=grid,

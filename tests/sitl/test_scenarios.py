@@ -19,7 +19,7 @@ import pytest
 from ground_tools.scenario_report import write_report
 from ground_tools.scenario_run import WALL_CLOCK_KEYS
 from ground_tools.telemetry_record import decode_samples, read_recording
-from tiltrotor_sitl import Vehicle
+from tiltrotor_sitl import ProcessOptions, Vehicle
 from tiltrotor_sitl._children import run_to_end
 from tiltrotor_sitl._commands import AutopilotCommand
 from tiltrotor_sitl._free_ports import bindable
@@ -37,9 +37,15 @@ def vtol(*args: str, timeout: float = 500) -> subprocess.CompletedProcess:
 
 # ---- the autopilot's --offboard-lockstep, through the real processes ---------------------------------------------
 def test_offboard_lockstep_holds_the_simulation_until_stamped_setpoints_cover_it() -> None:
-    vehicle = Vehicle(controller="pid", spawn_alt=100.0, speed=None, truth=False, wait_ready=False,
-                      plant_args=("--lockstep-timeout", "30"),
-                      autopilot_args=("--offboard-lockstep", "--quiet")).start()  # fmt: skip
+    vehicle = Vehicle(
+        controller="pid",
+        spawn_alt=100.0,
+        speed=None,
+        truth=False,
+        processes=ProcessOptions(
+            wait_ready=False, plant_args=("--lockstep-timeout", "30"), autopilot_args=("--offboard-lockstep", "--quiet")
+        ),
+    ).start()
     gcs = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     link = Link(255, 190)
 
