@@ -5,7 +5,8 @@
                            [--no-progress]
     vtol mission FILE.plan|FILE.waypoints [--controller mpc|pid|both] [--out DIR]
     vtol campaign FILE [--out DIR] [--workers N | --address ADDR] [--report] [--no-progress]
-    vtol up [--instance I] [--count N] [--controller mpc|pid] [--spawn-alt M] [--speed F] [--params FILE] [--no-zenoh]
+    vtol up [--instance I] [--count N] [--controller mpc|pid] [--spawn-alt M] [--speed F] [--params FILE]
+            [--log-dir DIR] [--no-zenoh]
     vtol record --out FILE.jsonl [--instance I | --connect ENDPOINT ...] [--sysid N|all] [--duration S]
     vtol watch [--instance I | --connect ENDPOINT ...] [--sysid N] [--duration S] [--snapshot FILE.png] [--text]
 
@@ -108,6 +109,12 @@ def main(argv: list[str] | None = None) -> int:
         "--speed", type=positive_float, default=1.0, metavar="F", help="simulated seconds per wall second (default 1)"
     )
     up_parser.add_argument("--params", metavar="FILE", help="the autopilot's parameter file")
+    up_parser.add_argument(
+        "--log-dir",
+        metavar="DIR",
+        help="write the ULogs to DIR/YYYY-MM-DD/HH_MM_SS.ulg (with --count: DIR/vehicle-<sysid>/...; default: the "
+        "vehicle's root, microsd-I beside its parameter file)",
+    )
     up_parser.add_argument(
         "--plant-signing-key",
         metavar="FILE",

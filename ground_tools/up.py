@@ -36,6 +36,9 @@ def commands(args: argparse.Namespace, index: int, sysid: int) -> tuple[list[str
     instance = args.instance + index
     home = fleet_home(index) if index > 0 else None
     key = Path(args.plant_signing_key) if args.plant_signing_key else None
+    log_dir = None
+    if args.log_dir:
+        log_dir = Path(args.log_dir) if args.count == 1 else Path(args.log_dir) / f"vehicle-{sysid}"
     plant = SimCommand(
         instance=instance,
         realtime_speed=args.speed,
@@ -53,6 +56,7 @@ def commands(args: argparse.Namespace, index: int, sysid: int) -> tuple[list[str
         controller=args.controller,
         params=Path(args.params) if args.params else None,
         plant_signing_key=key,
+        log_dir=log_dir,
     )
     return plant.argv(), autopilot.argv()
 

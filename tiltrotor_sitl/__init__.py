@@ -78,6 +78,22 @@ class VehicleHandle:
         return self._started.params_path
 
     @property
+    def folder(self) -> Path:
+        """The vehicle's folder: its processes' output, and its file root as MAVLink FTP serves it (PX4's
+        /fs/microsd): the ULogs in log/YYYY-MM-DD/HH_MM_SS.ulg (docs/logs.md). A temporary one is removed at the
+        stop; give the Vehicle a `folder` to keep the logs."""
+        return self._started.folder
+
+    @property
+    def log_dir(self) -> Path:
+        """Where the autopilot writes its ULogs (folder/log)."""
+        return self._started.folder / "log"
+
+    def logs(self) -> list[Path]:
+        """The ULogs written so far, oldest first."""
+        return sorted(self.log_dir.glob("*/*.ulg"))
+
+    @property
     def pymavlink(self) -> str:
         """For mavutil.mavlink_connection: listen where the GCS link sends."""
         return f"udpin:{LOOPBACK}:{self.gcs_port}"
@@ -195,6 +211,22 @@ class Fleet:
         return self.vehicles[0].gcs_port
 
     @property
+    def folder(self) -> Path:
+        """The vehicle's folder: its processes' output, and its file root as MAVLink FTP serves it (PX4's
+        /fs/microsd): the ULogs in log/YYYY-MM-DD/HH_MM_SS.ulg (docs/logs.md). A temporary one is removed at the
+        stop; give the Vehicle a `folder` to keep the logs."""
+        return self._started.folder
+
+    @property
+    def log_dir(self) -> Path:
+        """Where the autopilot writes its ULogs (folder/log)."""
+        return self._started.folder / "log"
+
+    def logs(self) -> list[Path]:
+        """The ULogs written so far, oldest first."""
+        return sorted(self.log_dir.glob("*/*.ulg"))
+
+    @property
     def pymavlink(self) -> str:
         """One ground station for the whole fleet (tell the vehicles apart by system id)."""
         return self.vehicles[0].pymavlink
@@ -218,7 +250,8 @@ class Vehicle(VehicleHandle):
     to 14550, system id I+1). sysid: the system id (default: params' MAV_SYS_ID, else I+1, else 1). gcs_port: where
     the GCS link sends (default: a free port, 14550 with an instance). truth: subscribe to the plant's truth on
     zenoh. ready_timeout_s: wall seconds to wait for readiness. folder: where the parameter file and the processes'
-    stdout and stderr go (default: a temporary folder, removed at the end). summary: both processes print their
+    stdout and stderr go, and each vehicle's file root with its ULogs (vehicle-<sysid>/log/; default: a temporary
+    folder, removed at the end). summary: both processes print their
     counters when they stop (see summary()). autopilot_args: further vtol-autopilot options, as they are
     (`vtol-autopilot --help`, e.g. ["--quiet"]). wait_ready: False returns as soon as both processes are started (to
     test start-up itself, e.g. a refused file). params_file: the parameter file the autopilot keeps (default:

@@ -257,7 +257,7 @@ def _start_one(options: Options, index: int, sysid: int, ports: VehiclePorts, ro
                        duration_s=options.duration_s, zenoh=plant_zenoh, airframe=options.airframe, sysid=sysid,
                        home=home, summary=options.summary, extra=options.plant_args)  # fmt: skip
     autopilot = AutopilotCommand(sim_port=ports.plant, links=ports.links, spawn_alt=options.spawn_alt,
-                                 controller=options.controller, params=params_path, airframe=options.airframe,
+                                 controller=options.controller, params=params_path, root=folder, airframe=options.airframe,
                                  duration_s=options.duration_s, zenoh=autopilot_zenoh, sysid=sysid, home=home,
                                  summary=options.summary, extra=options.autopilot_args)  # fmt: skip
     started = Started(sysid, ports, home, [], folder, params_path)

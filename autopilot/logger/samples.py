@@ -18,6 +18,7 @@ from aircraft.actuators import PWM_MAX, PWM_MIN, ROTOR_COUNT, ROTORS, SERVO_CHAN
 from aircraft.failures import Failure, FailureType, FailureUnit
 from aircraft.frames import quaternion_from_euler
 from autopilot.control.attitude import euler_rate_matrix, euler_rate_setpoint
+from autopilot.mpc.hpipm import HPIPM_STATUS
 from autopilot.topics.flight_mode import (
     PX4_AUTO_LAND,
     PX4_AUTO_LOITER,
@@ -206,6 +207,11 @@ def mission_result(t: int, missions: Missions, mission_id: int, fence_id: int, h
             MISSION_EXECUTION_NORMAL)  # fmt: skip
 
 
+HPIPM_CODES = {name: code for code, name in HPIPM_STATUS.items()}
+OTHER_FAILURE = 255
+
+
 def mpc_status(t: int, solve_time_ms: float, iterations: int, cost: float, ok: bool, fell_back: bool,
                status: str) -> tuple:  # fmt: skip
-    return (t, solve_time_ms, iterations, cost, ok, fell_back, status.encode("ascii", "replace")[:16])
+    """status: the solve's HPIPM status name (autopilot/mpc/hpipm.py), logged as its code."""
+    return (t, solve_time_ms, iterations, cost, ok, fell_back, HPIPM_CODES.get(status, OTHER_FAILURE))

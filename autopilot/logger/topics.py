@@ -131,10 +131,11 @@ MISSION_RESULT = Topic("mission_result", ON_CHANGE, _fields(
     "int32_t seq_reached", "uint16_t seq_current", "uint16_t seq_total", "bool valid", "bool warning",
     "bool finished", "bool failure", "bool item_do_jump_changed", "uint16_t item_changed_index",
     "uint16_t item_do_jump_remaining", "uint8_t execution_mode"))  # fmt: skip
-# Ours: each solve of the unified MPC (100 Hz while it flies).
+# Ours: each solve of the unified MPC (100 Hz while it flies); hpipm_status: HPIPM's 0 SUCCESS, 1 MAX_ITER, 2 MIN_STEP,
+# 3 NAN_SOL, 4 INCONS_EQ (255: another failure).
 TILTROTOR_MPC_STATUS = Topic("tiltrotor_mpc_status", ON_CHANGE, _fields(
     "uint64_t timestamp", "float solve_time_ms", "uint32_t qp_iterations", "float cost", "bool ok",
-    "bool fell_back_to_pid", "char[16] status"))  # fmt: skip
+    "bool fell_back_to_pid", "uint8_t hpipm_status"))  # fmt: skip
 
 TOPICS: tuple[Topic, ...] = (
     VEHICLE_ATTITUDE, VEHICLE_ATTITUDE_SETPOINT, VEHICLE_RATES_SETPOINT, VEHICLE_LOCAL_POSITION,
