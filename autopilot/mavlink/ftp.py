@@ -15,7 +15,6 @@ import errno
 import os
 import stat
 import time
-import zlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,6 +28,7 @@ from autopilot.mavlink.ftp_protocol import (
     Opcode,
     PathRefused,
     Payload,
+    crc32_update,
     nak_data,
     nak_for,
     reply,
@@ -307,7 +307,7 @@ class FtpService:
         checksum = 0
         with open(path, "rb") as handle:
             while block := handle.read(CRC_BLOCK):
-                checksum = zlib.crc32(block, checksum)
+                checksum = crc32_update(checksum, block)
         return reply(request, Opcode.ACK, checksum.to_bytes(4, "little"))
 
     # ---- sending ------------------------------------------------------------------------------------------------

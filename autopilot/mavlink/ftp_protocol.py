@@ -15,6 +15,7 @@ from __future__ import annotations
 import errno
 import os
 import struct
+import zlib
 from dataclasses import dataclass
 from enum import IntEnum
 from pathlib import Path
@@ -111,6 +112,12 @@ def nak_for(exc: OSError) -> bytes:
     if exc.errno == errno.EEXIST:
         return nak_data(Nak.FILE_EXISTS)
     return nak_data(Nak.FAIL_ERRNO, exc.errno or errno.EIO)
+
+
+def crc32_update(checksum: int, block: bytes) -> int:
+    """PX4's CRC32 (NuttX's crc32part, what kCmdCalcFileCRC32 answers and MAVSDK checks): the reflected CRC-32
+    polynomial from 0, without zlib's inversion before and after."""
+    return zlib.crc32(block, checksum ^ 0xFFFFFFFF) ^ 0xFFFFFFFF
 
 
 class PathRefused(Exception):
