@@ -1,10 +1,12 @@
-"""MAVLink FTP on the vehicle's root: MAVSDK's ftp plugin lists it and downloads a log whose CRC32 matches; paths
-that would leave the root are refused with PX4's NAKs; 1 000 random requests leave the vehicle flying and the files
-intact."""
+"""MAVLink FTP on the vehicle's root: MAVSDK's ftp plugin lists it and downloads a log whose CRC32 matches; MAVSDK's
+component_metadata plugin fetches the parameter metadata (COMPONENT_METADATA, then FTP), valid against MAVLink's
+schema and covering every parameter; paths that would leave the root are refused with PX4's NAKs; 1 000 random
+requests leave the vehicle flying and the files intact."""
 
 from __future__ import annotations
 
 import errno
+import json
 import math
 import random
 import threading
@@ -18,14 +20,18 @@ if not hasattr(mavsdk, "Mavsdk"):
     pytest.skip("needs mavsdk >= 4 (the native binding, no server binary)", allow_module_level=True)
 
 from mavsdk import ComponentType, Configuration, Mavsdk  # noqa: E402
+from mavsdk.plugins.component_metadata import ComponentMetadata, MetadataType  # noqa: E402
 from mavsdk.plugins.ftp import FilesystemEntry, Ftp, FtpResult  # noqa: E402
 
+from autopilot.mavlink.component_metadata import MAVLINK_MSG_ID_COMPONENT_METADATA  # noqa: E402
 from autopilot.mavlink.ftp_protocol import Nak, Opcode, Payload  # noqa: E402
 from tests.sitl.ground_station import GroundStation  # noqa: E402
 from tiltrotor_sitl import Vehicle  # noqa: E402
 from transport.mavlink import mavlink  # noqa: E402
 
+jsonschema = pytest.importorskip("jsonschema", reason="jsonschema is a test extra: pip install '.[test]'")
 HOLD = (4 << 16) | (3 << 24)
+SCHEMAS = Path(__file__).parents[1] / "data" / "component_metadata"
 
 
 class FtpClient:
@@ -64,12 +70,25 @@ def crc32part(data: bytes) -> int:
     return crc
 
 
-def mavsdk_ftp(api_port: int) -> tuple[Mavsdk, Ftp]:
+def parameter_metadata(system: Any) -> dict:
+    """The autopilot's parameter metadata as MAVSDK's component_metadata plugin fetches it."""
+    plugin = ComponentMetadata(system)
+    done = threading.Event()
+    handle = plugin.subscribe_metadata_available(
+        lambda update, user_data: done.set() if update.type == MetadataType.ALL_COMPLETED else None
+    )
+    plugin.request_autopilot_component()
+    assert done.wait(60.0), "MAVSDK's component metadata did not complete"
+    plugin.unsubscribe_metadata_available(handle)
+    return json.loads(plugin.get_metadata(1, MetadataType.PARAMETER).json_metadata)
+
+
+def mavsdk_ftp(api_port: int) -> tuple[Mavsdk, Any, Ftp]:
     drone = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
     drone.add_any_connection(f"udpin://127.0.0.1:{api_port}")
     system = drone.first_autopilot(60.0)
     assert system is not None, "MAVSDK found no autopilot"
-    return drone, Ftp(system)
+    return drone, system, Ftp(system)
 
 
 DIRECTORY = FilesystemEntry.EntryType.DIRECTORY
@@ -102,7 +121,7 @@ def test_mavsdk_lists_the_root_and_downloads_a_log_whose_crc_matches_and_escapes
         gs.connect()
         log = short_flight_log(gs, vehicle)
         remote = f"/log/{log.parent.name}/{log.name}"
-        drone, ftp = mavsdk_ftp(vehicle.api_port)
+        drone, system, ftp = mavsdk_ftp(vehicle.api_port)
         assert {("log", DIRECTORY), ("etc", DIRECTORY)} <= entries(ftp, "/")
         assert entries(ftp, "/log") == {(log.parent.name, DIRECTORY)}
         day = {(entry.name, entry.size_bytes) for entry in ftp.list_directory(f"/log/{log.parent.name}").entries}
@@ -118,6 +137,18 @@ def test_mavsdk_lists_the_root_and_downloads_a_log_whose_crc_matches_and_escapes
         ftp.download_async(remote, str(tmp_path), True, progress)
         assert done.wait(60.0) and outcome == [FtpResult.SUCCESS]
         assert (tmp_path / log.name).read_bytes() == log.read_bytes()
+
+        metadata = parameter_metadata(system)  # as MAVSDK fetches it: COMPONENT_METADATA, then MAVLink FTP
+        jsonschema.validate(metadata, json.loads((SCHEMAS / "parameter.schema.json").read_text()))
+        with gs.recording("PARAM_VALUE") as values:
+            gs.conn.mav.param_request_list_send(gs.vehicle, 1)
+            gs.wait(lambda: values and len({v.param_id for v in values}) == values[0].param_count, "the parameters")
+        assert {entry["name"] for entry in metadata["parameters"]} == {value.param_id for value in values}
+        with gs.recording("COMPONENT_METADATA") as announced:
+            ack = gs.command(mavlink.MAV_CMD_REQUEST_MESSAGE, MAVLINK_MSG_ID_COMPONENT_METADATA)
+            assert ack.result == mavlink.MAV_RESULT_ACCEPTED
+            gs.wait(lambda: bool(announced), "COMPONENT_METADATA")
+        assert announced[0].uri.rstrip(b"\0") == b"mftp://etc/extras/component_general.json"
 
         client = FtpClient(gs)
         crc = client.request(Opcode.CALC_FILE_CRC32, remote.encode())
