@@ -42,6 +42,7 @@ from autopilot.logger.topics import (
     FAILURE_DETECTOR_STATUS,
     HOME_POSITION,
     MISSION_RESULT,
+    ON_CHANGE,
     SENSOR_COMBINED,
     TILTROTOR_MPC_STATUS,
     TOPICS,
@@ -70,8 +71,10 @@ from transport.mavlink import mavlink as M
 
 CHUNK_BYTES = 64 * 1024  # a chunk goes to the writer when this full,
 CHUNK_PERIOD_USEC = 1_000_000  # or this old (so a log downloaded mid-flight, or cut by a kill, is recent)
-STATUS_CHECK_USEC = 10_000  # vehicle_status is looked at 100 times a second,
-STATUS_PERIOD_USEC = 500_000  # and published at 2 Hz and on every change (PX4's commander)
+STATUS_PERIOD_USEC = 500_000  # vehicle_status: at 2 Hz and on every change (PX4's commander)
+# What is looked at 100 times a second (the commander's rate): vehicle_status, home, the mission's progress.
+STATUS_CHECK = Topic("(status check)", 10_000, "")
+PERIODIC = (*(topic for topic in TOPICS if topic.interval_usec != ON_CHANGE), STATUS_CHECK)
 TEXT_BACKLOG = 16  # texts said just before a log starts (the arming's) are written at its start
 TEXT_BACKLOG_USEC = 1_000_000
 JOIN_TIMEOUT_S = 10.0
@@ -115,7 +118,7 @@ class Logger:
         self.written: list[Path] = []  # the logs of this run, in order
         self.errors = 0
         self._geodetic = LocalGeodetic(vehicle.origin)
-        self._rates_sp = samples.body_rate_setpoint_function()
+        self._rates_sp = samples.BodyRateSetpoint()
         self._valid_modes = samples.nav_states_mask(vehicle.modes)
         self._boot_phase = self.mode != LogMode.WHILE_ARMED
         self._was_armed = False
@@ -126,8 +129,9 @@ class Logger:
         self._buffer = bytearray()
         self._chunk_first_usec = 0
         self._texts: deque[tuple[int, int, str]] = deque(maxlen=TEXT_BACKLOG)
-        self._ids = {topic.name: index for index, topic in enumerate(TOPICS)}
         self._next: dict[str, int] = {}
+        self._next_periodic_usec = 0
+        self._prefixes = {topic.name: ulog.data_prefix(index, topic.packer.size) for index, topic in enumerate(TOPICS)}
         self._params_version = params.version
         self._params_logged: dict[str, float] = {}
         self._last_usec = 0
@@ -136,8 +140,7 @@ class Logger:
         self._missions: Missions | None = None
         self._solution: MpcSolution | None = None
         self._status_key: tuple | None = None
-        self._status_usec = 0  # when vehicle_status was last looked at,
-        self._status_published_usec = 0  # and last published
+        self._status_published_usec = 0
         self._armed_usec = 0
         self._takeoff_usec = 0
         self._flying = False
@@ -214,7 +217,8 @@ class Logger:
             self._boot_phase = False  # do not try again at every step; the next arming tries again
             return
         self.written.append(path)
-        self._next = {topic.name: t_usec for topic in TOPICS}
+        self._next = {topic.name: t_usec for topic in PERIODIC}
+        self._next_periodic_usec = t_usec
         self._last_usec = self._chunk_first_usec = t_usec
         self._home = self._missions = self._solution = self._status_key = None
         self._buffer = bytearray(self._header(t_usec))
@@ -267,20 +271,38 @@ class Logger:
     def _due(self, topic: Topic, t_usec: int) -> bool:
         if t_usec < self._next[topic.name]:
             return False
-        self._next[topic.name] = t_usec + topic.interval_usec if topic.interval_usec else t_usec
+        self._next[topic.name] = t_usec + topic.interval_usec
         return True
 
     def _write(self, topic: Topic, values: tuple) -> None:
-        self._buffer += ulog.data(self._ids[topic.name], topic.pack(values))
+        self._buffer += self._prefixes[topic.name] + topic.packer.pack(*values)
 
     def _sample(self, t: int, state: VehicleState, controller: FlightController, pwm: list[int]) -> None:
+        """The samples due at t. Most plant steps have none due but the MPC's solve: the periodic topics are looked
+        at only from the earliest time one of them is due."""
         self._last_usec = t
+        if t >= self._next_periodic_usec:
+            self._periodic(t, state, controller, pwm)
+            self._next_periodic_usec = min(self._next[topic.name] for topic in PERIODIC)
+        mpc = controller.mpc
+        solution = None if mpc is None else mpc.last_solution
+        if solution is not self._solution and isinstance(solution, MpcSolution):
+            self._solution = solution
+            self._write(TILTROTOR_MPC_STATUS, samples.mpc_status(
+                t, solution.solve_time_s * 1e3, solution.iterations, solution.cost, solution.ok,
+                controller.fell_back_to_pid, solution.status))  # fmt: skip
+        if t - self._chunk_first_usec >= CHUNK_PERIOD_USEC or len(self._buffer) >= CHUNK_BYTES:
+            self._buffer += ulog.sync()
+            self._submit()
+
+    def _periodic(self, t: int, state: VehicleState, controller: FlightController, pwm: list[int]) -> None:
         if self.params.version != self._params_version:
             self._parameters_changed()
         command = controller.velocity_command
         yaw = controller.yaw_reference
         due = self._due
-        self._write(SENSOR_COMBINED, samples.sensor_combined(t, state))
+        if due(SENSOR_COMBINED, t):
+            self._write(SENSOR_COMBINED, samples.sensor_combined(t, state))
         if due(VEHICLE_ATTITUDE, t):
             self._write(VEHICLE_ATTITUDE, samples.vehicle_attitude(t, state))
         thrust_body = None
@@ -291,8 +313,8 @@ class Logger:
             )
         if due(VEHICLE_RATES_SETPOINT, t):
             thrust_body = thrust_body or samples.normalised_thrust(command.force_sp_body, self.vehicle.thrust_max_total)
-            rates = self._rates_sp(state.euler, command.euler_sp).full().ravel().tolist()
-            self._write(VEHICLE_RATES_SETPOINT, samples.vehicle_rates_setpoint(t, tuple(rates), thrust_body))
+            rates = self._rates_sp(state.euler, command.euler_sp)
+            self._write(VEHICLE_RATES_SETPOINT, samples.vehicle_rates_setpoint(t, rates, thrust_body))
         if due(VEHICLE_LOCAL_POSITION, t):
             acceleration = samples.acceleration_ned(state, self.vehicle.gravity)
             self._write(VEHICLE_LOCAL_POSITION, samples.vehicle_local_position(
@@ -306,9 +328,10 @@ class Logger:
         if due(VEHICLE_GLOBAL_POSITION, t):
             self._write(VEHICLE_GLOBAL_POSITION, samples.vehicle_global_position(t, state, self._geodetic))
         mav_vtol = None
-        if t - self._status_usec >= STATUS_CHECK_USEC or self._status_key is None:
+        if due(STATUS_CHECK, t):
             mav_vtol = vtol_state(controller.servos.tilt, controller.command[TILTS])
             self._vehicle_status(t, mav_vtol)
+            self._on_change(t)
         if due(VTOL_VEHICLE_STATUS, t):
             mav_vtol = mav_vtol or vtol_state(controller.servos.tilt, controller.command[TILTS])
             self._write(VTOL_VEHICLE_STATUS, samples.vtol_vehicle_status(t, mav_vtol))
@@ -323,10 +346,6 @@ class Logger:
         if due(FAILURE_DETECTOR_STATUS, t):
             mask = samples.motor_failure_mask(self.injection.known)
             self._write(FAILURE_DETECTOR_STATUS, samples.failure_detector_status(t, mask))
-        self._on_change(t, controller)
-        if t - self._chunk_first_usec >= CHUNK_PERIOD_USEC or len(self._buffer) >= CHUNK_BYTES:
-            self._buffer += ulog.sync()
-            self._submit()
 
     def _vehicle_status(self, t: int, mav_vtol: int) -> None:
         c = self.commander
@@ -344,7 +363,6 @@ class Logger:
             mav_vtol if mav_vtol in (M.MAV_VTOL_STATE_TRANSITION_TO_FW, M.MAV_VTOL_STATE_TRANSITION_TO_MC) else 0
         )
         key = (c.armed, nav, mav_vtol == M.MAV_VTOL_STATE_FW, transition, c.started)
-        self._status_usec = t
         if key == self._status_key and t - self._status_published_usec < STATUS_PERIOD_USEC:
             return
         self._status_key = key
@@ -354,8 +372,8 @@ class Logger:
             nav_usec=self._nav_usec, valid_modes=self._valid_modes, fixed_wing=key[2], transition=transition,
             failsafe=False, datalink_lost=False, system_id=self.vehicle.system_id, started=c.started))  # fmt: skip
 
-    def _on_change(self, t: int, controller: FlightController) -> None:
-        """The topics published when they change: home, the mission's progress, each MPC solve."""
+    def _on_change(self, t: int) -> None:
+        """The topics published when they change (looked at 100 times a second): home, the mission's progress."""
         home = self.commander.home
         if home is not self._home:
             self._home = home
@@ -367,13 +385,6 @@ class Logger:
             mission_id = zlib.crc32(repr(missions.mission).encode())
             fence_id = zlib.crc32(repr(missions.fence).encode())
             self._write(MISSION_RESULT, samples.mission_result(t, missions, mission_id, fence_id, self._home_count))
-        mpc = controller.mpc
-        solution = None if mpc is None else mpc.last_solution
-        if isinstance(solution, MpcSolution) and solution is not self._solution:
-            self._solution = solution
-            self._write(TILTROTOR_MPC_STATUS, samples.mpc_status(
-                t, solution.solve_time_s * 1e3, solution.iterations, solution.cost, solution.ok,
-                controller.fell_back_to_pid, solution.status))  # fmt: skip
 
     def _parameters_changed(self) -> None:
         """Each changed parameter as a 'P' in the data section, as PX4's logger writes a change."""

@@ -13,6 +13,9 @@ from dataclasses import dataclass, field
 from autopilot.logger.ulog import TYPE_CODES
 
 ON_CHANGE = 0  # interval 0: every publication (PX4's add_topic without an interval)
+# sensor_combined is logged at every publication, which PX4 makes at its IMU integration rate (IMU_INTEG_RATE,
+# 200 Hz by default): every other plant step here.
+IMU_INTERVAL_USEC = 5_000
 
 
 @dataclass(frozen=True)
@@ -104,7 +107,7 @@ ACTUATOR_SERVOS = Topic("actuator_servos", 100_000, _fields(
     "uint64_t timestamp", "uint64_t timestamp_sample", "float[8] control"))  # fmt: skip
 ACTUATOR_OUTPUTS = Topic("actuator_outputs", 100_000, _fields(
     "uint64_t timestamp", "uint32_t noutputs", "float[16] output"))  # fmt: skip
-SENSOR_COMBINED = Topic("sensor_combined", ON_CHANGE, _fields(
+SENSOR_COMBINED = Topic("sensor_combined", IMU_INTERVAL_USEC, _fields(
     "uint64_t timestamp", "float[3] gyro_rad", "uint32_t gyro_integral_dt", "int32_t accelerometer_timestamp_relative",
     "float[3] accelerometer_m_s2", "uint32_t accelerometer_integral_dt", "uint8_t accelerometer_clipping",
     "uint8_t gyro_clipping", "uint8_t accel_calibration_count", "uint8_t gyro_calibration_count"))  # fmt: skip

@@ -105,7 +105,12 @@ def subscription(msg_id: int, name: str, multi_id: int = 0) -> bytes:
 
 def data(msg_id: int, payload: bytes) -> bytes:
     """'D': one sample (the packed fields, starting with the uint64 timestamp)."""
-    return message("D", struct.pack("<H", msg_id) + payload)
+    return data_prefix(msg_id, len(payload)) + payload
+
+
+def data_prefix(msg_id: int, payload_size: int) -> bytes:
+    """What comes before a sample of `payload_size` bytes in its 'D' message (the logger keeps one a topic)."""
+    return _HEADER.pack(payload_size + 2, ord("D")) + struct.pack("<H", msg_id)
 
 
 def logged_string(severity: int, time_usec: int, text: str) -> bytes:

@@ -1,11 +1,14 @@
 """The flight log as a PX4 user gets it: a takeoff, an Offboard leg and a landing flown by the MPC through MAVLink,
 the ULog downloaded with MAVSDK's log_files plugin and with pymavlink's LOG_* messages, read with pyulog: PX4's
 topics and fields, the attitude and position of the plant's truth at the same times, the vehicle's parameters (and
-a change in flight), the STATUSTEXTs."""
+a change in flight), the STATUSTEXTs; and `vtol up --log-dir`."""
 
 from __future__ import annotations
 
 import math
+import os
+import signal
+import subprocess
 import threading
 import time
 from pathlib import Path
@@ -23,9 +26,11 @@ from mavsdk import ComponentType, Configuration, Mavsdk  # noqa: E402
 from mavsdk.plugins.log_files import LogFiles, LogFilesResult  # noqa: E402
 
 from tests.sitl.ground_station import GroundStation  # noqa: E402
+from tests.sitl.test_vtol_up import VTOL, free_instance  # noqa: E402
 from tiltrotor_sitl import PlantTruth, Vehicle  # noqa: E402
 from transport.geodesy import LocalGeodetic  # noqa: E402
 from transport.mavlink import mavlink  # noqa: E402
+from transport.ports import Ports  # noqa: E402
 from transport.telemetry import plant_state_key  # noqa: E402
 from transport.zenoh_bus import session_config  # noqa: E402
 
@@ -270,3 +275,27 @@ def test_a_flight_log_downloaded_and_read_as_px4s(tmp_path):
     first, last = said.index("Armed"), max(i for i, text in enumerate(said) if text.startswith("Disarmed"))
     for text in said[first : last + 1]:
         assert text in logged, f"STATUSTEXT {text!r} not in the log"
+
+
+def test_vtol_up_writes_the_ulogs_to_its_log_dir(tmp_path):
+    instance = free_instance()
+    ports = Ports(instance)
+    gs = GroundStation(ports.gcs_remote, ports.system_id)
+    command = [VTOL, "up", "--instance", str(instance), "--spawn-alt", "10", "--speed", "4", "--controller", "pid",
+               "--no-zenoh", "--params", str(tmp_path / "params.json"), "--log-dir", str(tmp_path / "logs")]  # fmt: skip
+    vtol = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    try:
+        gs.connect(timeout_s=60)
+        assert gs.armed  # spawned in the air: SDLOG_MODE 0 logs from the first step
+        gs.wait_sim(2.0)
+        os.killpg(vtol.pid, signal.SIGINT)
+        assert vtol.wait(timeout=20) == 0
+    finally:
+        if vtol.poll() is None:
+            os.killpg(vtol.pid, signal.SIGKILL)
+            vtol.wait()
+        gs.close()
+    (log,) = (tmp_path / "logs").glob("*/*.ulg")
+    parsed = pyulog.ULog(str(log))
+    assert not parsed.file_corruption and parsed.last_timestamp - parsed.start_timestamp > 2_000_000
+    assert (tmp_path / f"microsd-{instance}" / "etc" / "extras" / "parameters.json").is_file()  # the default root

@@ -173,7 +173,7 @@ def test_navigation_states_and_motor_failures_as_px4_numbers_them():
 
 
 def test_the_rate_setpoint_is_the_attitude_loops_p_law():
-    rates = samples.body_rate_setpoint_function()(np.zeros(3), np.array([0.0, 0.0, 0.1])).full().ravel()
+    rates = samples.BodyRateSetpoint()(np.zeros(3), np.array([0.0, 0.0, 0.1]))
     assert rates == pytest.approx([0.0, 0.0, np.pi * np.tanh(3.0 * 0.1 / np.pi)])  # yaw: 3 1/s, limited to pi
 
 
