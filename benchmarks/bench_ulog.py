@@ -1,10 +1,13 @@
-"""What the ULog logger costs the control loop: a paper profile flown in lockstep with the logger and without it
-(`--no-ulog`), alternated round by round so that a machine whose speed drifts meets both alike.
+"""What the ULog logger costs the control loop, two ways:
 
-    python benchmarks/bench_ulog.py [--profile accel] [--rounds 5] [--controller mpc|pid]
+    python benchmarks/bench_ulog.py [--profile accel] [--rounds 5] [--controller mpc|pid] [--steps 40000]
 
-Prints each run's wall time and the autopilot's own work per plant step (busy_us_per_step), their medians, and the
-log's size. Each flight is spawned hovering (armed: SDLOG_MODE 0 logs from the first step to the last).
+1. the logger alone, in this process: Logger.step for `--steps` plant steps of a hovering vehicle (its median over
+   five runs, in us a step), the work it adds to every plant step whatever the machine's load;
+2. a paper profile flown in lockstep with the logger and without it (`--no-ulog`), alternated round by round so that
+   a machine whose speed drifts meets both alike: each run's wall time and the autopilot's own work per plant step
+   (busy_us_per_step), their medians, the log's size. Each flight is spawned hovering (armed: SDLOG_MODE 0 logs from
+   the first step to the last).
 """
 
 from __future__ import annotations
@@ -12,10 +15,23 @@ from __future__ import annotations
 import argparse
 import statistics
 import tempfile
+import time
 from pathlib import Path
 
+from aircraft.airframe import load_airframe
+from autopilot.commander.commander import build_commander
+from autopilot.commander.failure_injection import FailureInjection
+from autopilot.control.pid_baseline import TransitionAirspeeds
+from autopilot.controllers import build_flight_controller
+from autopilot.logger.logger import Logger, VehicleIdentity
+from autopilot.storage.mission_store import MissionStore
+from autopilot.storage.parameters import ParameterStore
+from autopilot.storage.vehicle_files import VehicleFiles
+from autopilot.topics.vehicle_state import VehicleState
+from autopilot.topics.vehicle_status import EventOutbox
 from ground_tools.lockstep_flight import fly_lockstep
 from scenarios.profiles import PROFILES
+from transport.geodesy import Home
 
 
 def run_once(profile: str, duration: float, controller: str, folder: Path, logging: bool) -> dict[str, float]:
@@ -31,13 +47,41 @@ def run_once(profile: str, duration: float, controller: str, folder: Path, loggi
     }
 
 
+def logger_alone_us(steps: int) -> float:
+    """Logger.step's cost (us a plant step) for a hovering vehicle flown by the PID, its log in a scratch folder."""
+    airframe = load_airframe(None)
+    params, missions, events = ParameterStore(None), MissionStore(), EventOutbox()
+    home = Home(47.397742, 8.545594, 488.0)
+    commander = build_commander(params, airframe.hover_thrust_per_rotor / airframe.thrust_max, armed=True,
+                                in_air=True, say=events.say, profile=None, stamped_setpoints=False, missions=missions,
+                                home=home)  # fmt: skip
+    controller = build_flight_controller(airframe, "pid", TransitionAirspeeds(13.5, 23.0), mpc_horizon=None,
+                                         mpc_overlap=False)  # fmt: skip
+    injection = FailureInjection(send=lambda failure: None, note=print, scheduled=[])
+    with tempfile.TemporaryDirectory(prefix="bench-ulog-") as scratch:
+        identity = VehicleIdentity(1, home, commander.navigator.ids, airframe.gravity,
+                                   airframe.thrust_max * len(airframe.rotor_positions))  # fmt: skip
+        logger = Logger(VehicleFiles.at(Path(scratch)), params, commander, missions, injection, identity)
+        state, pwm = VehicleState(valid=True), [1500] * 12
+        started = time.perf_counter()
+        for step in range(steps):
+            state.time_usec = 1_000_000 + step * 2500
+            logger.step(state.time_usec, state, controller, pwm)
+        elapsed = time.perf_counter() - started
+        logger.close()
+    return elapsed / steps * 1e6
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--profile", choices=sorted(PROFILES), default="accel")
     parser.add_argument("--duration", type=float, help="simulated seconds (default: the profile's)")
     parser.add_argument("--rounds", type=int, default=5)
     parser.add_argument("--controller", choices=("mpc", "pid"), default="mpc")
+    parser.add_argument("--steps", type=int, default=40_000, help="plant steps of the logger alone")
     args = parser.parse_args()
+    alone = statistics.median(logger_alone_us(args.steps) for _ in range(5))
+    print(f"the logger alone: {alone:.1f} us a plant step", flush=True)
     duration = args.duration or PROFILES[args.profile][1]
     results: dict[bool, list[dict[str, float]]] = {True: [], False: []}
     with tempfile.TemporaryDirectory(prefix="bench-ulog-") as scratch:

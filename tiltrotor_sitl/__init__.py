@@ -28,6 +28,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import Unpack
 
+from autopilot.storage.vehicle_files import VehicleFiles
 from tiltrotor_sitl._children import Child
 from tiltrotor_sitl._commands import Controller, VehiclePorts
 from tiltrotor_sitl._launch import Options, Started, VehicleError, VehicleOptions, launch, stop
@@ -87,11 +88,11 @@ class VehicleHandle:
     @property
     def log_dir(self) -> Path:
         """Where the autopilot writes its ULogs (folder/log)."""
-        return self._started.folder / "log"
+        return VehicleFiles.at(self._started.folder).log_dir
 
     def logs(self) -> list[Path]:
         """The ULogs written so far, oldest first."""
-        return sorted(self.log_dir.glob("*/*.ulg"))
+        return [entry.path for entry in VehicleFiles.at(self._started.folder).logs()]
 
     @property
     def pymavlink(self) -> str:
@@ -209,22 +210,6 @@ class Fleet:
     def gcs_port(self) -> int:
         """The one UDP port every vehicle's GCS link sends to."""
         return self.vehicles[0].gcs_port
-
-    @property
-    def folder(self) -> Path:
-        """The vehicle's folder: its processes' output, and its file root as MAVLink FTP serves it (PX4's
-        /fs/microsd): the ULogs in log/YYYY-MM-DD/HH_MM_SS.ulg (docs/logs.md). A temporary one is removed at the
-        stop; give the Vehicle a `folder` to keep the logs."""
-        return self._started.folder
-
-    @property
-    def log_dir(self) -> Path:
-        """Where the autopilot writes its ULogs (folder/log)."""
-        return self._started.folder / "log"
-
-    def logs(self) -> list[Path]:
-        """The ULogs written so far, oldest first."""
-        return sorted(self.log_dir.glob("*/*.ulg"))
 
     @property
     def pymavlink(self) -> str:

@@ -1,6 +1,6 @@
 """The component metadata of the MAVLink Component Metadata service, generated from the parameter table: the
 parameter metadata file (PX4's JSON: name, type, default, min, max, units, short and long description, group,
-reboot required, decimal places) and the general metadata file that points at it, with their CRC32s (QGroundControl
+reboot required, decimal places, the values of an enumeration) and the general metadata file that points at it, with their CRC32s (QGroundControl
 caches them by CRC). Both are served by MAVLink FTP from etc/extras/, where PX4 keeps them.
 
 Format version 1 of each file: the version QGroundControl reads (it ignores other versions) and PX4 writes; the
@@ -56,6 +56,38 @@ def decimal_places(definition: ParameterDefinition) -> int:
     return max(1, *places)
 
 
+def _top_level_items(text: str) -> list[str]:
+    """`text` split at the commas outside parentheses."""
+    items, depth, current = [], 0, []
+    for char in text:
+        depth += (char == "(") - (char == ")")
+        if char == "," and depth == 0:
+            items.append("".join(current).strip())
+            current = []
+        else:
+            current.append(char)
+    items.append("".join(current).strip())
+    return items
+
+
+def enum_values(definition: ParameterDefinition) -> list[dict] | None:
+    """The values an INT32 parameter's description lists after its colon ("0 Position, 1 Altitude (...), ..."), each
+    with its label (remarks in parentheses left out); None unless they are every value of its range (a ground
+    station offers only the values listed)."""
+    if definition.kind != INT32 or definition.maximum - definition.minimum > 16 or ": " not in definition.description:
+        return None
+    values: dict[int, str] = {}
+    for item in _top_level_items(definition.description.split(": ", 1)[1]):
+        number, _, label = item.partition(" ")
+        label = label.split(" (", 1)[0].strip()
+        if not number.isdigit() or not label:
+            break
+        values[int(number)] = label
+    if set(values) != set(range(int(definition.minimum), int(definition.maximum) + 1)):
+        return None
+    return [{"value": value, "description": values[value]} for value in sorted(values)]
+
+
 def _number(definition: ParameterDefinition, value: float) -> int | float:
     return int(value) if definition.kind == INT32 else float(value)
 
@@ -75,6 +107,9 @@ def parameter_entry(definition: ParameterDefinition) -> dict:
     }
     if definition.unit:
         entry["units"] = definition.unit
+    values = enum_values(definition)
+    if values is not None:
+        entry["values"] = values
     return entry
 
 

@@ -11,7 +11,13 @@ from pathlib import Path
 import pytest
 
 from autopilot.mavlink.component_metadata import METADATA, ComponentMetadataMessage
-from autopilot.storage.parameter_metadata import ComponentMetadata, decimal_places, group_of, short_description
+from autopilot.storage.parameter_metadata import (
+    ComponentMetadata,
+    decimal_places,
+    enum_values,
+    group_of,
+    short_description,
+)
 from autopilot.storage.parameters import DEFINITIONS, INT32, ParameterDefinition
 from transport.mavlink import Link
 
@@ -86,3 +92,14 @@ def test_component_metadata_is_packed_and_parsed_as_mavlink_defines_it():
     assert (message.get_type(), message.time_boot_ms, message.file_crc) == ("COMPONENT_METADATA", 1234,
                                                                             METADATA.general_crc)  # fmt: skip
     assert message.uri.rstrip(b"\0") == METADATA.general_uri.encode()
+
+
+def test_an_enumeration_is_listed_only_when_it_names_every_value_of_the_range():
+    by_name = {d.name: d for d in DEFINITIONS}
+    assert enum_values(by_name["NAV_DLL_ACT"]) == [{"value": 0, "description": "disabled"}, {"value": 1, "description": "Hold"},
+                                                   {"value": 2, "description": "Return"}, {"value": 3, "description": "Land"}]  # fmt: skip
+    labels = [v["description"] for v in enum_values(by_name["COM_OBL_RC_ACT"])]
+    assert labels == ["Position", "Altitude", "Stabilized", "Return", "Land", "Hold"]  # remarks in parentheses left out
+    assert enum_values(by_name["COM_RC_IN_MODE"]) is None  # "5-8 priorities": not every value named
+    assert enum_values(by_name["NAV_RCL_ACT"]) is None  # 4 is in the range but not listed
+    assert enum_values(by_name["MPC_XY_P"]) is None and enum_values(by_name["MAV_SYS_ID"]) is None
