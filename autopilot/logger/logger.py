@@ -64,6 +64,7 @@ from autopilot.storage.vehicle_files import VehicleFiles
 from autopilot.topics.flight_mode import ModeId
 from autopilot.topics.home_position import HomePosition
 from autopilot.topics.missions import Missions
+from autopilot.topics.software_version import CUSTOM_VERSION, PX4_RELEASE
 from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.vehicle_status import vtol_state
 from transport.geodesy import Home, LocalGeodetic
@@ -78,7 +79,6 @@ PERIODIC = (*(topic for topic in TOPICS if topic.interval_usec != ON_CHANGE), ST
 TEXT_BACKLOG = 16  # texts said just before a log starts (the arming's) are written at its start
 TEXT_BACKLOG_USEC = 1_000_000
 JOIN_TIMEOUT_S = 10.0
-SOFTWARE_RELEASE = (1 << 24) | (15 << 16) | (0 << 8) | 255  # the PX4 version this vehicle behaves like: 1.15.0
 
 
 class LogMode(IntEnum):
@@ -123,6 +123,7 @@ class Logger:
         self._boot_phase = self.mode != LogMode.WHILE_ARMED
         self._was_armed = False
         self._ending = False  # no longer wanted: the log ends at the next step
+        self._refused = False  # the file could not be created: no new try until logging is wanted again
         self._clock_origin: tuple[float, int] | None = None  # (wall seconds, simulated us) at the first step
         self._file: LogFile | None = None
         self._closed: list[LogFile] = []
@@ -159,9 +160,11 @@ class Logger:
         wanted = armed or self._boot_phase
         if wanted:
             self._ending = False
-            if self._file is None:
+            if self._file is None and not self._refused:
                 self._start(t_usec)
-        elif self._file is not None:
+        else:
+            self._refused = False
+        if not wanted and self._file is not None:
             if self._ending:  # a step later: the disarming's texts (said after this step's samples) are in
                 self._stop()
             self._ending = True
@@ -214,7 +217,7 @@ class Logger:
         except OSError as exc:
             self.errors += 1
             self.note(f"cannot create the log {path}: {exc.strerror or exc}; not logging")
-            self._boot_phase = False  # do not try again at every step; the next arming tries again
+            self._refused = True  # not tried again at every step: at the next arming
             return
         self.written.append(path)
         self._next = {topic.name: t_usec for topic in PERIODIC}
@@ -230,8 +233,8 @@ class Logger:
     def _header(self, t_usec: int) -> bytes:
         v = self.vehicle
         parts = [ulog.file_header(t_usec), ulog.flag_bits(), ulog.info_string("sys_name", "tiltrotor-sitl"),
-                 ulog.info_string("ver_hw", "TILTROTOR_SITL"), ulog.info_string("ver_sw", "trsitl01"),
-                 ulog.info_uint32("ver_sw_release", SOFTWARE_RELEASE),
+                 ulog.info_string("ver_hw", "TILTROTOR_SITL"), ulog.info_string("ver_sw", CUSTOM_VERSION.decode()),
+                 ulog.info_uint32("ver_sw_release", PX4_RELEASE),
                  ulog.info_string("sys_os_name", platform.system() or "unknown"),
                  ulog.info_string("sys_toolchain", platform.python_implementation()),
                  ulog.info_string("sys_toolchain_ver", platform.python_version()),

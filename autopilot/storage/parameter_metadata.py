@@ -17,13 +17,13 @@ from pathlib import Path
 
 from autopilot.storage.kept_file import write_atomically
 from autopilot.storage.parameters import DEFINITIONS, INT32, ParameterDefinition
+from autopilot.topics.software_version import PX4_VERSION_TEXT
 
 COMP_METADATA_TYPE_PARAMETER = 1
 GENERAL_NAME = "component_general.json"
 PARAMETERS_NAME = "parameters.json"
 EXTRAS_URI = "mftp://etc/extras/"  # the FTP path of the vehicle's etc/extras folder
 VENDOR, MODEL = "tiltrotor-sitl", "tilt-rotor VTOL (Chen et al., SciTech 2024)"
-FIRMWARE_VERSION = "1.15.0"  # the PX4 version this vehicle behaves like (AUTOPILOT_VERSION's)
 
 # Parameter groups by name prefix, PX4's group names; the first matching prefix wins.
 GROUPS = (
@@ -125,7 +125,7 @@ def general_metadata(parameters: bytes) -> bytes:
         "version": 1,
         "vendorName": VENDOR,
         "modelName": MODEL,
-        "firmwareVersion": FIRMWARE_VERSION,
+        "firmwareVersion": PX4_VERSION_TEXT,
         "metadataTypes": [
             {
                 "type": COMP_METADATA_TYPE_PARAMETER,
