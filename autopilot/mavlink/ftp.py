@@ -147,7 +147,7 @@ class FtpService:
             self.root.writable(path)
             flags = os.O_WRONLY | os.O_CREAT | (os.O_TRUNC if request.opcode == Opcode.CREATE_FILE else 0)
         else:
-            flags = os.O_RDONLY
+            flags = os.O_RDONLY | os.O_NONBLOCK  # a FIFO left in the root must not hold the loop up
         fd = os.open(path, flags | os.O_NOFOLLOW, 0o644)
         try:
             status = os.fstat(fd)
