@@ -46,6 +46,9 @@ def add_up_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--speed", type=nonnegative_float, default=1.0, metavar="F",
                         help="simulated seconds per wall second (default 1; 0: lockstep as fast as possible)")  # fmt: skip
     parser.add_argument("--params", metavar="FILE", help="the autopilot's parameter file")
+    parser.add_argument("--log-dir", metavar="DIR",
+                        help="write the ULogs to DIR/YYYY-MM-DD/HH_MM_SS.ulg (with --count: DIR/vehicle-<sysid>/...; "
+                        "default: the vehicle's root, microsd-I beside its parameter file)")  # fmt: skip
     parser.add_argument("--plant-signing-key", metavar="FILE",
                         help="sign each vehicle's plant link with this key (64 hex digits; docs/plant-link.md)")  # fmt: skip
     parser.add_argument("--no-zenoh", action="store_true", help="no zenoh telemetry")
@@ -58,6 +61,9 @@ def commands(args: argparse.Namespace, index: int, sysid: int) -> tuple[list[str
     instance = args.instance + index
     home = fleet_home(index) if index > 0 else None
     key = Path(args.plant_signing_key) if args.plant_signing_key else None
+    log_dir = None
+    if args.log_dir:
+        log_dir = Path(args.log_dir) if args.count == 1 else Path(args.log_dir) / f"vehicle-{sysid}"
     plant = SimCommand(
         instance=instance,
         realtime_speed=args.speed or None,
@@ -75,6 +81,7 @@ def commands(args: argparse.Namespace, index: int, sysid: int) -> tuple[list[str
         controller=args.controller,
         params=Path(args.params) if args.params else None,
         plant_signing_key=key,
+        log_dir=log_dir,
     )
     return plant.argv(), autopilot.argv()
 

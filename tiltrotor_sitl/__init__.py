@@ -38,6 +38,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import Unpack
 
+from autopilot.storage.vehicle_files import VehicleFiles
 from autopilot.topics.mission_items import MissionItem
 from tiltrotor_sitl._children import Child
 from tiltrotor_sitl._commands import Controller, VehiclePorts
@@ -115,11 +116,6 @@ class VehicleHandle:
         return self._vehicle.ports
 
     @property
-    def folder(self) -> Path:
-        """The vehicle's folder: its parameter file (unless params_file), the processes' stdout and stderr."""
-        return self._vehicle.folder
-
-    @property
     def params_path(self) -> Path:
         """The autopilot's parameter file (its missions are kept beside it, in missions-<instance>.json)."""
         return self._vehicle.params_path
@@ -128,6 +124,23 @@ class VehicleHandle:
     def tlog_path(self) -> Path:
         """The .tlog of the ground station (ground_station), in the folder of its Vehicle or Fleet."""
         return self._fleet.folder / TLOG_FILE
+
+    @property
+    def folder(self) -> Path:
+        """The vehicle's folder: its processes' output, and its file root as MAVLink FTP serves it (PX4's
+        /fs/microsd): its parameter file (unless params_file), the ULogs in log/YYYY-MM-DD/HH_MM_SS.ulg (docs/logs.md).
+        A temporary one is removed at the stop; give the Vehicle a `folder` to keep the logs (the pytest plugin
+        keeps it under the test's tmp_path)."""
+        return self._vehicle.folder
+
+    @property
+    def log_dir(self) -> Path:
+        """Where the autopilot writes its ULogs (folder/log)."""
+        return VehicleFiles.at(self._vehicle.folder).log_dir
+
+    def logs(self) -> list[Path]:
+        """The ULogs written so far, oldest first."""
+        return [entry.path for entry in VehicleFiles.at(self._vehicle.folder).logs()]
 
     @property
     def pymavlink(self) -> str:
@@ -391,8 +404,8 @@ class Vehicle(VehicleHandle):
     4560+I, API 14540+I, GCS to 14550, system id I+1). sysid: the system id (default: params' MAV_SYS_ID, else I+1,
     else 1). gcs_port: where the GCS link sends (default: a free port, 14550 with an instance). truth: subscribe to
     the plant's truth on zenoh (default True). folder: where the vehicle's folder (vehicle-<sysid>/: parameter file,
-    the processes' stdout and stderr) and the ground station's .tlog go (default: a temporary folder, removed at
-    the end).
+    the processes' stdout and stderr, and its file root with the ULogs in log/) and the ground station's .tlog go
+    (default: a temporary folder, removed at the end).
 
     The expert ones, grouped: processes=ProcessOptions(...): which processes start (the plant alone, the autopilot
     alone on a plant of yours), readiness, a duration, summaries, the parameter file kept, further command-line

@@ -206,6 +206,8 @@ class AutopilotCommand:
     offboard_lockstep: bool = False  # hold the lockstep in Offboard until stamped set-points cover the time
     duration_s: float | None = None  # simulated seconds, then stop
     log: Path | None = None  # the 100 Hz flight log (transport/flight_log.py)
+    root: Path | None = None  # the vehicle's file root (ULogs in root/log, MAVLink FTP; default microsd-I)
+    log_dir: Path | None = None  # where the ULogs go (default root/log)
     summary: bool = False  # a JSON line of counters on stdout at the end
     quiet: bool = False  # no flight events (STATUSTEXT) on stderr
     zenoh: Zenoh = field(default_factory=Zenoh)
@@ -223,7 +225,8 @@ class AutopilotCommand:
             *_option("--params", self.params),
             *_option("--airframe", self.airframe), *_option("--profile", self.profile),
             *_flag("--offboard-lockstep", self.offboard_lockstep), *_option("--duration", self.duration_s),
-            *_option("--log", self.log), *_flag("--summary", self.summary), *_flag("--quiet", self.quiet),
+            *_option("--log", self.log), *_option("--root", self.root), *_option("--log-dir", self.log_dir),
+            *_flag("--summary", self.summary), *_flag("--quiet", self.quiet),
             *self.zenoh.argv(), *_option("--sysid", self.sysid), *_home(self.home),
             *_option("--plant-signing-key", self.plant_signing_key), *self.extra,
         ])  # fmt: skip

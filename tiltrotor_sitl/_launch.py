@@ -323,7 +323,7 @@ def _start_processes(options: Options, started: Started) -> None:
     if processes.autopilot:
         autopilot = AutopilotCommand(sim_port=ports.plant, links=_autopilot_links(ports.links, started.proxies),
                                      spawn_alt=options.spawn_alt, controller=options.controller,
-                                     params=started.params_path, airframe=options.airframe,
+                                     params=started.params_path, root=started.folder, airframe=options.airframe,
                                      duration_s=processes.duration_s, zenoh=autopilot_zenoh, sysid=started.sysid,
                                      home=started.home, summary=processes.summary,
                                      extra=tuple(processes.autopilot_args))  # fmt: skip

@@ -15,6 +15,7 @@ def vehicle_report(vehicle: VehicleHandle) -> str:
     """The report's section for `vehicle` (started; its processes may have ended)."""
     lines = [f"folder: {vehicle.folder}"]
     lines += [f"  {path}" for path in _files(vehicle.folder)]
+    lines += [f"ULog: {path}" for path in vehicle.logs()]
     if vehicle.tlog_path.is_file():
         lines.append(f"ground station's MAVLink log: {vehicle.tlog_path}")
     lines.append(f"status: {vehicle.status()}")

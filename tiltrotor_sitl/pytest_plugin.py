@@ -8,9 +8,9 @@ Fixtures:
 Options: --vtol-controller mpc|pid (default mpc), --vtol-speed F (default 1; 0 = lockstep as fast as possible),
 --vtol-keep-logs (keep the vehicles' folders of passing tests too).
 
-Each vehicle's folder (its parameter file, the processes' stdout and stderr, the ground station's .tlog) is under
-the test's tmp_path, in vtol-<n>/ (the n-th Vehicle or Fleet the test started). When a test fails, its report gets a
-section per vehicle: the folder and its files, the vehicle's last status (mode, armed, failsafe), its last truth
+Each vehicle's folder (its parameter file, the processes' stdout and stderr, its ULogs, the ground station's .tlog)
+is under the test's tmp_path, in vtol-<n>/ (the n-th Vehicle or Fleet the test started). When a test fails, its
+report gets a section per vehicle: the folder and its files, its ULogs, the vehicle's last status (mode, armed, failsafe), its last truth
 sample, and the last lines of both processes' stderr; the folder is kept. A passing test's folders are removed
 unless --vtol-keep-logs.
 
@@ -54,7 +54,7 @@ def pytest_addoption(parser: pytest.Parser) -> None:
                     help="simulated seconds per wall second of the vehicles the fixtures start (default 1; "
                          "0: lockstep as fast as possible)")  # fmt: skip
     group.addoption("--vtol-keep-logs", action="store_true",
-                    help="keep the vehicles' folders (parameter file, stderr, .tlog) of passing tests too; a "
+                    help="keep the vehicles' folders (parameter file, stderr, ULogs, .tlog) of passing tests too; a "
                          "failed test's are always kept")  # fmt: skip
 
 

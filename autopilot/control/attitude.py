@@ -42,13 +42,18 @@ def attitude_law(
     euler: ca.SX, euler_rate: ca.SX, euler_rate_prev: ca.SX, euler_sp: ca.SX, gains: AttitudeGains = DEFAULT_GAINS
 ) -> ca.SX:
     """Euler-angle acceleration demand (rad/s^2) of the attitude loop (docs/autopilot.md 2.1)."""
-    k_att, k_p, k_d = (ca.DM(g) for g in (gains.attitude, gains.rate_p, gains.rate_d))
+    k_p, k_d = ca.DM(gains.rate_p), ca.DM(gains.rate_d)
+    rate_sp = euler_rate_setpoint(euler, euler_sp, gains)
+    return k_p * (rate_sp - euler_rate) + k_d * (euler_rate_prev - euler_rate)
+
+
+def euler_rate_setpoint(euler: ca.SX, euler_sp: ca.SX, gains: AttitudeGains = DEFAULT_GAINS) -> ca.SX:
+    """The Euler-angle rate set-point (rad/s) of the attitude loop's P law (docs/autopilot.md 2.1)."""
     error = ca.vertcat(euler_sp[0] - euler[0], euler_sp[1] - euler[1], wrap_angle(euler_sp[2] - euler[2]))
     # Smooth rate limit (limit tanh(x / limit)): equal to the P law for small errors, bounded by the limit, and
     # with a gradient everywhere (a hard clamp left the MPC's QP blind to the set-point when saturated).
     limit = ca.DM(gains.max_rate)
-    rate_sp = limit * ca.tanh(k_att * error / limit)
-    return k_p * (rate_sp - euler_rate) + k_d * (euler_rate_prev - euler_rate)
+    return limit * ca.tanh(ca.DM(gains.attitude) * error / limit)
 
 
 def euler_rate_matrix(euler: ca.SX) -> ca.SX:

@@ -9,8 +9,11 @@ from collections.abc import Callable
 from typing import Any
 
 from aircraft.failures import FailureUnit, failed_sensors
+from autopilot.mavlink.component_metadata import MAVLINK_MSG_ID_COMPONENT_METADATA, component_metadata
 from autopilot.topics.flight_mode import PX4_AUTO_MISSION, PX4_MAIN_AUTO
 from autopilot.topics.home_position import HomePosition
+from autopilot.topics.software_version import CUSTOM_VERSION as CUSTOM_VERSION_TAG
+from autopilot.topics.software_version import PX4_RELEASE
 from autopilot.topics.vehicle_status import VehicleStatus
 from transport.mavlink import mavlink as M
 
@@ -36,10 +39,12 @@ CAPABILITIES = (
     # without MISSION_INT)
     | M.MAV_PROTOCOL_CAPABILITY_MISSION_INT | M.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
     | M.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY
+    # MAVLink FTP: the vehicle's files and its component metadata (docs/logs.md)
+    | M.MAV_PROTOCOL_CAPABILITY_FTP
 )  # fmt: skip
 # The PX4 protocol level this vehicle behaves like (QGroundControl checks it); ours is in flight_custom_version.
-PX4_VERSION = (1 << 24) | (15 << 16) | (0 << 8) | 255  # 1.15.0 release
-CUSTOM_VERSION = list(b"trsitl01")
+PX4_VERSION = PX4_RELEASE  # 1.15.0 release
+CUSTOM_VERSION = list(CUSTOM_VERSION_TAG)
 BASE_MODE = (M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | M.MAV_MODE_FLAG_STABILIZE_ENABLED | M.MAV_MODE_FLAG_GUIDED_ENABLED
              | M.MAV_MODE_FLAG_AUTO_ENABLED)  # fmt: skip
 
@@ -167,6 +172,7 @@ BUILDERS: dict[int, Callable[[Any, VehicleStatus], Any]] = {
     M.MAVLINK_MSG_ID_AUTOPILOT_VERSION: lambda mav, status: autopilot_version(mav),
     M.MAVLINK_MSG_ID_MISSION_CURRENT: mission_current,
     M.MAVLINK_MSG_ID_HOME_POSITION: lambda mav, status: home_position(mav, status.home, status.time_usec),
+    MAVLINK_MSG_ID_COMPONENT_METADATA: component_metadata,
 }
 
 

@@ -45,6 +45,7 @@ class ParameterDefinition:
     unit: str
     description: str
     px4: bool = True  # False: this project's own parameter (PX4 has no such one)
+    reboot_required: bool = False  # takes effect at the next start (the parameter metadata's rebootRequired)
 
 
 P = ParameterDefinition
@@ -320,6 +321,17 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         "Return: wait this long at RTL_DESCEND_ALT before landing (0: land at once; -1: wait for ever, no landing)",
     ),
     P("NAV_LOITER_RAD", REAL32, 250.0, 100.0, 2000.0, "m", "radius of the fixed-wing Hold circle"),
+    P(
+        "SDLOG_MODE",
+        INT32,
+        0,
+        0,
+        2,
+        "",
+        "logging mode: 0 a ULog from arming to disarming, 1 from the start until the first disarming (then as 0), "
+        "2 from the start until the autopilot stops (at the next start)",
+        reboot_required=True,
+    ),
 )
 del P
 

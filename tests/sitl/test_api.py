@@ -222,6 +222,9 @@ def test_a_failing_test_reports_its_vehicles_logs_and_status_and_keeps_them(tmp_
     tlog = Path(re.search(r"ground station's MAVLink log: (\S+)", flew).group(1))
     assert tlog.stat().st_size > 1000
     assert "ground station's MAVLink log" not in idle
+    ulog = Path(re.search(r"ULog: (\S+)", flew).group(1))  # armed: the flight's log (SDLOG_MODE 0)
+    assert ulog.suffix == ".ulg" and ulog.stat().st_size > 1000
+    assert "ULog:" not in idle  # never armed
     assert not (base / "test_passes0" / "vtol-0").exists()  # a passing test's folder is removed
 
 
