@@ -4,7 +4,7 @@
 
     with Vehicle(controller="mpc", speed=2.0) as vehicle:      # plant + autopilot on free ports, ready to arm
         master = mavutil.mavlink_connection(vehicle.pymavlink)  # "udpin:127.0.0.1:P", where the vehicle sends
-        ...                                                     # or MAVSDK: System().connect(vehicle.mavsdk)
+        ...                                     # or MAVSDK 4: Mavsdk(...).add_any_connection(vehicle.mavsdk)
         vehicle.truth.wait_until(lambda s: s.altitude > 9.5, timeout_sim_s=20)  # the plant's truth (zenoh)
 
     with Fleet(3) as fleet:                                     # system ids 1, 2, 3, 5 m apart, one GCS port
