@@ -84,7 +84,7 @@ class VehicleHandle:
 
     @property
     def mavsdk(self) -> str:
-        """For MAVSDK's System().connect(system_address=...): listen where the API link sends."""
+        """For MAVSDK 4's Mavsdk.add_any_connection(...): listen where the API link sends."""
         return f"udpin://{LOOPBACK}:{self.api_port}"
 
     @property
