@@ -8,7 +8,7 @@ failed for the last fifth. Prints the median and p99 in microseconds of
   - allocate(): the whole call from Python (model evaluation, QP update and solve, clipping, result object);
   - the proxsuite solve alone: the same QP sequence replayed on an identical persistent solver, timing solve()
     (and update() + solve()) from Python, plus proxsuite's own C++ timer.
-Goal: allocate() median <= 50 us (docs/performance.md).
+Goal: allocate() median <= 50 us (docs/figures.md).
 """
 
 from __future__ import annotations

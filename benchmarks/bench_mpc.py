@@ -2,7 +2,7 @@
 
     python benchmarks/bench_mpc.py [--seconds 25] [--ipopt-samples 20] [--horizons 10,25,50,100] [--levers]
 
-The paper's horizon (25 x 10 ms) and the long one (docs/mpc.md 2.9) fly the same profile, each timed.
+The paper's horizon (25 x 10 ms) and the long one (docs/design/alternatives.md, the long horizon) fly the same profile, each timed.
 
 The closed loop runs in one process (plant physics + the autopilot's flight controller, no sockets), so the
 figures are the MPC's own: one RTI per 100 Hz tick, including Python. The paper's way is IPOPT on the same NLP,

@@ -21,7 +21,7 @@ from autopilot.storage.parameters import ParameterStore
 from ground_tools.lockstep_flight import fly_lockstep
 from scenarios.profiles import PROFILES
 
-GOALS = {"pid": 25.0, "mpc": 10.0}  # real-time factors asked for the whole SITL (docs/performance.md)
+GOALS = {"pid": 25.0, "mpc": 10.0}  # real-time factors asked for the whole SITL (docs/figures.md)
 
 
 def run_once(profile: str, duration: float, controller: str, params: Path) -> dict[str, float]:

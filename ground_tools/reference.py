@@ -226,8 +226,8 @@ def commands_page(helps: Mapping[str, str]) -> str:
 
 
 def subcommands(help_text: str) -> list[str]:
-    """The subcommands a --help's usage line offers ({a,b,c})."""
-    match = re.search(r"\{([\w,-]+)\}", help_text)
+    """The subcommands a --help's usage line offers ("{a,b,c} ...": argparse's subparsers, not an option's choices)."""
+    match = re.search(r"\{([\w,-]+)\} \.\.\.", help_text)
     return match.group(1).split(",") if match else []
 
 

@@ -41,7 +41,7 @@ def autopilot_events_key(system_id: int) -> str:
 
 PLANT_STATE_BYTES = 8 * len(PLANT_STATE_FIELDS)
 # One put per physics step woke zenoh's threads 400 times a simulated second, a quarter of a recorded lockstep
-# flight's wall time on 2 cores (docs/performance.md); 10 steps is 25 ms of simulated time.
+# flight's wall time on 2 cores; 10 steps is 25 ms of simulated time.
 PLANT_STATE_BATCH_STEPS = 10
 
 
@@ -105,7 +105,7 @@ def decode_plant_states(payload: bytes) -> list[dict[str, float]]:
 
 
 # The JSON payloads are written by orjson: at 100 Hz the MPC's prediction (about 190 numbers) took json.dumps 93 us a
-# sample and orjson 6 us, on the cores the lockstep pair flies on (docs/performance.md). Compact separators; a
+# sample and orjson 6 us, on the cores the lockstep pair flies on. Compact separators; a
 # non-finite number is written as null (JSON has no NaN).
 
 

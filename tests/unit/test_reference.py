@@ -47,7 +47,11 @@ def test_the_zenoh_page_lists_every_key_with_its_payload():
 
 @pytest.mark.parametrize(
     ("usage", "expected"),
-    [("usage: vtol [-h] {fly,scenario,up} ...\n", ["fly", "scenario", "up"]), ("usage: vtol-sim [-h]\n", [])],
+    [
+        ("usage: vtol [-h] {fly,scenario,up} ...\n", ["fly", "scenario", "up"]),
+        ("usage: vtol-sim [-h]\n", []),
+        ("usage: vtol-autopilot [-h] [--controller {pid,mpc}] [--quiet]\n", []),
+    ],
 )
 def test_subcommands_come_from_the_usage_line(usage, expected):
     assert reference.subcommands(usage) == expected
