@@ -60,7 +60,7 @@ def mean_tilt(log: Mapping[str, np.ndarray]) -> np.ndarray:
 def heading_error_max_deg(yaw: np.ndarray, vn_sp: np.ndarray, ve_sp: np.ndarray) -> float | None:
     """Largest |yaw - the set-point's course| (deg, wrapped to 180) where the horizontal set-point is at least
     COURSE_MIN_SPEED; None if it never is. The scenarios fly with the nose on the course, so a large value is the
-    aircraft turned across its path (a controller braking on the fuselage's side force, docs/mpc.md 2.9)."""
+    aircraft turned across its path (a controller braking on the fuselage's side force, docs/design/alternatives.md, the long horizon)."""
     moving = np.hypot(vn_sp, ve_sp) >= COURSE_MIN_SPEED
     if not np.any(moving):
         return None

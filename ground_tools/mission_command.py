@@ -1,4 +1,4 @@
-"""`vtol mission FILE.plan|FILE.waypoints [--controller mpc|pid|both] [--out DIR] [--no-progress]` (docs/scenarios.md, "Missions").
+"""`vtol mission FILE.plan|FILE.waypoints [--controller mpc|pid|both] [--out DIR] [--no-progress]` (docs/missions.md).
 
 Flies the mission file with each controller (ground_tools/mission_run.py), prints and writes each waypoint's
 closest approach and the landing error, and draws the flights overlaid into `<out>/<mission>/`:

@@ -1,4 +1,4 @@
-"""One mission flown by one controller, end to end (docs/scenarios.md, "Missions"): the plant and the autopilot
+"""One mission flown by one controller, end to end (docs/missions.md): the plant and the autopilot
 in lockstep on free ports (the public API, tiltrotor_sitl.Vehicle, speed None), the mission uploaded through the
 MAVLink mission protocol by a pymavlink ground station, Mission mode, arm, flown until the vehicle disarms on
 the ground; the autopilot's 100 Hz log kept. Then the per-waypoint closest approach and the landing error.

@@ -43,7 +43,7 @@ def add_scenario_arguments(parser: argparse.ArgumentParser) -> None:
         help="velocity controller(s) to fly (default both, overlaid in the figures)",
     )
     parser.add_argument("--mpc-horizon", choices=sorted(HORIZONS),
-                        help="the MPC's horizon: paper (25 x 10 ms) or long (docs/mpc.md 2.9); default: the "
+                        help="the MPC's horizon: paper (25 x 10 ms) or long (docs/design/alternatives.md, the long horizon); default: the "
                              "autopilot's VT_MPC_HRZN")  # fmt: skip
     parser.add_argument("--out", default="runs", metavar="DIR", help="output folder (default ./runs)")
     parser.add_argument(
@@ -67,7 +67,7 @@ def add_scenario_arguments(parser: argparse.ArgumentParser) -> None:
 
 def default_jobs(instance: int | None) -> int:
     """Two runs at a time where there are two cores: a lockstep pair mostly alternates, so one run leaves a core
-    partly idle (docs/performance.md); one with --instance, whose ports only one run can use."""
+    partly idle (docs/figures.md); one with --instance, whose ports only one run can use."""
     return 1 if instance is not None else min(2, usable_cpus())
 
 

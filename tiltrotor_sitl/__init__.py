@@ -13,8 +13,8 @@
         for vehicle in fleet:
             vehicle.ground_station.arm()
 
-Your own pymavlink connection instead: mavutil.mavlink_connection(vehicle.pymavlink); MAVSDK:
-System().connect(vehicle.mavsdk).
+Your own pymavlink connection instead: mavutil.mavlink_connection(vehicle.pymavlink) ("udpin:127.0.0.1:P", where
+the vehicle sends); MAVSDK 4: Mavsdk(...).add_any_connection(vehicle.mavsdk).
 
 Everything a `Vehicle` or `Fleet` starts is stopped by PID when the block ends, on an exception (a failed test, a
 Ctrl-C), and, on Linux, when the process that started it dies, even by SIGKILL (PR_SET_PDEATHSIG; start vehicles
@@ -149,7 +149,7 @@ class VehicleHandle:
 
     @property
     def mavsdk(self) -> str:
-        """For MAVSDK's System().connect(system_address=...): listen where the API link sends."""
+        """For MAVSDK 4's Mavsdk.add_any_connection(...): listen where the API link sends."""
         return f"udpin://{LOOPBACK}:{self.api_port}"
 
     @property

@@ -1,5 +1,5 @@
 """The autopilot's control core: velocity controller at 100 Hz, attitude loop and allocation at 250 Hz, in
-simulation time, producing the 12 actuator commands of every 400 Hz plant step (docs/autopilot.md 1.1).
+simulation time, producing the 12 actuator commands of every 400 Hz plant step (docs/autopilot.md).
 
     measured velocity  --(400 Hz)--> VelocityEstimate (accelerometer-aided) --> the velocity the controllers use
     velocity set-point --(100 Hz)--> velocity controller --> attitude set-point, tilts, force set-point

@@ -113,6 +113,16 @@ class MavlinkServices:
                 "LOG_ERASE": self.log_download.on_erase,
             }
 
+    @property
+    def handled_messages(self) -> tuple[str, ...]:
+        """The names of the messages the services take (the dispatch table); any other is counted and ignored."""
+        return tuple(self._handlers)
+
+    @property
+    def handled_commands(self) -> tuple[int, ...]:
+        """The MAV_CMD ids that COMMAND_LONG and COMMAND_INT take; any other is answered UNSUPPORTED."""
+        return self.commands.handled_commands
+
     # ---- per step ---------------------------------------------------------------------------------------------
     def receive(self, now_usec: int, wait_ms: int = 0, budget_s: float = INPUT_BUDGET_S) -> bool:
         """Handle the datagrams waiting on the links (waiting up to wait_ms for the first); True if any."""

@@ -47,7 +47,7 @@ from autopilot.mpc.solve_times import SolveTimes
 from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.yaw_setpoint import YawReference
 
-DEFAULT_HORIZON = PAPER  # the stages' lengths and the weights that go with them (docs/mpc.md 2.9)
+DEFAULT_HORIZON = PAPER  # the stages' lengths and their weights (docs/design/alternatives.md, the long horizon)
 MAX_FAILURES = 3
 LEVENBERG = 0.1  # Marquardt damping of each RTI step (mpc.py)
 WARM_UP_ITERATIONS = 10  # RTI iterations at the first state, so the first plan is converged
@@ -102,7 +102,7 @@ class MpcVelocityController:
         reads its bounds from them at every tick."""
 
     def _bounds_from_health(self) -> None:
-        """What the allocator and the servo estimate know of failures, as the MPC's bounds (docs/mpc.md 3.5)."""
+        """What the allocator and the servo estimate know of failures, as the MPC's bounds (docs/mpc.md, the solver, failures)."""
         a, allocator = self.airframe, self.allocator
         working = allocator.effectiveness[ALLOCATED_ROTORS] > 0
         planned_max = np.minimum(a.thrust_planned_max, allocator.upper[ALLOCATED_ROTORS] * a.thrust_max)

@@ -1,4 +1,4 @@
-"""The MPC's solve overlapped with the plant's steps: a fixed one-tick computation delay (docs/mpc.md 3.9).
+"""The MPC's solve overlapped with the plant's steps: a fixed one-tick computation delay (docs/mpc.md, options).
 
 The paper solves at tick k from the state measured at tick k and applies the plan at once, as if the solve took
 no time. Here the solve of tick k+1 runs on the solver's worker thread (on the second core) while the autopilot

@@ -46,6 +46,7 @@ class ParameterDefinition:
     description: str
     px4: bool = True  # False: this project's own parameter (PX4 has no such one)
     reboot_required: bool = False  # takes effect at the next start (the parameter metadata's rebootRequired)
+    px4_default: float | None = None  # PX4's default where it differs from ours (None: the same, or not PX4's)
 
 
 P = ParameterDefinition
@@ -81,7 +82,7 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         1,
         "",
         "the MPC's horizon: 0 the paper's 25 stages of 10 ms, 1 the long one "
-        "(2.05 s, docs/mpc.md 2.9) (at the next start or takeoff from the ground; --mpc-horizon overrides at start)",
+        "(2.05 s, experimental) (at the next start or takeoff from the ground; --mpc-horizon overrides at start)",
         px4=False,
     ),
     P(
@@ -167,8 +168,8 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         5.0,
         360.0,
         "deg/s",
-        "fastest turn to a yaw set-point (Offboard, Mission, "
-        "Go-to, Orbit; PX4's default 45: docs/autopilot.md section 6)",
+        "fastest turn to a yaw set-point (Offboard, Mission, Go-to, Orbit)",
+        px4_default=45.0,
     ),
     P(
         "MIS_YAW_ERR",
@@ -238,11 +239,30 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         10.0,
         "m/s^2",
         "acceleration of the velocity set-points that fly to an Offboard position set-point",
+        px4_default=3.0,
     ),
     P("MPC_XY_P", REAL32, 0.95, 0.0, 2.0, "1/s", "horizontal position gain (Hold, Takeoff, Land, Offboard position)"),
     P("MPC_Z_P", REAL32, 1.0, 0.0, 2.0, "1/s", "vertical position gain (Hold, Takeoff)"),
-    P("VT_ARSP_BLEND", REAL32, 13.5, 5.0, 40.0, "m/s", "PID baseline: airspeed where MC/FW blending starts"),
-    P("VT_ARSP_TRANS", REAL32, 23.0, 5.0, 40.0, "m/s", "PID baseline: airspeed where the transition completes"),
+    P(
+        "VT_ARSP_BLEND",
+        REAL32,
+        13.5,
+        5.0,
+        40.0,
+        "m/s",
+        "PID baseline: airspeed where MC/FW blending starts",
+        px4_default=8.0,
+    ),
+    P(
+        "VT_ARSP_TRANS",
+        REAL32,
+        23.0,
+        5.0,
+        40.0,
+        "m/s",
+        "PID baseline: airspeed where the transition completes",
+        px4_default=10.0,
+    ),
     P(
         "FW_AIRSPD_TRIM",
         REAL32,
@@ -251,6 +271,7 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         30.0,
         "m/s",
         "cruise speed of the fixed-wing Hold (loiter) after a transition to fixed wing",
+        px4_default=15.0,
     ),
     P(
         "NAV_ACC_RAD",
@@ -320,7 +341,7 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         "s",
         "Return: wait this long at RTL_DESCEND_ALT before landing (0: land at once; -1: wait for ever, no landing)",
     ),
-    P("NAV_LOITER_RAD", REAL32, 250.0, 100.0, 2000.0, "m", "radius of the fixed-wing Hold circle"),
+    P("NAV_LOITER_RAD", REAL32, 250.0, 100.0, 2000.0, "m", "radius of the fixed-wing Hold circle", px4_default=80.0),
     P(
         "SDLOG_MODE",
         INT32,
@@ -509,12 +530,3 @@ class ParameterStore:
                 raise ParameterFileError(f"{where}: {exc}") from None
         if self.values["VT_ARSP_BLEND"] >= self.values["VT_ARSP_TRANS"]:
             raise ParameterFileError(f"{where}: VT_ARSP_BLEND must be below VT_ARSP_TRANS")
-
-
-def describe(definitions: tuple[ParameterDefinition, ...] = DEFINITIONS) -> list[dict[str, Any]]:
-    """The table of parameters (for docs and --help-params)."""
-    return [
-        {"name": d.name, "type": d.kind, "default": d.default, "min": d.minimum, "max": d.maximum, "unit": d.unit,
-         "description": d.description, "px4": d.px4}
-        for d in definitions
-    ]  # fmt: skip

@@ -1,4 +1,4 @@
-"""The distributed engine under a campaign: Dask (docs/campaigns.md says why Dask, with the measurement). A local
+"""The distributed engine under a campaign: Dask (docs/design/alternatives.md says why Dask, with the measurement). A local
 cluster of worker processes on 127.0.0.1, started and stopped here, or an existing cluster's scheduler given by
 its address. One flight per worker thread at a time; results come back as they finish.
 

@@ -114,7 +114,7 @@ def test_runs_flown_two_at_a_time_equal_the_runs_flown_one_after_the_other(tmp_p
     """--jobs 2 flies both controllers at once in worker processes: each run is its own lockstep pair, so the time
     series and metrics are those of the runs flown one by one. (servo-failure: a scenario with a failure trigger.)
     Compared to 1e-6, not byte for byte: proxsuite's last bits follow the alignment of its buffers, which the
-    processes' environment can move (docs/performance.md, "The whole SITL"), and a worker's is not the command's
+    processes' environment can move (docs/design/solver.md), and a worker's is not the command's
     (4e-9 seen in full runs)."""
     for jobs in ("1", "2"):
         result = vtol("scenario", "servo-failure", "--controller", "both", "--duration", "3", "--jobs", jobs,
