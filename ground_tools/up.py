@@ -7,7 +7,7 @@ FLEET_SPACING_M apart in a row to the east (each one's home; tiltrotor_sitl/_com
 Both processes print to this terminal. Ctrl-C (SIGINT to the terminal's process group) or SIGTERM to `vtol` stops
 both: the signal is passed on to each, each stops at its next turn, and `vtol up` waits for them (killing a
 process that has not stopped after STOP_TIMEOUT_S). If either process ends by itself (a port in use, a bad
-parameter file), the other is stopped too and `vtol up` exits with its code. If `vtol up` is killed outright, the
+parameter file), the other is stopped too and `vtol up` exits with status 1 (the line before says the process's own code). If `vtol up` is killed outright, the
 kernel sends both SIGTERM (their parent-death signal, tiltrotor_sitl/_children.py).
 """
 

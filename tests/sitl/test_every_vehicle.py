@@ -33,11 +33,13 @@ MISSION = (4 << 16) | (4 << 24)
 VTOL = os.path.join(os.path.dirname(sys.executable), "vtol")
 
 
-def signing(tmp_path: Path) -> dict[str, tuple[str, ...]]:
+def signing(tmp_path: Path) -> ProcessOptions:
     """Both processes given the same plant-link key (docs/plant-link.md#signing)."""
     key = tmp_path / "plant.key"
     key.write_text("c3" * 32)
-    return {"plant_args": ("--plant-signing-key", str(key)), "autopilot_args": ("--plant-signing-key", str(key))}
+    return ProcessOptions(
+        plant_args=("--plant-signing-key", str(key)), autopilot_args=("--plant-signing-key", str(key))
+    )
 
 
 def ports_taken(ports: Ports) -> bool:
@@ -59,7 +61,7 @@ def vehicle_under_test(case: str, tmp_path: Path) -> Iterator[VehicleHandle | _S
             assert vehicle.sysid == 1
             yield vehicle
     elif case == "fleet-member":
-        with Fleet(3, params=PARAMS, **common, **signing(tmp_path)) as fleet:
+        with Fleet(3, params=PARAMS, **common, processes=signing(tmp_path)) as fleet:
             assert [v.sysid for v in fleet.vehicles] == [1, 2, 3]
             yield fleet.vehicles[2]
     elif case == "instance-3":
@@ -69,7 +71,7 @@ def vehicle_under_test(case: str, tmp_path: Path) -> Iterator[VehicleHandle | _S
             assert vehicle.sysid == 4 and vehicle.ports.plant == 4563
             yield vehicle
     elif case == "mav-sys-id-42":
-        with Vehicle(params={**PARAMS, "MAV_SYS_ID": 42}, **common, **signing(tmp_path)) as vehicle:
+        with Vehicle(params={**PARAMS, "MAV_SYS_ID": 42}, **common, processes=signing(tmp_path)) as vehicle:
             assert vehicle.sysid == 42
             yield vehicle
     else:  # "split-ids": the autopilot is 42 by its MAV_SYS_ID, its plant 7: commands are addressed by the handshake

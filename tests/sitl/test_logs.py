@@ -27,7 +27,7 @@ from mavsdk.plugins.log_files import LogFiles, LogFilesResult  # noqa: E402
 
 from tests.sitl.ground_station import GroundStation  # noqa: E402
 from tests.sitl.test_vtol_up import VTOL, free_instance  # noqa: E402
-from tiltrotor_sitl import PlantTruth, Vehicle  # noqa: E402
+from tiltrotor_sitl import PlantTruth, ProcessOptions, Vehicle  # noqa: E402
 from transport.geodesy import LocalGeodetic  # noqa: E402
 from transport.mavlink import mavlink  # noqa: E402
 from transport.ports import Ports  # noqa: E402
@@ -190,7 +190,7 @@ def quantised(geodetic: LocalGeodetic, position: tuple[float, float, float]) -> 
 
 
 def test_a_flight_log_downloaded_and_read_as_px4s(tmp_path):
-    vehicle = Vehicle(controller="mpc", speed=4.0, truth=True, folder=tmp_path, summary=True,
+    vehicle = Vehicle(controller="mpc", speed=4.0, truth=True, folder=tmp_path, processes=ProcessOptions(summary=True),
                       params={"MIS_TAKEOFF_ALT": 5.0, "COM_DISARM_LAND": 1.0}).start()  # fmt: skip
     truth = TruthRecorder(vehicle.ports.zenoh_plant, vehicle.sysid)
     gs = GroundStation(vehicle.gcs_port, vehicle.sysid)

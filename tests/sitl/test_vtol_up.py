@@ -102,7 +102,7 @@ def test_vtol_up_stops_the_plant_when_the_autopilot_cannot_start(tmp_path):
         result = subprocess.run(command, capture_output=True, text=True, timeout=60)
     finally:
         blocker.close()
-    assert result.returncode == 2
+    assert result.returncode == 1  # a process ended by itself (its own code, 2, in the line below)
     assert f"cannot bind UDP 127.0.0.1:{Ports(instance).gcs_bind} (GCS link)" in result.stderr
     assert "vtol-autopilot ended (exit code 2)" in result.stderr
     pid = int(re.search(r"plant pid (\d+)", result.stderr).group(1))
