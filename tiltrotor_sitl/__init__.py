@@ -412,7 +412,8 @@ class Vehicle(VehicleHandle):
 
     Where it lives: instance: None (default) for free ports, or I for instance I's ports (docs/plant-link.md: plant
     4560+I, API 14540+I, GCS to 14550, system id I+1). sysid: the system id (default: params' MAV_SYS_ID, else I+1,
-    else 1). gcs_port: where the GCS link sends (default: a free port, 14550 with an instance). truth: subscribe to
+    else 1). gcs_port: where the GCS link sends (default: a free port, 14550 with an instance). gcs_bind: the IPv4
+    address the GCS link listens on (default 127.0.0.1; 0.0.0.0 for a ground station on another machine). truth: subscribe to
     the plant's truth on zenoh (default True). folder: where the vehicle's folder (vehicle-<sysid>/: parameter file,
     the processes' stdout and stderr, and its file root with the ULogs in log/) and the ground station's .tlog go
     (default: a temporary folder, removed at the end).

@@ -112,7 +112,9 @@ class PlantLinkClient:
                     sample = PlantSample(message.time_usec, message)
                 elif kind in ("HIL_SENSOR", "HIL_GPS") and not self.sensors:
                     # checked, decoded only when asked for (pymavlink's parser, unlike the fast path, decodes them)
-                    self.link.frames.kept[message.get_msgId()] = bytes(message.get_payload())
+                    if kind == "HIL_SENSOR":
+                        fields = [getattr(message, name) for name in message.fieldnames]
+                        self.link.frames.kept[HIL_SENSOR.msgid] = HIL_SENSOR.payload(fields)
                 elif kind == "HIL_SENSOR" and sample is not None:
                     sample.sensor = message
                 elif kind == "HIL_GPS" and sample is not None:
