@@ -10,6 +10,7 @@ from pathlib import Path
 
 from aircraft.airframe import AirframeError, load_airframe
 from aircraft.failures import FailureRejected, parse_failure
+from autopilot.commander.calibration import Calibration
 from autopilot.commander.commander import build_commander
 from autopilot.commander.failure_injection import FailureInjection, ScheduledFailure
 from autopilot.commander.flight_stack import FlightStack
@@ -27,6 +28,7 @@ from autopilot.mavlink.router import GroundLink, Router
 from autopilot.mavlink.services import MavlinkServices
 from autopilot.mpc.horizon import HORIZONS
 from autopilot.plant_loop import LoopOutputs, PlantLoop
+from autopilot.reboot import execute_again, reboot_argv, said_sysid
 from autopilot.storage.mission_store import MissionFileError, MissionStore, default_mission_path
 from autopilot.storage.parameters import ParameterFileError, ParameterStore, default_parameter_path, vehicle_system_id
 from autopilot.storage.vehicle_files import VehicleFiles, default_root
@@ -38,6 +40,7 @@ from transport.cli import (
     fail,
     finite_float,
     float_triple,
+    ipv4_address,
     key_file_option,
     nonnegative_float,
     positive_float,
@@ -84,6 +87,9 @@ def build_parser() -> OneLineArgumentParser:
         help="bind the plant link to UDP P (default: any free port; for vtol-sim --autopilot-port P)",
     )
     parser.add_argument("--gcs-port", type=port, metavar="P", help="GCS link: bind UDP P (default 18570+I)")
+    parser.add_argument("--gcs-bind", type=ipv4_address, default=LOOPBACK, metavar="ADDR",
+                        help="GCS link: listen on this IPv4 address (default 127.0.0.1; 0.0.0.0: every interface, "
+                             "for a ground station on another machine)")  # fmt: skip
     parser.add_argument(
         "--gcs-remote-port",
         type=port,
@@ -195,15 +201,17 @@ def serve_files(files: VehicleFiles, params_path: Path, missions_path: Path | No
     return FileRoot(files.root, files.log_dir, frozenset(protected))
 
 
-def open_link(name: str, bind_port: int, remote_port: int, system_id: int) -> GroundLink:
+def open_link(name: str, bind_port: int, remote_port: int, system_id: int, *, onboard: bool = False,
+              bind_address: str = LOOPBACK) -> GroundLink:  # fmt: skip
     try:
-        return GroundLink(name, bind_port, remote_port, system_id)
+        return GroundLink(name, bind_port, remote_port, system_id, onboard=onboard, bind_address=bind_address)
     except OSError as exc:
-        fail(PROG, f"cannot bind UDP {LOOPBACK}:{bind_port} ({name} link): {exc.strerror}")
+        fail(PROG, f"cannot bind UDP {bind_address}:{bind_port} ({name} link): {exc.strerror}")
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    arguments = sys.argv[1:] if argv is None else list(argv)
+    args = build_parser().parse_args(arguments)
     if args.profile and args.offboard_lockstep:
         fail(PROG, "--profile flies the internal set-points: it does not go with --offboard-lockstep")
     try:
@@ -234,8 +242,10 @@ def main(argv: list[str] | None = None) -> int:
     file_root = serve_files(files, params.path, missions.path)
     sim_port = args.sim_port if args.sim_port is not None else ports.plant
     router = Router([
-        open_link("GCS", args.gcs_port or ports.gcs_bind, args.gcs_remote_port or ports.gcs_remote, system_id),
-        open_link("API", args.api_port or ports.api_bind, args.api_remote_port or ports.api_remote, system_id),
+        open_link("GCS", args.gcs_port or ports.gcs_bind, args.gcs_remote_port or ports.gcs_remote, system_id,
+                  bind_address=args.gcs_bind),
+        open_link("API", args.api_port or ports.api_bind, args.api_remote_port or ports.api_remote, system_id,
+                  onboard=True),
     ])  # fmt: skip
     stop_requested = stop_on_signals()
     in_air = args.spawn_alt > 0
@@ -266,8 +276,9 @@ def main(argv: list[str] | None = None) -> int:
         VehicleIdentity(system_id, home, commander.navigator.ids, airframe.gravity,
                         airframe.thrust_max * len(airframe.rotor_positions)),
     )  # fmt: skip
+    calibration = Calibration(params, events.say)
     flight_stack = FlightStack(commander, GuidedRequests(commander), OutputRequests(commander), injection, params,
-                               missions)  # fmt: skip
+                               missions, calibration)  # fmt: skip
     services = MavlinkServices(
         router, params, flight_stack, system_id=system_id, home=home, missions=missions.snapshot,
         modes=commander.navigator.ids,
@@ -293,10 +304,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     loop = PlantLoop(airframe, new_flight_controller, client, commander, params, injection, events,
                      services=services, home=home, outputs=outputs, duration_s=args.duration,
-                     offboard_lockstep=args.offboard_lockstep, should_stop=stop_requested, missions=missions)  # fmt: skip
+                     offboard_lockstep=args.offboard_lockstep,
+                     should_stop=lambda: stop_requested() or flight_stack.reboot_requested, missions=missions,
+                     calibration=calibration)  # fmt: skip
     gcs, api = router.links
     print(f"{PROG}: {kind} controller, plant link udp {LOOPBACK}:{sim_port}, "
-          f"GCS udp {LOOPBACK}:{gcs.bind_port} -> {gcs.default_remote[1]}, "
+          f"{said_sysid(system_id)}, GCS udp {gcs.bind_address}:{gcs.bind_port} -> {gcs.default_remote[1]}, "
           f"API udp {LOOPBACK}:{api.bind_port} -> {api.default_remote[1]}, "
           f"parameters {params.path}, missions {missions.path}, files {files.root} (logs {files.log_dir})",
           file=sys.stderr, flush=True)  # fmt: skip
@@ -316,6 +329,12 @@ def main(argv: list[str] | None = None) -> int:
             session.close()
     if args.summary:
         print(json.dumps(loop.summary() | ({} if ulog is None else {"ulog": ulog.summary()})), flush=True)
+    if flight_stack.reboot_requested and not stop_requested():
+        print(f"{PROG}: rebooting", file=sys.stderr, flush=True)
+        try:
+            execute_again(reboot_argv(arguments, params.set_since_start, client.local_port))
+        except OSError as exc:
+            fail(PROG, f"cannot reboot (execute {sys.executable}): {exc.strerror or exc}")
     return 0
 
 

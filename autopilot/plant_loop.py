@@ -12,8 +12,12 @@ Each plant step:
        ground state, home, missions) or the last snapshot is STATUS_MAX_AGE_USEC old; the other steps (most of the
        400 per second) would publish nothing, so they build none
 
+The autopilot's clock starts at its boot, as on hardware: its time is the plant's minus the plant's time at the
+first step this process saw (0 for an autopilot started with its plant; a rebooted or restarted one starts again
+from 0 while the plant's clock runs on). A calibration running is fed each step's sensors and attitude.
+
 A silent plant is waited for (with a HEARTBEAT every 0.25 s so a restarted plant finds us again); a clock that
-goes back (a new plant run) restarts the schedules and the profile; garbage from the plant is dropped, counted
+goes back (a new plant run) restarts the autopilot's clock, the schedules and the profile; garbage from the plant is dropped, counted
 and said. What flies is the commander's decision: while it says "flying" the flight controller runs; on the
 ground the rotors are off (disarmed) or idle (armed). A takeoff starts a fresh flight controller from the
 factory, told again about every failure it should know.
@@ -32,6 +36,7 @@ import numpy as np
 from aircraft.actuators import ROTOR_COUNT, ROTORS, TILTS, command_to_pwm
 from aircraft.airframe import Airframe
 from aircraft.failures import Failure
+from autopilot.commander.calibration import Calibration, Reading
 from autopilot.commander.commander import Commander
 from autopilot.commander.failure_injection import FailureInjection
 from autopilot.control.flight_controller import FlightController
@@ -43,6 +48,7 @@ from autopilot.storage.mission_store import MissionStore
 from autopilot.storage.parameters import ParameterStore
 from autopilot.topics.home_position import HomePosition
 from autopilot.topics.missions import Missions
+from autopilot.topics.sensor_sample import SensorSample, calibrated, sensor_sample
 from autopilot.topics.vehicle_state import VehicleState, update_from_hil_state
 from autopilot.topics.vehicle_status import EventOutbox, GlobalPosition, VehicleStatus, copy_state, vtol_state
 from transport.geodesy import Home, LocalGeodetic
@@ -97,6 +103,7 @@ class PlantLoop:
         offboard_lockstep: bool = False,
         should_stop: Callable[[], bool] = lambda: False,
         missions: MissionStore | None = None,
+        calibration: Calibration | None = None,
     ) -> None:
         self.airframe = airframe
         self.controller_factory = controller_factory
@@ -113,6 +120,8 @@ class PlantLoop:
         self.should_stop = should_stop
         self.services = services
         self.missions = missions if missions is not None else MissionStore()
+        self.calibration = calibration
+        self.boot_usec: int | None = None  # the plant's time at this process's first step
         self.state = VehicleState()
         self.counters = LoopCounters()
         self.controllers_started = 1
@@ -240,7 +249,20 @@ class PlantLoop:
             home=self.commander.home, pwm=tuple(pwm), throttle_percent=throttle, controller=c.kind,
             failures=tuple(self.injection.known), events=self.events.drain(),
             injections=self.injection.drain_outcomes(), missions=self.missions.snapshot, terminated=report.terminated,
+            sensors=self._calibrated_sensors(t_usec),
         )  # fmt: skip
+
+    def _sensors(self, t_usec: int) -> SensorSample | None:
+        """This step's simulated sensors, raw (decoded only when asked for: a status, a calibration)."""
+        hil_sensor = self.client.latest_sensor()
+        return None if hil_sensor is None else sensor_sample(hil_sensor, t_usec)
+
+    def _calibrated_sensors(self, t_usec: int) -> SensorSample | None:
+        sample = self._sensors(t_usec)
+        if sample is None:
+            return None
+        p = self.params
+        return calibrated(sample, (p["CAL_GYRO0_XOFF"], p["CAL_GYRO0_YOFF"], p["CAL_GYRO0_ZOFF"]))
 
     # ---- the loop ------------------------------------------------------------------------------------------------
     def run(self) -> LoopCounters:
@@ -272,9 +294,12 @@ class PlantLoop:
             busy_from = time.perf_counter()
             last_heard = time.monotonic()
             self._plant_messages()
+            if self.boot_usec is None or sample.time_usec < self.boot_usec:  # first step, or a new plant run
+                self.boot_usec = sample.time_usec
             if not update_from_hil_state(self.state, sample.state, self.geodetic, self.airframe.gravity):
                 counters.invalid_states += 1
                 continue  # no answer: the plant holds the last command (and counts it)
+            self.state.time_usec -= self.boot_usec
             t_usec = self.state.time_usec
             if self._start_usec is not None and t_usec < self._last_usec:
                 self._restart(t_usec)
@@ -301,6 +326,9 @@ class PlantLoop:
                 pwm = fixed
             self.client.send_pwm(sample.time_usec, pwm)
             counters.steps += 1
+            if self.calibration is not None and self.calibration.running:
+                euler = self.state.euler
+                self.calibration.step(Reading(self._sensors(t_usec), float(euler[0]), float(euler[1]), t_usec))
             if self.outputs.ulog is not None:
                 self.outputs.ulog.step(t_usec, self.state, self.controller, pwm)
             if self.services is not None:

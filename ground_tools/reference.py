@@ -23,7 +23,7 @@ from pathlib import Path
 
 from autopilot.mavlink.router import Router
 from autopilot.mavlink.services import MavlinkServices
-from autopilot.mavlink.streams import DEFAULT_RATES_HZ
+from autopilot.mavlink.streams import STREAMS, link_rates
 from autopilot.navigator.modes import MODES
 from autopilot.storage.parameters import DEFINITIONS, INT32, ParameterDefinition, ParameterStore
 from autopilot.topics.flight_mode import ModeId, px4_mode_name
@@ -97,7 +97,7 @@ class MavlinkTables:
     messages: tuple[str, ...]  # the message names the services take
     commands: tuple[int, ...]  # the MAV_CMD ids COMMAND_LONG / COMMAND_INT take
     mission_items: Mapping[int, frozenset[int]]  # by mission type
-    streams: Mapping[int, float]  # message id: default rate (Hz)
+    streams: Mapping[int, tuple[float, float]]  # message id: default rates (Hz) on the GCS and API links (0: off)
 
 
 def mavlink_page(tables: MavlinkTables) -> str:
@@ -116,8 +116,9 @@ def mavlink_page(tables: MavlinkTables) -> str:
         f"| {TYPE_NAMES[mission_type]} | {', '.join(sorted(commands[c].name.removeprefix('MAV_CMD_') for c in items))} |"
         for mission_type, items in sorted(tables.mission_items.items())
     ]
-    stream_rows = [f"| {M.mavlink_map[msgid].msgname} | {number(rate)} |"
-                   for msgid, rate in sorted(tables.streams.items(), key=lambda item: (-item[1], item[0]))]  # fmt: skip
+    stream_rows = [f"| {M.mavlink_map[msgid].msgname} | {number(gcs) if gcs else 'on request'} | {number(api)} |"
+                   for msgid, (gcs, api) in sorted(tables.streams.items(),
+                                                   key=lambda item: (-item[1][0], -item[1][1], item[0]))]  # fmt: skip
     return "\n".join(
         [
             GENERATED_NOTE,
@@ -162,10 +163,11 @@ def mavlink_page(tables: MavlinkTables) -> str:
             "## Streams",
             "",
             "Default rates in simulation time, on each link once a client has spoken (2 Hz at most before);",
-            "MAV_CMD_SET_MESSAGE_INTERVAL changes them per link.",
+            "MAV_CMD_SET_MESSAGE_INTERVAL changes them per link (any of these, up to 400 Hz), and",
+            "MAV_CMD_REQUEST_MESSAGE sends any of them once. The API link has PX4's onboard-link streams too.",
             "",
-            "| message | rate (Hz) |",
-            "| --- | --- |",
+            "| message | GCS link (Hz) | API link (Hz) |",
+            "| --- | --- | --- |",
             *stream_rows,
             "",
         ]
@@ -260,7 +262,7 @@ def mavlink_tables() -> MavlinkTables:
         messages=tuple(services.handled_messages),
         commands=services.handled_commands,
         mission_items=mission_items,
-        streams=DEFAULT_RATES_HZ,
+        streams={msgid: (link_rates(False).get(msgid, 0.0), link_rates(True)[msgid]) for msgid in STREAMS},
     )
 
 

@@ -23,7 +23,7 @@ from autopilot.storage.parameters import ParameterFileError, ParameterStore, def
 from ground_tools.exit_status import FAILED, OK, epilog
 from tiltrotor_sitl._children import Child, Stream, start, stop
 from tiltrotor_sitl._commands import AutopilotCommand, SimCommand, Zenoh, fleet_home
-from transport.cli import bounded_int, fail, nonnegative_float, stop_on_signals
+from transport.cli import bounded_int, fail, ipv4_address, nonnegative_float, stop_on_signals
 from transport.ports import LOOPBACK, Ports
 
 PROG = "vtol"
@@ -46,6 +46,12 @@ def add_up_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--speed", type=nonnegative_float, default=1.0, metavar="F",
                         help="simulated seconds per wall second (default 1; 0: lockstep as fast as possible)")  # fmt: skip
     parser.add_argument("--params", metavar="FILE", help="the autopilot's parameter file")
+    parser.add_argument("--reset-params", action="store_true",
+                        help="reset every parameter to its default in each vehicle's parameter file before the start "
+                             "(as MAV_CMD_PREFLIGHT_STORAGE param1 2; the signing key stays)")  # fmt: skip
+    parser.add_argument("--gcs-bind", type=ipv4_address, metavar="ADDR",
+                        help="the GCS links listen on this IPv4 address (default 127.0.0.1; 0.0.0.0: every interface, "
+                             "for QGroundControl on another machine)")  # fmt: skip
     parser.add_argument("--log-dir", metavar="DIR",
                         help="write the ULogs to DIR/YYYY-MM-DD/HH_MM_SS.ulg (with --count: DIR/vehicle-<sysid>/...; "
                         "default: the vehicle's root, microsd-I beside its parameter file)")  # fmt: skip
@@ -79,6 +85,7 @@ def commands(args: argparse.Namespace, index: int, sysid: int) -> tuple[list[str
         zenoh=zenoh,
         home=home,
         controller=args.controller,
+        gcs_bind=args.gcs_bind,
         params=Path(args.params) if args.params else None,
         plant_signing_key=key,
         log_dir=log_dir,
@@ -88,12 +95,18 @@ def commands(args: argparse.Namespace, index: int, sysid: int) -> tuple[list[str
 
 def system_id(args: argparse.Namespace, instance: int) -> int:
     """The system id the autopilot of `instance` will take (MAV_SYS_ID from its parameter file when changed, else
-    instance + 1), given to its plant too, so both publish under the same zenoh keys."""
+    instance + 1), given to its plant too, so both publish under the same zenoh keys. With --reset-params the file
+    is reset to the defaults first."""
     params = ParameterStore(Path(args.params) if args.params else default_parameter_path(instance))
     try:
         params.load()
     except ParameterFileError as exc:
         fail(PROG, str(exc))
+    if args.reset_params:
+        params.reset()
+        error = params.flush()
+        if error:
+            fail(PROG, f"cannot reset the parameter file {params.path}: {error}")
     return vehicle_system_id(params, instance)
 
 

@@ -38,6 +38,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import Unpack
 
+from autopilot.reboot import started_sysid
 from autopilot.storage.vehicle_files import VehicleFiles
 from autopilot.topics.mission_items import MissionItem
 from tiltrotor_sitl._children import Child
@@ -90,8 +91,17 @@ class VehicleHandle:
 
     @property
     def sysid(self) -> int:
-        """MAVLink system id (MAV_SYS_ID)."""
-        return self._vehicle.sysid
+        """MAVLink system id (MAV_SYS_ID): the one the autopilot last started with, as it says on stderr (a reboot
+        after a change of MAV_SYS_ID changes it), else the one it was started with."""
+        vehicle = self._vehicle
+        for child in vehicle.children:
+            if child.name == "vtol-autopilot":
+                try:
+                    said = started_sysid(child.stderr_text())
+                except (OSError, ValueError):  # its stderr file is gone (a removed folder) or not kept
+                    said = None
+                return vehicle.sysid if said is None else said
+        return vehicle.sysid
 
     @property
     def home(self) -> Home:
@@ -178,7 +188,7 @@ class VehicleHandle:
         HEARTBEAT heard) and saying the ground station's HEARTBEAT each second; made on first use, closed with the
         vehicle. It listens on gcs_port: use it or a pymavlink connection of your own on `pymavlink`, not both (a
         fleet's vehicles share one link, each its own GroundStation)."""
-        if self._station is None:
+        if self._station is None or self._station.target_system != self.sysid:  # a reboot changed MAV_SYS_ID
             self._station = self._fleet._ground_link().station(self.sysid)
             self._station.wait_connected()
         return self._station
@@ -402,7 +412,8 @@ class Vehicle(VehicleHandle):
 
     Where it lives: instance: None (default) for free ports, or I for instance I's ports (docs/plant-link.md: plant
     4560+I, API 14540+I, GCS to 14550, system id I+1). sysid: the system id (default: params' MAV_SYS_ID, else I+1,
-    else 1). gcs_port: where the GCS link sends (default: a free port, 14550 with an instance). truth: subscribe to
+    else 1). gcs_port: where the GCS link sends (default: a free port, 14550 with an instance). gcs_bind: the IPv4
+    address the GCS link listens on (default 127.0.0.1; 0.0.0.0 for a ground station on another machine). truth: subscribe to
     the plant's truth on zenoh (default True). folder: where the vehicle's folder (vehicle-<sysid>/: parameter file,
     the processes' stdout and stderr, and its file root with the ULogs in log/) and the ground station's .tlog go
     (default: a temporary folder, removed at the end).

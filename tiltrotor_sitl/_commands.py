@@ -197,6 +197,7 @@ class AutopilotCommand:
     sim_port: int | None = None  # the plant's UDP port (default 4560 + instance)
     sim_bind_port: int | None = None  # the plant link's own UDP port (default: any; see SimCommand.autopilot_port)
     links: LinkPorts | None = None  # the ground-station links (default: the instance's)
+    gcs_bind: str | None = None  # the IPv4 address the GCS link listens on (vtol-autopilot's default: 127.0.0.1)
     spawn_alt: float = 0.0  # m; above 0: starts hovering there, armed (as the plant is spawned)
     controller: Controller | None = None  # default: the VT_CTRL parameter
     mpc_horizon: str | None = None  # the MPC's horizon, "paper" or "long" (default: the VT_MPC_HRZN parameter)
@@ -220,7 +221,8 @@ class AutopilotCommand:
         return python_module(AUTOPILOT_MODULE, [
             *_option("--instance", self.instance), *_option("--sim-port", self.sim_port),
             *_option("--sim-bind-port", self.sim_bind_port),
-            *(self.links.argv() if self.links is not None else []), *_option("--spawn-alt", self.spawn_alt or None),
+            *(self.links.argv() if self.links is not None else []), *_option("--gcs-bind", self.gcs_bind),
+            *_option("--spawn-alt", self.spawn_alt or None),
             *_option("--controller", self.controller), *_option("--mpc-horizon", self.mpc_horizon),
             *_option("--params", self.params),
             *_option("--airframe", self.airframe), *_option("--profile", self.profile),

@@ -10,6 +10,7 @@ import signal
 import socket
 import tempfile
 import time
+from argparse import ArgumentTypeError
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
@@ -31,6 +32,7 @@ from tiltrotor_sitl._free_ports import bind_error, free_udp_port, protocol
 from tiltrotor_sitl._readiness import ReadinessWatch
 from tiltrotor_sitl.fault_proxy import FaultProxy, Faults
 from tiltrotor_sitl.truth import TruthFeed
+from transport.cli import ipv4_address
 from transport.geodesy import Home, home_from
 from transport.ports import LOOPBACK, Ports, endpoint_port
 
@@ -112,6 +114,7 @@ class VehicleOptions(TypedDict, total=False):
     instance: int | None
     sysid: int | None
     gcs_port: int | None
+    gcs_bind: str | None
     truth: bool
     folder: str | Path | None
     processes: ProcessOptions
@@ -132,6 +135,7 @@ class Options:
     instance: int | None = None
     sysid: int | None = None
     gcs_port: int | None = None
+    gcs_bind: str | None = None
     truth: bool = True
     folder: Path | None = None
     processes: ProcessOptions = ProcessOptions()
@@ -176,6 +180,11 @@ class Options:
             raise ValueError(f"sysid must be in 1..{250 - (count - 1)}, not {self.sysid}")
         if self.gcs_port is not None and not 1 <= self.gcs_port <= 65535:
             raise ValueError(f"gcs_port must be a UDP port 1..65535, not {self.gcs_port}")
+        if self.gcs_bind is not None:
+            try:
+                ipv4_address(self.gcs_bind)
+            except ArgumentTypeError as refusal:
+                raise ValueError(f"gcs_bind: {refusal}") from None
         if self.airframe is not None and not Path(self.airframe).is_file():
             raise ValueError(f"airframe: no such file: {self.airframe}")
         if self.home is not None and not (-90 <= self.home.lat <= 90 and -180 <= self.home.lon <= 180):
@@ -322,6 +331,7 @@ def _start_processes(options: Options, started: Started) -> None:
         started.children.append(_start_child("vtol-sim", plant.argv(), started.folder))
     if processes.autopilot:
         autopilot = AutopilotCommand(sim_port=ports.plant, links=_autopilot_links(ports.links, started.proxies),
+                                     gcs_bind=options.gcs_bind,
                                      spawn_alt=options.spawn_alt, controller=options.controller,
                                      params=started.params_path, root=started.folder, airframe=options.airframe,
                                      duration_s=processes.duration_s, zenoh=autopilot_zenoh, sysid=started.sysid,

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import importlib.metadata
+import ipaddress
 import math
 import signal
 import sys
@@ -88,6 +89,14 @@ def positive_float(text: str) -> float:
     if value <= 0:
         raise argparse.ArgumentTypeError(f"must be > 0: {text!r}")
     return value
+
+
+def ipv4_address(text: str) -> str:
+    """An argparse type for an IPv4 address in dotted form (127.0.0.1, 0.0.0.0, 192.168.1.5)."""
+    try:
+        return str(ipaddress.IPv4Address(text))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an IPv4 address: {text!r}") from None
 
 
 def bounded_int(low: int, high: int):

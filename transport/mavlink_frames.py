@@ -8,8 +8,8 @@ order, array lengths, CRC extra and id), and `FastFrames` frames it the way pyma
 trailing zero bytes of the payload stripped, CRC-16/MCRF4XX with the CRC extra, the endpoint's sequence number. The
 bytes on the wire are pymavlink's, bit for bit (tests/test_mavlink_frames.py), so any MAVLink peer reads them.
 
-A reader may name types it only wants checked (`checked`: the autopilot has no use for HIL_SENSOR and HIL_GPS):
-their frames are checked as the others and left out of the result. Parsing takes the fast path only for a datagram
+A reader may name types it only wants checked (`checked`: the autopilot reads HIL_SENSOR only now and then): their
+frames are checked as the others and left out of the result, the last payload of each kept undecoded (`kept`). Parsing takes the fast path only for a datagram
 made entirely of well-formed, unsigned MAVLink 2 frames of those types with good CRCs; anything else (another
 message, a bad CRC, a truncated frame, MAVLink 1, a signed frame, a link that signs) goes to pymavlink's parser
 whole, so refusals and their counters are exactly pymavlink's.
@@ -96,6 +96,7 @@ class FastFrames:
         self.mav = mav
         self.formats = {frame_format.msgid: frame_format for frame_format in formats}
         self.checked = frozenset(frame_format.msgid for frame_format in checked)
+        self.kept: dict[int, bytes] = {}  # a checked type's last payload (as sent, trailing zeros stripped)
 
     def pack(self, frame_format: FrameFormat, *fields: Any) -> bytes:
         """One frame with the endpoint's sequence number as `message.pack(mav)` gives it (which does not advance
@@ -135,6 +136,7 @@ class FastFrames:
             if crc != frame_crc(memoryview(data)[offset + 1 : crc_at], frame_format.crc_extra):
                 return None
             if msgid in self.checked:
+                self.kept[msgid] = data[offset + HEADER_LEN : crc_at]
                 offset = crc_at + 2
                 continue
             frame = bytearray(data[offset : crc_at + 2])

@@ -47,7 +47,8 @@ class PlantLinkClient:
         """`local_port` 0: an ephemeral port; a plant started with `--autopilot-port P` accepts only local_port P.
         `signing_key`: sign the link, as a plant given the same key does (docs/plant-link.md#signing).
         `sensors` False: HIL_SENSOR and HIL_GPS are checked (CRC) but not decoded, and samples carry none; the
-        autopilot flies on HIL_STATE_QUATERNION alone, and decoding them cost it about 4 us a step."""
+        autopilot flies on HIL_STATE_QUATERNION alone, and decoding them cost it about 4 us a step: it decodes the
+        last HIL_SENSOR (`latest_sensor`) only when it reports or calibrates the sensors."""
         self.address = (host, port)
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
@@ -110,7 +111,10 @@ class PlantLinkClient:
                 if kind == "HIL_STATE_QUATERNION":
                     sample = PlantSample(message.time_usec, message)
                 elif kind in ("HIL_SENSOR", "HIL_GPS") and not self.sensors:
-                    continue  # checked, not wanted (pymavlink's parser, unlike the fast path, decodes them)
+                    # checked, decoded only when asked for (pymavlink's parser, unlike the fast path, decodes them)
+                    if kind == "HIL_SENSOR":
+                        fields = [getattr(message, name) for name in message.fieldnames]
+                        self.link.frames.kept[HIL_SENSOR.msgid] = HIL_SENSOR.payload(fields)
                 elif kind == "HIL_SENSOR" and sample is not None:
                     sample.sensor = message
                 elif kind == "HIL_GPS" and sample is not None:
@@ -122,6 +126,16 @@ class PlantLinkClient:
                 # paced to the wall clock (states milliseconds apart) is waited for without burning a core.
                 self._spin_s = SPIN_WINDOW_S if time.monotonic() - started < SPIN_WINDOW_S / 2 else 0.0
                 return sample
+
+    def latest_sensor(self) -> Any | None:
+        """The last HIL_SENSOR received, decoded now (with `sensors` False the link only keeps its bytes); None
+        before the first."""
+        payload = self.link.frames.kept.get(HIL_SENSOR.msgid)
+        if payload is None:
+            return None
+        size = HIL_SENSOR.payload_struct.size
+        padded = payload[:size] + bytes(max(0, size - len(payload)))  # MAVLink 2 drops trailing zeros
+        return HIL_SENSOR.message_class(*HIL_SENSOR.fields(padded))
 
     @property
     def states_come_quickly(self) -> bool:

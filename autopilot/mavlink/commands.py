@@ -19,9 +19,10 @@ from autopilot.mavlink import messages
 from autopilot.mavlink.command_params import GlobalTargets, Params, int_param, latitude_longitude
 from autopilot.mavlink.global_frames import altitude_amsl
 from autopilot.mavlink.output_commands import actuator_test, flight_termination, motor_test
+from autopilot.mavlink.preflight_commands import preflight_calibration, preflight_storage, reboot_shutdown
 from autopilot.mavlink.router import COMP_ID, GroundLink
 from autopilot.mavlink.statustext import Announcer
-from autopilot.mavlink.streams import DEFAULT_RATES_HZ, MIN_INTERVAL_USEC, default_interval_usec
+from autopilot.mavlink.streams import MIN_INTERVAL_USEC, STREAMS
 from autopilot.mavlink.view import StatusView
 from autopilot.topics.flight_mode import ModeId, px4_mode_name
 from autopilot.topics.home_position import home_at, home_here, home_refusal
@@ -113,6 +114,9 @@ class CommandService:
             M.MAV_CMD_DO_FLIGHTTERMINATION: lambda origin, p, frame: self._parsed(flight_termination(p)),
             M.MAV_CMD_DO_MOTOR_TEST: lambda origin, p, frame: self._parsed(motor_test(p)),
             M.MAV_CMD_ACTUATOR_TEST: lambda origin, p, frame: self._parsed(actuator_test(p)),
+            M.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN: lambda origin, p, frame: self._parsed(reboot_shutdown(p)),
+            M.MAV_CMD_PREFLIGHT_STORAGE: lambda origin, p, frame: self._parsed(preflight_storage(p)),
+            M.MAV_CMD_PREFLIGHT_CALIBRATION: lambda origin, p, frame: self._parsed(preflight_calibration(p)),
         }
 
     @property
@@ -363,12 +367,12 @@ class CommandService:
     def _set_interval(self, origin: Origin, p: Params, frame: int | None) -> Reply:
         msgid = int_param(p[0])
         interval = p[1]
-        if msgid is None or msgid not in DEFAULT_RATES_HZ:
+        if msgid is None or msgid not in STREAMS:
             return M.MAV_RESULT_DENIED, f"Message interval: message {p[0]:g} is not a stream here"
         if not math.isfinite(interval) or (interval < 0 and interval != -1):
             return M.MAV_RESULT_DENIED, f"Message interval: {interval:g} us (-1 off, 0 default, >0 us)"
         if interval == 0:
-            usec = default_interval_usec(msgid)
+            usec = origin.link.streams.default_interval(msgid)
         elif interval == -1:
             usec = 0
         else:
@@ -381,7 +385,7 @@ class CommandService:
         if msgid is None or not 0 <= msgid < (1 << 24):
             return M.MAV_RESULT_DENIED, "Get message interval: param1 must be a message id"
         link = origin.link
-        interval = link.streams.intervals.get(msgid, 0 if msgid in DEFAULT_RATES_HZ else -1)
+        interval = link.streams.intervals.get(msgid, 0 if msgid in STREAMS else -1)
         self.ack(origin, M.MAV_RESULT_ACCEPTED)
         link.queue(link.mav.message_interval_encode(msgid, interval if interval else -1))
         return None

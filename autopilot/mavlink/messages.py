@@ -156,7 +156,17 @@ def mission_current(mav: Any, status: VehicleStatus) -> Any:
     )
 
 
+def highres_imu(mav: Any, status: VehicleStatus) -> Any | None:
+    """HIGHRES_IMU from the simulated sensors, calibrated (None before the plant sent any)."""
+    s = status.sensors
+    if s is None:
+        return None
+    return mav.highres_imu_encode(status.time_usec, *s.accel, *s.gyro, *s.mag, s.abs_pressure, s.diff_pressure,
+                                  s.pressure_alt, s.temperature, s.fields_updated & 0xFFFF, 0)  # fmt: skip
+
+
 BUILDERS: dict[int, Callable[[Any, VehicleStatus], Any]] = {
+    M.MAVLINK_MSG_ID_HIGHRES_IMU: highres_imu,
     M.MAVLINK_MSG_ID_HEARTBEAT: heartbeat,
     M.MAVLINK_MSG_ID_SYS_STATUS: sys_status,
     M.MAVLINK_MSG_ID_EXTENDED_SYS_STATE: extended_sys_state,

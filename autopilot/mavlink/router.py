@@ -19,7 +19,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
-from autopilot.mavlink.streams import StreamSchedule
+from autopilot.mavlink.streams import StreamSchedule, link_rates
 from transport.mavlink import Link
 from transport.ports import LOOPBACK
 
@@ -42,20 +42,23 @@ class LinkCounters:
 class GroundLink:
     """One UDP MAVLink link to ground stations (GCS or API)."""
 
-    def __init__(self, name: str, bind_port: int, remote_port: int, system_id: int) -> None:
+    def __init__(self, name: str, bind_port: int, remote_port: int, system_id: int, *, onboard: bool = False,
+                 bind_address: str = LOOPBACK) -> None:  # fmt: skip
+        """`onboard`: the stream rates of PX4's onboard link (the API link's); `bind_address`: the IPv4 address the
+        link listens on (a remote ground station reaches 0.0.0.0 or the machine's own address)."""
         self.name = name
         self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
         try:
-            self.sock.bind((LOOPBACK, bind_port))
+            self.sock.bind((bind_address, bind_port))
         except OSError:
             self.sock.close()
             raise
         self.sock.setblocking(False)
-        self.bind_port = self.sock.getsockname()[1]
+        self.bind_address, self.bind_port = self.sock.getsockname()
         self.default_remote = (LOOPBACK, remote_port)
         self.clients: list[tuple[str, int]] = []  # most recent first
         self.link = Link(system_id, COMP_ID)
-        self.streams = StreamSchedule()
+        self.streams = StreamSchedule(link_rates(onboard))
         self.out = bytearray()
         self.counters = LinkCounters()
 

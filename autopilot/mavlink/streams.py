@@ -14,7 +14,7 @@ MIN_INTERVAL_USEC = 2500  # one plant step: the fastest a stream can go
 IDLE_INTERVAL_USEC = 500_000  # 2 Hz until a client speaks
 NEVER = 1 << 62
 
-# The streams and their default rates (Hz), as PX4 sends them to a ground station.
+# The streams and their default rates (Hz) on the GCS link, as PX4 sends them to a ground station.
 DEFAULT_RATES_HZ: dict[int, float] = {
     M.MAVLINK_MSG_ID_HEARTBEAT: 1.0,
     M.MAVLINK_MSG_ID_SYS_STATUS: 2.0,
@@ -31,23 +31,36 @@ DEFAULT_RATES_HZ: dict[int, float] = {
     M.MAVLINK_MSG_ID_SYSTEM_TIME: 1.0,
     M.MAVLINK_MSG_ID_MISSION_CURRENT: 1.0,
 }
+# The streams PX4 sends only on its onboard (API) link: off on the GCS link until a client asks for them
+# (MAV_CMD_SET_MESSAGE_INTERVAL), on the API link at PX4's onboard rates.
+ONBOARD_RATES_HZ: dict[int, float] = {
+    M.MAVLINK_MSG_ID_HIGHRES_IMU: 50.0,
+}
+STREAMS = frozenset(DEFAULT_RATES_HZ) | frozenset(ONBOARD_RATES_HZ)  # every stream a client may set an interval of
+
+
+def link_rates(onboard: bool) -> dict[int, float]:
+    """A link's default rates (Hz) by message id: the GCS link's, or with `onboard` the API link's."""
+    return DEFAULT_RATES_HZ | ONBOARD_RATES_HZ if onboard else dict(DEFAULT_RATES_HZ)
 
 
 def interval_usec(rate_hz: float) -> int:
     return int(round(1e6 / rate_hz))
 
 
-def default_interval_usec(msgid: int) -> int:
-    return interval_usec(DEFAULT_RATES_HZ[msgid])
-
-
 class StreamSchedule:
     """Which stream is due when, on one link."""
 
-    def __init__(self) -> None:
-        self.intervals = {msgid: interval_usec(rate) for msgid, rate in DEFAULT_RATES_HZ.items()}
+    def __init__(self, defaults: dict[int, float]) -> None:
+        """`defaults`: the link's rates (Hz) by message id (link_rates)."""
+        self.defaults = {msgid: interval_usec(rate) for msgid, rate in defaults.items()}
+        self.intervals = dict(self.defaults)
         self.next_due = {msgid: 0 for msgid in self.intervals}
         self.next_any_due = 0
+
+    def default_interval(self, msgid: int) -> int:
+        """A stream's default interval on this link (us; 0: off until asked for)."""
+        return self.defaults.get(msgid, 0)
 
     def set_interval(self, msgid: int, interval: int, now_usec: int) -> None:
         """A stream's interval (us; 0 or less stops it), from now on."""

@@ -353,8 +353,28 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         "2 from the start until the autopilot stops (at the next start)",
         reboot_required=True,
     ),
+    # Calibration (MAV_CMD_PREFLIGHT_CALIBRATION, docs/mavlink.md#calibration): PX4's names; the ids are PX4 SITL's
+    # simulated IMU and magnetometer, which PX4's SITL start-up sets as defaults.
+    P("CAL_GYRO0_ID", INT32, 1310988, 0, 2**31 - 1, "", "device id of gyro 0 (the simulated IMU)", px4_default=0),
+    P("CAL_GYRO0_XOFF", REAL32, 0.0, -10.0, 10.0, "rad/s", "gyro 0 X-axis offset (gyro calibration; HIGHRES_IMU)"),
+    P("CAL_GYRO0_YOFF", REAL32, 0.0, -10.0, 10.0, "rad/s", "gyro 0 Y-axis offset (gyro calibration; HIGHRES_IMU)"),
+    P("CAL_GYRO0_ZOFF", REAL32, 0.0, -10.0, 10.0, "rad/s", "gyro 0 Z-axis offset (gyro calibration; HIGHRES_IMU)"),
+    P(
+        "CAL_ACC0_ID",
+        INT32,
+        1310988,
+        0,
+        2**31 - 1,
+        "",
+        "device id of accelerometer 0 (the simulated IMU)",
+        px4_default=0,
+    ),
+    P("CAL_MAG0_ID", INT32, 197388, 0, 2**31 - 1, "", "device id of magnetometer 0 (the simulated one)", px4_default=0),
+    P("SENS_BOARD_X_OFF", REAL32, 0.0, -45.0, 45.0, "deg", "board roll offset (level horizon calibration)"),
+    P("SENS_BOARD_Y_OFF", REAL32, 0.0, -45.0, 45.0, "deg", "board pitch offset (level horizon calibration)"),
 )
 del P
+SENSOR_FACTORY_PREFIXES = ("CAL_ACC", "CAL_GYRO", "CAL_MAG")  # what PREFLIGHT_STORAGE param1 3 resets (PX4's)
 
 BY_NAME = {definition.name: definition for definition in DEFINITIONS}
 
@@ -410,6 +430,7 @@ class ParameterStore:
         self.version = 0  # counts changes: the flight stack hands changed values on when it sees a new one
         self.warnings: list[str] = []
         self.signing_key: SigningKey | None = None  # MAVLink 2 signing (SETUP_SIGNING), kept in the same file
+        self.set_since_start: set[str] = set()  # names changed since the file was loaded (a reboot applies them)
         self._writer = BackgroundWriter(path, "parameter file") if path is not None else None
 
     # ---- access ------------------------------------------------------------------------------------------
@@ -453,6 +474,7 @@ class ParameterStore:
             return False
         self.values[name] = value
         self.version += 1
+        self.set_since_start.add(name)
         self.save()
         return True
 
@@ -490,6 +512,32 @@ class ParameterStore:
         if self._writer is None:
             return None
         return self._writer.flush(timeout_s)
+
+    def reset(self, prefixes: tuple[str, ...] = ("",)) -> list[str]:
+        """Every parameter whose name starts with one of `prefixes` (all by default) back to its default; the names
+        that changed. The signing key stays (it is not a parameter)."""
+        changed = []
+        for definition in self.definitions:
+            if definition.name.startswith(prefixes) and self.values[definition.name] != float(definition.default):
+                self.values[definition.name] = float(definition.default)
+                changed.append(definition.name)
+        if changed:
+            self.version += 1
+            self.set_since_start.update(changed)
+        self.save()
+        return changed
+
+    def reload(self) -> list[str]:
+        """Read the file again (PREFLIGHT_STORAGE's read): what it does not hold goes back to its default; the names
+        that changed. ParameterFileError if the file is broken (nothing changed then)."""
+        fresh = ParameterStore(self.path, self.definitions)
+        fresh.load()
+        changed = [name for name, value in fresh.values.items() if self.values[name] != value]
+        if changed:
+            self.values.update({name: fresh.values[name] for name in changed})
+            self.version += 1
+            self.set_since_start.update(changed)
+        return changed
 
     def load(self) -> None:
         """Read the file if it exists (a missing file means all defaults); raise ParameterFileError if broken."""

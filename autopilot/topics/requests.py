@@ -215,11 +215,33 @@ class GcsHeartbeat:
     """A HEARTBEAT from a ground station (MAV_TYPE_GCS) arrived now: the data link is alive (NAV_DLL_ACT)."""
 
 
+@dataclass(frozen=True)
+class Reboot:
+    """MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN param1 1: restart the autopilot (disarmed only)."""
+
+
+@dataclass(frozen=True)
+class PreflightStorage:
+    """MAV_CMD_PREFLIGHT_STORAGE param1, PX4's PREFLIGHT_STORAGE_PARAMETER_ACTION: 0 read the parameter file again,
+    1 write it, 2 reset every parameter to its default, 3 reset the sensor calibrations (CAL_ACC*, CAL_GYRO*,
+    CAL_MAG*), 4 reset every parameter."""
+
+    action: int
+
+
+@dataclass(frozen=True)
+class Calibrate:
+    """MAV_CMD_PREFLIGHT_CALIBRATION: start calibrating `sensor` (autopilot/commander/calibration.py's Sensor
+    values: "gyro", "level", "accel", "mag"), or None: cancel the running one (every param 0)."""
+
+    sensor: str | None
+
+
 Request = (Arm | Disarm | Takeoff | Land | SetMode | Transition | OffboardVelocity | OffboardPosition
            | OffboardAttitude | ManualControlInput | InjectFailure
            | StoreMission | ClearMission | SetMissionCurrent | StartMission | ReturnToLaunch | Reposition | ChangeSpeed
            | Orbit | GcsHeartbeat | SetHome | TurnTo | SetRegionOfInterest | FlightTermination
-           | OutputTest)  # fmt: skip
+           | OutputTest | Reboot | PreflightStorage | Calibrate)  # fmt: skip
 
 
 class RequestHandler(Protocol):

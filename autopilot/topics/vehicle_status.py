@@ -20,6 +20,7 @@ from autopilot.topics.flight_mode import ModeId
 from autopilot.topics.home_position import HomePosition
 from autopilot.topics.missions import EMPTY as NO_MISSIONS
 from autopilot.topics.missions import Missions
+from autopilot.topics.sensor_sample import SensorSample
 from autopilot.topics.vehicle_state import VehicleState
 from transport.mavlink import mavlink
 
@@ -92,6 +93,7 @@ class VehicleStatus:
     injections: tuple[InjectionOutcome, ...] = ()  # answered since the last snapshot
     missions: Missions = NO_MISSIONS  # stored mission, fence, rally; current item, state, last reached (immutable)
     terminated: bool = False  # flight termination (a failsafe or DO_FLIGHTTERMINATION): motors off until cleared
+    sensors: SensorSample | None = None  # the simulated sensors this step, calibrated (None before the plant sent any)
 
     @property
     def time_boot_ms(self) -> int:
