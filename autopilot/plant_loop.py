@@ -177,9 +177,9 @@ class PlantLoop:
         self.commander.failure_known(failure)
 
     def _parameters_changed(self) -> None:
-        """Parameters the running controller uses (VT_ARSP_*) handed on after a change."""
+        """The running controller's gains and limits (MC_*, MPC_*, FW_*, VT_*) handed on after a change."""
         self._params_seen = self.params.version
-        self.controller.set_transition_airspeeds(self.params["VT_ARSP_BLEND"], self.params["VT_ARSP_TRANS"])
+        self.controller.retune(self.params)
 
     def _control(self, t_usec: int, t: float) -> list[int] | None:
         """The commander's 100 Hz tick and the controller's step; the PWM to send (None: the controller's)."""

@@ -19,12 +19,13 @@ import json
 import signal
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from aircraft.airframe import load_airframe
+from autopilot.storage.parameters import ParameterStore
 from ground_tools.lockstep_client import START_MS, LockstepClient
 from ground_tools.lockstep_flight import FlightFailed
 from ground_tools.metrics import flight_metrics
@@ -63,6 +64,17 @@ def write_timeseries(autopilot_log: Path, table: Path, start_s: float) -> None:
     write_flight_log(table, read_flight_log(autopilot_log).since(start_s))
 
 
+def write_parameters(path: Path, values: Mapping[str, float]) -> None:
+    """The autopilot's parameter file holding `values` (ValueError naming a refused one; FlightFailed when it cannot
+    be written)."""
+    store = ParameterStore(path)
+    for name, value in values.items():
+        store.set(name, float(value))
+    error = store.flush()
+    if error:
+        raise FlightFailed(f"cannot write the parameter file {path}: {error}")
+
+
 def run_scenario(
     scenario: Scenario,
     controller: Controller,
@@ -75,15 +87,18 @@ def run_scenario(
     record: bool = True,
     on_progress: Callable[[float], None] = lambda sim_s: None,
     mpc_horizon: str | None = None,
+    autopilot_params: Mapping[str, float] | None = None,
 ) -> RunResult:
     """Fly `scenario` with `controller` ("mpc" | "pid"); raises FlightFailed (or ScenarioError). The processes use
     `block`'s ports (it is closed when the run ends), else instance `instance`'s, else free ones. `wind_ned` and
     `plant_airframe` (model mismatch: the autopilot keeps the paper's airframe) go to the plant; `mpc_horizon`
-    ("paper" | "long", default the autopilot's VT_MPC_HRZN) to the autopilot."""
+    ("paper" | "long", default the autopilot's VT_MPC_HRZN) and `autopilot_params` (parameters by name: gains,
+    the MPC's weights; checked, ValueError) to the autopilot, in its parameter file."""
     run_dir = out / scenario.name / controller
     run_dir.mkdir(parents=True, exist_ok=True)
     for old in ("params.json", "telemetry.jsonl.gz", "metrics.json", "run.json", "timeseries.csv", "autopilot_log.csv"):
         (run_dir / old).unlink(missing_ok=True)
+    write_parameters(run_dir / "params.json", autopilot_params or {})
     if block is None:
         ports = run_ports(instance)
         try:
@@ -182,6 +197,7 @@ def run_scenario(
         "wall_s": round(wall_s, 2),
         "failure": None if scenario.failure is None else {"trigger": scenario.failure.trigger, "t_s": failure_s},
         "plant": {"wind_ned": list(wind_ned), "airframe": None if plant_airframe is None else str(plant_airframe)},
+        "autopilot_params": dict(autopilot_params or {}),
         "lockstep_intact": summaries["plant"].get("missed_commands", 0) == 0,
         "holds_answered": events.holds_answered,
         "statustexts": [[ms / 1000.0 - start_s, text] for ms, text in events.statustexts],

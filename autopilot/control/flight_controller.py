@@ -30,9 +30,11 @@ from autopilot.control.allocation import ControlAllocator
 from autopilot.control.attitude import AttitudeController
 from autopilot.control.attitude_setpoint import attitude_command
 from autopilot.control.pid_baseline import PidVelocityController
+from autopilot.control.tuning import attitude_gains, pid_parameters
 from autopilot.control.velocity_command import VelocityCommand
 from autopilot.control.velocity_controller import PrimaryVelocityController, VelocityController
 from autopilot.control.velocity_estimate import VelocityEstimate
+from autopilot.storage.parameters import ParameterStore
 from autopilot.topics.attitude_target import AttitudeTarget
 from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.yaw_setpoint import YawReference
@@ -163,9 +165,13 @@ class FlightController:
         """Offboard attitude: fly `target` with the attitude loop alone (None: the velocity controller flies)."""
         self.attitude_setpoint = target
 
-    def set_transition_airspeeds(self, blend: float, trans: float) -> None:
-        """VT_ARSP_BLEND and VT_ARSP_TRANS (m/s) for the PID baseline (flying, or the MPC's back-up)."""
-        self.pid.set_transition_airspeeds(blend, trans)
+    def retune(self, params: ParameterStore) -> None:
+        """The parameters' gains and limits from the next tick on, in flight too: the attitude loop's (MC_*), the PID
+        baseline's (flying, or the MPC's back-up), the MPC's (VT_MPC_*, and its model of the attitude loop)."""
+        self.attitude.set_gains(attitude_gains(params))
+        self.pid.set_parameters(pid_parameters(params))
+        if self.mpc is not None:
+            self.mpc.retune(params)
 
     def apply_failure(self, failure: Failure) -> None:
         """Tell the allocator and the servo estimate about a failure the plant accepted."""
@@ -212,7 +218,10 @@ class FlightController:
             else:  # the velocity controller tracks the vehicle's own velocity, warm for when it flies again
                 self.velocity_controller.update(state, state.velocity_ned, tilts)
                 self.velocity_command = attitude_command(
-                    self.attitude_setpoint, state.euler, self.airframe.thrust_max * len(self.airframe.rotor_positions)
+                    self.attitude_setpoint,
+                    state.euler,
+                    self.airframe.thrust_max * len(self.airframe.rotor_positions),
+                    self.attitude.gains,
                 )
             if self.mpc is not None and self.mpc.fallback_requested and not self.fell_back_to_pid:
                 self._fall_back_to_pid(state, self.mpc)

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from autopilot.storage.parameters import BY_NAME, ParameterRejected, ParameterStore
 from scenarios.variants import PARAMETERS, VariantError, checked_values
 
 CONTROLLERS = ("mpc", "pid")
@@ -85,9 +86,22 @@ def _grid_values(name: str, axis: Any) -> tuple[Any, ...] | RandomAxis:
                         f"not {axis!r}")  # fmt: skip
 
 
+def autopilot_parameters(values: dict[str, Any]) -> dict[str, float]:
+    """The values that are the autopilot's parameters (their PX4-style names: VT_MPC_Q_VN, MC_ROLLRATE_P ...)."""
+    return {key: value for key, value in values.items() if key in BY_NAME}
+
+
 def check_parameters(scenario: str, values: dict[str, Any], folder: Path) -> None:
-    """Raise CampaignError unless every value is one the scenario or the plant takes, in range."""
-    own = {key: value for key, value in values.items() if key not in WIND and key != PLANT_AIRFRAME}
+    """Raise CampaignError unless every value is one the scenario, the plant or the autopilot takes, in range."""
+    autopilot = autopilot_parameters(values)
+    store = ParameterStore(None)
+    for key, value in autopilot.items():
+        try:
+            store.check(key, _number(key, value))
+        except ParameterRejected as exc:
+            raise CampaignError(str(exc)) from None
+    own = {key: value for key, value in values.items()
+           if key not in WIND and key != PLANT_AIRFRAME and key not in autopilot}  # fmt: skip
     try:
         checked_values(scenario, own)
     except VariantError as exc:
