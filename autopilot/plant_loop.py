@@ -236,6 +236,7 @@ class PlantLoop:
             home=self.commander.home, pwm=tuple(pwm), throttle_percent=throttle, controller=c.kind,
             failures=tuple(self.injection.known), events=self.events.drain(),
             injections=self.injection.drain_outcomes(), missions=self.missions.snapshot, terminated=report.terminated,
+            battery=report.battery,
         )  # fmt: skip
 
     # ---- the loop ------------------------------------------------------------------------------------------------

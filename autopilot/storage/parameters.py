@@ -511,6 +511,38 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
     P("VT_MPC_VXY_MAX", REAL32, 30.0, 5.0, 60.0, "m/s", "MPC limit: north and east velocity", px4=False),
     P("VT_MPC_VZ_MAX", REAL32, 10.0, 1.0, 20.0, "m/s", "MPC limit: vertical velocity", px4=False),
     P("VT_MPC_TILTR_MAX", REAL32, 45.0, 5.0, 90.0, "deg/s", "MPC limit: rotor tilt rate", px4=False),
+    # The simulated battery and its failsafe (autopilot/commander/battery_simulator.py, docs/failsafes.md).
+    P(
+        "SIM_BAT_DRAIN",
+        REAL32,
+        60.0,
+        1.0,
+        86400.0,
+        "s",
+        "simulated battery: time to drain from full to empty while armed (full again when disarmed)",
+    ),
+    P("SIM_BAT_MIN_PCT", REAL32, 50.0, 0.0, 100.0, "%", "simulated battery: the charge never drains below this"),
+    P("BAT_LOW_THR", REAL32, 0.15, 0.12, 0.5, "", "low battery: state of charge below this (a warning)"),
+    P("BAT_CRIT_THR", REAL32, 0.07, 0.05, 0.25, "", "critical battery: state of charge below this (COM_LOW_BAT_ACT)"),
+    P(
+        "BAT_EMERGEN_THR",
+        REAL32,
+        0.05,
+        0.03,
+        0.1,
+        "",
+        "emergency battery: state of charge below this (COM_LOW_BAT_ACT)",
+    ),
+    P(
+        "COM_LOW_BAT_ACT",
+        INT32,
+        0,
+        0,
+        3,
+        "",
+        "battery failsafe at the critical and emergency levels: 0 warning, 1 Return, 2 Land, 3 Return at critical "
+        "and Land at emergency",
+    ),
 )
 del P
 

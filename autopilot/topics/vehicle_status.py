@@ -16,6 +16,8 @@ from typing import TypeVar
 import numpy as np
 
 from aircraft.failures import Failure
+from autopilot.topics.battery import FULL as FULL_BATTERY
+from autopilot.topics.battery import BatteryStatus
 from autopilot.topics.flight_mode import ModeId
 from autopilot.topics.home_position import HomePosition
 from autopilot.topics.missions import EMPTY as NO_MISSIONS
@@ -39,6 +41,7 @@ class CommanderReport:
     flying: bool
     state_version: int
     terminated: bool
+    battery: BatteryStatus = FULL_BATTERY
 
 
 @dataclass(frozen=True)
@@ -92,6 +95,7 @@ class VehicleStatus:
     injections: tuple[InjectionOutcome, ...] = ()  # answered since the last snapshot
     missions: Missions = NO_MISSIONS  # stored mission, fence, rally; current item, state, last reached (immutable)
     terminated: bool = False  # flight termination (a failsafe or DO_FLIGHTTERMINATION): motors off until cleared
+    battery: BatteryStatus = FULL_BATTERY  # the simulated battery (autopilot/commander/battery_simulator.py)
 
     @property
     def time_boot_ms(self) -> int:
