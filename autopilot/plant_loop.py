@@ -34,6 +34,7 @@ from aircraft.airframe import Airframe
 from aircraft.failures import Failure
 from autopilot.commander.commander import Commander
 from autopilot.commander.failure_injection import FailureInjection
+from autopilot.commander.plant_parameter_sync import PlantParameterSync
 from autopilot.control.flight_controller import FlightController
 from autopilot.logger.control_telemetry import ControlTelemetry
 from autopilot.logger.flight_log import FlightLogger
@@ -111,6 +112,7 @@ class PlantLoop:
         self.should_stop = should_stop
         self.services = services
         self.missions = missions if missions is not None else MissionStore()
+        self.plant_parameters = PlantParameterSync(params, client)
         self.state = VehicleState()
         self.counters = LoopCounters()
         self.controllers_started = 1
@@ -142,6 +144,8 @@ class PlantLoop:
                     self._learn(failure)
             elif kind == "STATUSTEXT":
                 self.events.say(message.severity, message.text)
+            elif kind == "PARAM_VALUE" and (why := self.plant_parameters.answered(message)) is not None:
+                self.note(why)
         self.client.received_other.clear()
         dropped = sum(self.client.link.dropped.values())
         if dropped > self._dropped_reported:
@@ -159,6 +163,7 @@ class PlantLoop:
         if self.outputs.log is not None:
             self.outputs.log.restart()
         self.injection.restart()
+        self.plant_parameters.restart()
         self.commander.restart(self.state)
         if self.services is not None:
             self.services.restart(t_usec)
@@ -289,6 +294,7 @@ class PlantLoop:
                 self._learn(failure)
             if self.params.version != self._params_seen:
                 self._parameters_changed()
+            self.plant_parameters.step(t_usec)  # before this step's answer: the plant applies it to this step
             fixed = self._control(t_usec, t)
             if fixed is None:
                 stepped = self.controller.step(self.state)

@@ -6,6 +6,7 @@
     vtol mission FILE.plan|FILE.waypoints [--controller mpc|pid|both] [--out DIR]
     vtol campaign FILE [--out DIR] [--workers N | --address ADDR] [--report] [--no-progress]
     vtol up [--instance I] [--count N] [--controller mpc|pid] [--spawn-alt M] [--speed F] [--params FILE] [--no-zenoh]
+            [--wind SPEED,FROM_DEG] [--turbulence SIGMA] [--wind-seed N]
     vtol record --out FILE.jsonl [--instance I | --connect ENDPOINT ...] [--sysid N|all] [--duration S]
     vtol watch [--instance I | --connect ENDPOINT ...] [--sysid N] [--duration S] [--snapshot FILE.png] [--text]
 
@@ -22,6 +23,7 @@ waypoint's closest approach (ground_tools/mission_command.py).
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 from pathlib import Path
@@ -36,10 +38,28 @@ from ground_tools.up import up
 from ground_tools.watch import add_watch_arguments, watch
 from scenarios.profiles import PROFILES
 from tiltrotor_sitl import Controller
-from transport.cli import OneLineArgumentParser, bounded_int, fail, nonnegative_float, positive_float, writable_folder
+from transport.cli import (
+    OneLineArgumentParser,
+    bounded_int,
+    fail,
+    finite_float,
+    nonnegative_float,
+    positive_float,
+    writable_folder,
+)
 from transport.flight_log import read_flight_log
+from transport.plant_parameters import SEED_MAX
 
 PROG = "vtol"
+
+
+def wind_speed_and_direction(text: str) -> tuple[float, float]:
+    """'SPEED,FROM_DEG' -> two finite numbers (their ranges are checked with the rest of the wind)."""
+    parts = text.split(",")
+    if len(parts) != 2:
+        raise argparse.ArgumentTypeError(f"expected SPEED,FROM_DEG: {text!r}")
+    speed, direction = (finite_float(part) for part in parts)
+    return speed, direction
 
 
 def fly(profile: str, controller: Controller, out: Path, duration: float, spawn_alt: float) -> int:
@@ -108,6 +128,13 @@ def main(argv: list[str] | None = None) -> int:
         "--speed", type=positive_float, default=1.0, metavar="F", help="simulated seconds per wall second (default 1)"
     )
     up_parser.add_argument("--params", metavar="FILE", help="the autopilot's parameter file")
+    up_parser.add_argument("--wind", type=wind_speed_and_direction, default=(0.0, 0.0), metavar="SPEED,FROM_DEG",
+                           help="mean wind: its speed (m/s) and where it blows from (deg, 90 = from the east); "
+                                "SIM_WIND_SPD, SIM_WIND_DIR")  # fmt: skip
+    up_parser.add_argument("--turbulence", type=nonnegative_float, default=0.0, metavar="SIGMA",
+                           help="Dryden turbulence, the vertical gusts' standard deviation (m/s); SIM_WIND_TURB")  # fmt: skip
+    up_parser.add_argument("--wind-seed", type=bounded_int(0, SEED_MAX), default=0, metavar="N",
+                           help="the turbulence's seed (SIM_WIND_SEED)")  # fmt: skip
     up_parser.add_argument(
         "--plant-signing-key",
         metavar="FILE",

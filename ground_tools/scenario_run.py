@@ -88,10 +88,13 @@ def run_scenario(
     on_progress: Callable[[float], None] = lambda sim_s: None,
     mpc_horizon: str | None = None,
     autopilot_params: Mapping[str, float] | None = None,
+    wind_turbulence: float = 0.0,
+    wind_seed: int = 0,
 ) -> RunResult:
     """Fly `scenario` with `controller` ("mpc" | "pid"); raises FlightFailed (or ScenarioError). The processes use
-    `block`'s ports (it is closed when the run ends), else instance `instance`'s, else free ones. `wind_ned` and
-    `plant_airframe` (model mismatch: the autopilot keeps the paper's airframe) go to the plant; `mpc_horizon`
+    `block`'s ports (it is closed when the run ends), else instance `instance`'s, else free ones. `wind_ned`,
+    `wind_turbulence` and `wind_seed` (the plant's mean wind and its Dryden turbulence) and `plant_airframe` (model
+    mismatch: the autopilot keeps the paper's airframe) go to the plant; `mpc_horizon`
     ("paper" | "long", default the autopilot's VT_MPC_HRZN) and `autopilot_params` (parameters by name: gains,
     the MPC's weights; checked, ValueError) to the autopilot, in its parameter file."""
     run_dir = out / scenario.name / controller
@@ -118,6 +121,7 @@ def run_scenario(
             port=ports.plant, spawn_alt=SPAWN_ALT_M, duration_s=duration_s, lockstep_timeout_s=PLANT_LOCKSTEP_TIMEOUT_S,
             summary=True, zenoh=Zenoh.listening(ports.zenoh_plant) if record else Zenoh.off(),
             wind_ned=None if wind_ned == (0.0, 0.0, 0.0) else wind_ned, airframe=plant_airframe, sysid=sysid,
+            wind_turbulence=wind_turbulence, wind_seed=wind_seed,
         )  # fmt: skip
         plant = start("vtol-sim", plant_command.argv(), stdout=Stream.CAPTURE, stderr=run_dir / "plant.log",
                       deterministic=True)  # fmt: skip
@@ -196,7 +200,12 @@ def run_scenario(
         "sim_s": summaries["plant"]["sim_time_s"],
         "wall_s": round(wall_s, 2),
         "failure": None if scenario.failure is None else {"trigger": scenario.failure.trigger, "t_s": failure_s},
-        "plant": {"wind_ned": list(wind_ned), "airframe": None if plant_airframe is None else str(plant_airframe)},
+        "plant": {
+            "wind_ned": list(wind_ned),
+            "wind_turbulence": wind_turbulence,
+            "wind_seed": wind_seed,
+            "airframe": None if plant_airframe is None else str(plant_airframe),
+        },
         "autopilot_params": dict(autopilot_params or {}),
         "lockstep_intact": summaries["plant"].get("missed_commands", 0) == 0,
         "holds_answered": events.holds_answered,

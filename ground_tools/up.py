@@ -21,9 +21,10 @@ from pathlib import Path
 
 from autopilot.storage.parameters import ParameterFileError, ParameterStore, default_parameter_path, vehicle_system_id
 from tiltrotor_sitl._children import Child, Stream, start, stop
-from tiltrotor_sitl._commands import AutopilotCommand, SimCommand, Zenoh, fleet_home
+from tiltrotor_sitl._commands import AutopilotCommand, SimCommand, Zenoh, fleet_home, plant_wind
 from transport.cli import fail, stop_on_signals
 from transport.ports import LOOPBACK, Ports
+from transport.wind import Wind
 
 PROG = "vtol"
 STOP_TIMEOUT_S = 10.0
@@ -44,6 +45,7 @@ def commands(args: argparse.Namespace, index: int, sysid: int) -> tuple[list[str
         home=home,
         plant_signing_key=key,
         sysid=sysid,
+        **plant_wind(wind(args)),
     )
     autopilot = AutopilotCommand(
         instance=instance,
@@ -55,6 +57,18 @@ def commands(args: argparse.Namespace, index: int, sysid: int) -> tuple[list[str
         plant_signing_key=key,
     )
     return plant.argv(), autopilot.argv()
+
+
+def wind(args: argparse.Namespace) -> Wind | None:
+    """--wind, --turbulence, --wind-seed as the plant's wind (None: none given); refused in one line when out of
+    range."""
+    speed, direction = args.wind
+    given = Wind(speed, direction, args.turbulence, args.wind_seed)
+    try:
+        given.check()
+    except ValueError as exc:
+        fail(PROG, str(exc))
+    return None if given == Wind() else given
 
 
 def system_id(args: argparse.Namespace, instance: int) -> int:

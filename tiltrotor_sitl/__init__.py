@@ -34,9 +34,10 @@ from tiltrotor_sitl._launch import Options, Started, VehicleError, VehicleOption
 from tiltrotor_sitl.truth import PlantTruth, TruthFeed, TruthTimeout
 from transport.geodesy import Home
 from transport.ports import LOOPBACK
+from transport.wind import Wind
 
 __all__ = ["Controller", "Fleet", "Home", "PlantTruth", "TruthFeed", "TruthTimeout", "Vehicle", "VehicleError",
-           "VehicleHandle", "VehicleOptions", "VehiclePorts"]  # fmt: skip
+           "VehicleHandle", "VehicleOptions", "VehiclePorts", "Wind"]  # fmt: skip
 
 
 class VehicleHandle:
@@ -226,7 +227,9 @@ class Vehicle(VehicleHandle):
     after the stop, with the missions beside it: a later Vehicle given the same file starts where this one stopped.
     duration_s: both processes stop by themselves after that many simulated seconds (wait for it with
     wait_finished()). plant_args: further vtol-sim options, as they are (`vtol-sim --help`, e.g. ["--wind",
-    "0,3,0"]).
+    "0,3,0"]). wind: the plant's wind, Wind(speed_mps, from_deg, turbulence_mps, seed) (mean and Dryden
+    turbulence; docs/plant-link.md "Wind"; a ground station or test changes it in flight through the SIM_WIND_*
+    parameters).
 
     Which processes: both (default); autopilot=False starts the plant alone, for a flight controller of your own or
     a test that plays one on `ports.plant` (ready when the plant says it listens; `truth` works); plant_port=P starts

@@ -25,13 +25,15 @@ from tiltrotor_sitl._commands import (
     SimCommand,
     VehiclePorts,
     Zenoh,
-    fleet_home,  # fmt: skip
+    fleet_home,
+    plant_wind,  # fmt: skip
 )
 from tiltrotor_sitl._free_ports import bind_error, free_udp_port, protocol
 from tiltrotor_sitl._readiness import ReadinessWatch
 from tiltrotor_sitl.truth import TruthFeed
 from transport.geodesy import Home, home_from
 from transport.ports import LOOPBACK, Ports, endpoint_port
+from transport.wind import Wind
 
 PLANT_LISTENING = "listening on udp"  # what vtol-sim says on stderr once its port is bound (sim_bridge/cli.py)
 
@@ -64,6 +66,7 @@ class VehicleOptions(TypedDict, total=False):
     plant_args: Sequence[str]
     autopilot: bool
     plant_port: int | None
+    wind: Wind | None
 
 
 @dataclass(frozen=True)
@@ -91,6 +94,7 @@ class Options:
     plant_args: tuple[str, ...] = ()
     autopilot: bool = True
     plant_port: int | None = None
+    wind: Wind | None = None
 
     @classmethod
     def of(cls, options: VehicleOptions) -> Options:
@@ -149,9 +153,17 @@ class Options:
         store = ParameterStore(None)
         for name, value in self.params.items():
             try:
-                store.check(name, float(value))
+                definition = store.check(name, float(value))
             except ParameterRejected as refusal:
                 raise ValueError(f"params: {refusal}") from None
+            if definition.plant:
+                raise ValueError(f"params: {name} is the plant's (the wind): give wind=Wind(...)")
+        if self.wind is not None:
+            if not isinstance(self.wind, Wind):
+                raise ValueError(f"wind must be a tiltrotor_sitl.Wind, not {self.wind!r}")
+            self.wind.check()
+            if not self.starts_plant:
+                raise ValueError("wind with plant_port: no plant is started (the wind is the plant's)")
 
     def _check_which(self, count: int) -> None:
         """The arguments that choose which processes start (both, the plant alone, the autopilot alone)."""
@@ -255,7 +267,8 @@ def _start_one(options: Options, index: int, sysid: int, ports: VehiclePorts, ro
     autopilot_zenoh = Zenoh.listening(ports.zenoh_autopilot) if options.truth else Zenoh.off()
     plant = SimCommand(port=ports.plant, spawn_alt=options.spawn_alt, realtime_speed=options.speed,
                        duration_s=options.duration_s, zenoh=plant_zenoh, airframe=options.airframe, sysid=sysid,
-                       home=home, summary=options.summary, extra=options.plant_args)  # fmt: skip
+                       home=home, summary=options.summary, extra=options.plant_args,
+                       **plant_wind(options.wind))  # fmt: skip
     autopilot = AutopilotCommand(sim_port=ports.plant, links=ports.links, spawn_alt=options.spawn_alt,
                                  controller=options.controller, params=params_path, airframe=options.airframe,
                                  duration_s=options.duration_s, zenoh=autopilot_zenoh, sysid=sysid, home=home,

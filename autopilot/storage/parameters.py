@@ -24,6 +24,7 @@ from typing import Any
 
 from autopilot.storage.kept_file import BackgroundWriter, read_kept
 from autopilot.storage.signing_key import SigningKey, SigningRefused, key_from_document, key_to_document
+from transport.plant_parameters import PLANT_PARAMETERS
 from transport.ports import Ports
 
 FILE_FORMAT = "tiltrotor-sitl parameters"
@@ -45,6 +46,7 @@ class ParameterDefinition:
     unit: str
     description: str
     px4: bool = True  # False: this project's own parameter (PX4 has no such one)
+    plant: bool = False  # True: the plant keeps it (the wind); shown and set here, never in the parameter file
 
 
 P = ParameterDefinition
@@ -543,6 +545,11 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         "battery failsafe at the critical and emergency levels: 0 warning, 1 Return, 2 Land, 3 Return at critical "
         "and Land at emergency",
     ),
+    # The plant's (transport/plant_parameters.py): read from the plant, set on it, not kept in the file.
+    *(
+        P(p.name, p.kind, p.default, p.minimum, p.maximum, p.unit, p.description, px4=False, plant=True)
+        for p in PLANT_PARAMETERS
+    ),
 )
 del P
 
@@ -643,7 +650,8 @@ class ParameterStore:
             return False
         self.values[name] = value
         self.version += 1
-        self.save()
+        if not definition.plant:
+            self.save()
         return True
 
     def set_signing_key(self, key: SigningKey | None) -> None:
@@ -653,8 +661,11 @@ class ParameterStore:
 
     # ---- persistence -------------------------------------------------------------------------------------
     def non_default(self) -> dict[str, int | float]:
+        """The vehicle's parameters that differ from their defaults (the plant's are the plant's to keep)."""
         changed: dict[str, int | float] = {}
         for d in self.definitions:
+            if d.plant:
+                continue
             value = self.values[d.name]
             if value != float(d.default):
                 changed[d.name] = int(value) if d.kind == INT32 else value
@@ -704,6 +715,10 @@ class ParameterStore:
         for name, value in parameters.items():
             if name not in self.index:
                 self.warnings.append(f"{where}: unknown parameter {name!r} ignored")
+                continue
+            if BY_NAME[name].plant:
+                self.warnings.append(f"{where}: {name} ignored: the plant keeps it (vtol-sim --wind, or PARAM_SET "
+                                     f"while it runs)")  # fmt: skip
                 continue
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise ParameterFileError(f"{where}: {name} = {value!r} is not a number")

@@ -10,6 +10,9 @@ from typing import Any
 
 from autopilot.storage.parameters import BY_NAME, ParameterRejected, ParameterStore
 from scenarios.variants import PARAMETERS, VariantError, checked_values
+from transport.plant_parameters import BY_NAME as PLANT_PARAMETERS
+from transport.plant_parameters import refusal
+from transport.wind import Wind
 
 CONTROLLERS = ("mpc", "pid")
 WIND = ("wind_n_mps", "wind_e_mps", "wind_d_mps")  # the plant's constant wind, NED
@@ -88,7 +91,24 @@ def _grid_values(name: str, axis: Any) -> tuple[Any, ...] | RandomAxis:
 
 def autopilot_parameters(values: dict[str, Any]) -> dict[str, float]:
     """The values that are the autopilot's parameters (their PX4-style names: VT_MPC_Q_VN, MC_ROLLRATE_P ...)."""
-    return {key: value for key, value in values.items() if key in BY_NAME}
+    return {key: value for key, value in values.items() if key in BY_NAME and key not in PLANT_PARAMETERS}
+
+
+def scenario_parameters(values: dict[str, Any]) -> dict[str, Any]:
+    """The values that are the scenario's own (not the plant's nor the autopilot's)."""
+    return {key: value for key, value in values.items()
+            if key not in WIND and key != PLANT_AIRFRAME and key not in BY_NAME and key not in PLANT_PARAMETERS}  # fmt: skip
+
+
+def plant_wind(values: dict[str, Any]) -> tuple[tuple[float, float, float], float, int]:
+    """The plant's wind of a flight: its mean (NED, m/s: wind_n/e/d_mps, or SIM_WIND_SPD and SIM_WIND_DIR with
+    wind_d_mps), the turbulence (SIM_WIND_TURB) and its seed (SIM_WIND_SEED)."""
+    given = Wind(float(values.get("SIM_WIND_SPD", 0.0)), float(values.get("SIM_WIND_DIR", 0.0)),
+                 float(values.get("SIM_WIND_TURB", 0.0)), int(values.get("SIM_WIND_SEED", 0)))  # fmt: skip
+    north, east, down = (float(values.get(name, 0.0)) for name in WIND)
+    if "SIM_WIND_SPD" in values or "SIM_WIND_DIR" in values:
+        north, east = given.north_east
+    return (north, east, down), given.turbulence_mps, given.seed
 
 
 def check_parameters(scenario: str, values: dict[str, Any], folder: Path) -> None:
@@ -100,8 +120,10 @@ def check_parameters(scenario: str, values: dict[str, Any], folder: Path) -> Non
             store.check(key, _number(key, value))
         except ParameterRejected as exc:
             raise CampaignError(str(exc)) from None
-    own = {key: value for key, value in values.items()
-           if key not in WIND and key != PLANT_AIRFRAME and key not in autopilot}  # fmt: skip
+    for key in set(values) & set(PLANT_PARAMETERS):
+        if (why := refusal(PLANT_PARAMETERS[key], _number(key, values[key]))) is not None:
+            raise CampaignError(why)
+    own = scenario_parameters(values)
     try:
         checked_values(scenario, own)
     except VariantError as exc:
@@ -142,6 +164,9 @@ def parse_campaign(data: dict[str, Any], name: str, folder: Path) -> CampaignSpe
         else:
             grid[axis] = parsed
     check_parameters(scenario, fixed, folder)
+    given = set(fixed) | set(grid) | set(random)
+    if given & {"SIM_WIND_SPD", "SIM_WIND_DIR"} and given & {"wind_n_mps", "wind_e_mps"}:
+        raise CampaignError("the mean wind is SIM_WIND_SPD and SIM_WIND_DIR, or wind_n_mps and wind_e_mps: not both")
     for axis, values in grid.items():
         for value in values:
             check_parameters(scenario, {axis: value}, folder)
