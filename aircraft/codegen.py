@@ -1,7 +1,7 @@
 """Compile C once and cache the shared library: CasADi functions (the plant's RK4 step, the allocator's model)
 and generated C built together with hand-written C (the MPC's QP driver, autopilot/mpc/rti.c).
 
-The plant's step costs 15 us in CasADi's virtual machine and 2 us compiled (docs/performance.md). The
+The plant's step costs 15 us in CasADi's virtual machine and 2 us compiled (docs/design/solver.md). The
 library is keyed by a hash of its sources and flags, so a different airframe or model gives a different file;
 CasADi functions are built with `cc -O2 -ffp-contract=off` (no fused multiply-add, so results match the VM bit
 for bit) into $TILTROTOR_SITL_CACHE or ~/.cache/tiltrotor-sitl, written atomically. Without a C compiler the
@@ -93,7 +93,7 @@ def compiled(function: ca.Function, who: str = "tiltrotor-sitl") -> ca.Function:
 
 class BufferedFunction:
     """A CasADi Function of dense vectors evaluated on numpy arrays bound once: a call with numpy arguments costs
-    ~30-100 us in conversions, this one copies its arguments into the bound inputs and costs a few (docs/performance.md,
+    ~30-100 us in conversions, this one copies its arguments into the bound inputs and costs a few (docs/design/solver.md,
     "Calling CasADi from Python"). The outputs are the same arrays at every call: copy what you keep."""
 
     def __init__(self, function: ca.Function) -> None:

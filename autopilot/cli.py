@@ -19,12 +19,16 @@ from autopilot.control.flight_controller import FlightController
 from autopilot.controllers import build_flight_controller, controller_kind, mpc_horizon
 from autopilot.logger.control_telemetry import ControlTelemetry
 from autopilot.logger.flight_log import FlightLogger
+from autopilot.logger.logger import Logger, VehicleIdentity
+from autopilot.mavlink.component_metadata import METADATA
+from autopilot.mavlink.ftp_protocol import FileRoot
 from autopilot.mavlink.router import GroundLink, Router
 from autopilot.mavlink.services import MavlinkServices
 from autopilot.mpc.horizon import HORIZONS
 from autopilot.plant_loop import LoopOutputs, PlantLoop
 from autopilot.storage.mission_store import MissionFileError, MissionStore, default_mission_path
 from autopilot.storage.parameters import ParameterFileError, ParameterStore, default_parameter_path, vehicle_system_id
+from autopilot.storage.vehicle_files import VehicleFiles, default_root
 from autopilot.topics.vehicle_status import EventOutbox
 from scenarios.profiles import PROFILES
 from transport.cli import (
@@ -69,8 +73,8 @@ def build_parser() -> OneLineArgumentParser:
     parser = OneLineArgumentParser(prog=PROG, description="Tilt-rotor VTOL autopilot: flies the plant over MAVLink "
                                    "and is a PX4-like MAVLink vehicle for ground stations.")  # fmt: skip
     port = bounded_int(1, 65535)
-    parser.add_argument("--instance", type=bounded_int(0, 999), default=0, help="shift every port by I")
-    parser.add_argument("--sim-port", type=port, help="the plant's UDP port (default 4560+I)")
+    parser.add_argument("--instance", type=bounded_int(0, 999), default=0, metavar="I", help="shift every port by I")
+    parser.add_argument("--sim-port", type=port, metavar="P", help="the plant's UDP port (default 4560+I)")
     parser.add_argument(
         "--sim-bind-port",
         type=port,
@@ -129,9 +133,19 @@ def build_parser() -> OneLineArgumentParser:
         help="inject MAV_CMD_INJECT_FAILURE at simulated time T (repeatable)",
     )
     parser.add_argument("--log", metavar="FILE.csv", help="write the 100 Hz flight log (state, set-points, actuators)")
+    parser.add_argument("--root", metavar="DIR",
+                        help="the vehicle's file root, PX4's /fs/microsd: its ULogs in DIR/log/, served by MAVLink FTP "
+                             "(default microsd-I beside the parameter file)")  # fmt: skip
+    parser.add_argument(
+        "--log-dir",
+        metavar="DIR",
+        help="write the ULogs to DIR/YYYY-MM-DD/HH_MM_SS.ulg (default ROOT/log; SDLOG_MODE says when)",
+    )
+    parser.add_argument("--no-ulog", action="store_true", help="write no ULog (log download and FTP still served)")
     parser.add_argument(
         "--sysid",
         type=bounded_int(1, 250),
+        metavar="N",
         help="vehicle system id (default: MAV_SYS_ID when set in the parameter file, else I+1)",
     )
     parser.add_argument(
@@ -164,6 +178,20 @@ def build_parser() -> OneLineArgumentParser:
     )
     parser.add_argument("--summary", action="store_true", help="print a JSON line of counters on exit")
     return parser
+
+
+def serve_files(files: VehicleFiles, params_path: Path, missions_path: Path | None) -> FileRoot:
+    """The vehicle's root made ready for MAVLink FTP: its folders, the component metadata in etc/extras; what FTP
+    may not change (the files the autopilot keeps)."""
+    try:
+        files.log_dir.mkdir(parents=True, exist_ok=True)
+        written = METADATA.write(files.extras)
+    except OSError as exc:
+        fail(PROG, f"cannot prepare the vehicle's files in {files.root}: {exc.strerror or exc}")
+    protected = {params_path.absolute(), files.extras, *written}
+    if missions_path is not None:
+        protected.add(missions_path.absolute())
+    return FileRoot(files.root, files.log_dir, frozenset(protected))
 
 
 def open_link(name: str, bind_port: int, remote_port: int, system_id: int) -> GroundLink:
@@ -200,6 +228,9 @@ def main(argv: list[str] | None = None) -> int:
     except MissionFileError as exc:
         fail(PROG, str(exc))
     system_id = args.sysid if args.sysid is not None else vehicle_system_id(params, args.instance)
+    files = VehicleFiles.at(Path(args.root) if args.root else default_root(params.path, args.instance),
+                            Path(args.log_dir) if args.log_dir else None)  # fmt: skip
+    file_root = serve_files(files, params.path, missions.path)
     sim_port = args.sim_port if args.sim_port is not None else ports.plant
     router = Router([
         open_link("GCS", args.gcs_port or ports.gcs_bind, args.gcs_remote_port or ports.gcs_remote, system_id),
@@ -229,13 +260,18 @@ def main(argv: list[str] | None = None) -> int:
     session = None
     if not args.no_zenoh:
         session = open_session(args.zenoh_listen or [ports.zenoh_autopilot], args.zenoh_connect, PROG)
+    ulog = None if args.no_ulog else Logger(
+        files, params, commander, missions, injection,
+        VehicleIdentity(system_id, home, commander.navigator.ids, airframe.gravity,
+                        airframe.thrust_max * len(airframe.rotor_positions)),
+    )  # fmt: skip
     flight_stack = FlightStack(commander, GuidedRequests(commander), OutputRequests(commander), injection, params,
                                missions)  # fmt: skip
     services = MavlinkServices(
         router, params, flight_stack, system_id=system_id, home=home, missions=missions.snapshot,
         modes=commander.navigator.ids,
         events_publisher=None if session is None else session.declare_publisher(autopilot_events_key(system_id)),
-        quiet=args.quiet,
+        quiet=args.quiet, files=file_root, logs=files, statustext_sink=None if ulog is None else ulog.statustext,
     )  # fmt: skip
     kind = controller_kind(args.controller, params.get_int("VT_CTRL"))
 
@@ -252,6 +288,7 @@ def main(argv: list[str] | None = None) -> int:
     outputs = LoopOutputs(
         log=None if log is None else FlightLogger(log),
         telemetry=None if session is None else ControlTelemetry(session, system_id),
+        ulog=ulog,
     )
     loop = PlantLoop(airframe, new_flight_controller, client, commander, params, injection, events,
                      services=services, home=home, outputs=outputs, duration_s=args.duration,
@@ -260,11 +297,14 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{PROG}: {kind} controller, plant link udp {LOOPBACK}:{sim_port}, "
           f"GCS udp {LOOPBACK}:{gcs.bind_port} -> {gcs.default_remote[1]}, "
           f"API udp {LOOPBACK}:{api.bind_port} -> {api.default_remote[1]}, "
-          f"parameters {params.path}, missions {missions.path}", file=sys.stderr, flush=True)  # fmt: skip
+          f"parameters {params.path}, missions {missions.path}, files {files.root} (logs {files.log_dir})",
+          file=sys.stderr, flush=True)  # fmt: skip
     try:
         loop.run()
     finally:
         client.close()
+        if ulog is not None:
+            ulog.close()
         services.close()
         for error in (params.flush(), missions.flush()):
             if error:
@@ -274,7 +314,7 @@ def main(argv: list[str] | None = None) -> int:
         if session is not None:
             session.close()
     if args.summary:
-        print(json.dumps(loop.summary()), flush=True)
+        print(json.dumps(loop.summary() | ({} if ulog is None else {"ulog": ulog.summary()})), flush=True)
     return 0
 
 

@@ -14,12 +14,13 @@ from aircraft.actuators import ALLOCATED_COUNT, ALLOCATED_ROTORS
 from aircraft.airframe import Airframe
 from autopilot.control.actuator_health import ServoEstimate
 from autopilot.control.allocation import ControlAllocator
-from autopilot.control.flight_controller import MPC, PID, VELOCITY_PERIOD_USEC, ControllerKind, FlightController
+from autopilot.control.flight_controller import VELOCITY_PERIOD_USEC, FlightController
 from autopilot.control.pid_baseline import PidVelocityController
 from autopilot.mpc.controller import DEFAULT_HORIZON, MpcVelocityController
 from autopilot.mpc.horizon import HORIZONS, LONG, PAPER, MpcHorizon
 from autopilot.mpc.overlap import OverlappedMpc
 from autopilot.storage.parameters import ParameterStore
+from autopilot.topics.controller_kind import MPC, PID, ControllerKind
 
 KINDS: tuple[ControllerKind, ...] = (MPC, PID)
 VT_CTRL_MPC = 1  # VT_CTRL: 0 the PID baseline, 1 the MPC

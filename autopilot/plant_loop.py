@@ -38,6 +38,7 @@ from autopilot.commander.plant_parameter_sync import PlantParameterSync
 from autopilot.control.flight_controller import FlightController
 from autopilot.logger.control_telemetry import ControlTelemetry
 from autopilot.logger.flight_log import FlightLogger
+from autopilot.logger.logger import Logger
 from autopilot.mavlink.services import MavlinkServices
 from autopilot.storage.mission_store import MissionStore
 from autopilot.storage.parameters import ParameterStore
@@ -70,10 +71,11 @@ class LoopCounters:
 
 @dataclass(frozen=True)
 class LoopOutputs:
-    """Where the loop writes besides the plant link: the CSV log and zenoh (each optional)."""
+    """Where the loop writes besides the plant link: the CSV log, zenoh and the ULog logger (each optional)."""
 
     log: FlightLogger | None = None
     telemetry: ControlTelemetry | None = None
+    ulog: Logger | None = None
 
 
 class PlantLoop:
@@ -162,6 +164,8 @@ class PlantLoop:
         self._next_ground_tick = 0
         if self.outputs.log is not None:
             self.outputs.log.restart()
+        if self.outputs.ulog is not None:
+            self.outputs.ulog.restart()
         self.injection.restart()
         self.plant_parameters.restart()
         self.commander.restart(self.state)
@@ -304,6 +308,8 @@ class PlantLoop:
                 pwm = fixed
             self.client.send_pwm(sample.time_usec, pwm)
             counters.steps += 1
+            if self.outputs.ulog is not None:
+                self.outputs.ulog.step(t_usec, self.state, self.controller, pwm)
             if self.services is not None:
                 self.services.receive(t_usec)
                 if self._status_due(t_usec):

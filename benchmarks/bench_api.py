@@ -13,6 +13,7 @@ counted apart, and fleets stop growing once the simulation runs slower than 0.5 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import statistics
 import tempfile
@@ -20,7 +21,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from tiltrotor_sitl import Controller, Fleet, PlantTruth, Vehicle, VehicleHandle
+from tiltrotor_sitl import Controller, Fleet, PlantTruth, ProcessOptions, Vehicle, VehicleHandle
 
 HOVER_ALT_M = 20.0
 HOVER_TOLERANCE_M = 2.0  # distance from the spawn point (0, 0, -20 m in the vehicle's own frame)
@@ -77,7 +78,13 @@ class HoverRun:
 
 def fleet_hovers(count: int, controller: Controller, seconds: float) -> HoverRun:
     with tempfile.TemporaryDirectory(prefix="bench-api-") as folder:
-        fleet = Fleet(count, controller=controller, spawn_alt=HOVER_ALT_M, summary=True, folder=Path(folder))
+        fleet = Fleet(
+            count,
+            controller=controller,
+            spawn_alt=HOVER_ALT_M,
+            folder=Path(folder),
+            processes=ProcessOptions(summary=True),
+        )
         with fleet:
             first = [vehicle.truth.latest() for vehicle in fleet.vehicles]
             began, worst, why = time.monotonic(), 0.0, ""
@@ -122,19 +129,28 @@ def main() -> None:
     parser.add_argument("--controller", choices=("mpc", "pid"), default="mpc", help="for the time to ready")
     parser.add_argument("--hover", type=float, default=0.0, metavar="S", help="also the hover test, S sim seconds")
     parser.add_argument("--max-fleet", type=int, default=8)
+    parser.add_argument("--json", type=Path, metavar="FILE", help="also write the figures to FILE (JSON)")
     args = parser.parse_args()
     times = time_to_ready(args.runs, args.controller)
     print(f"ready to arm ({args.controller}): median {statistics.median(times):.2f} s over {len(times)} starts "
           f"(min {min(times):.2f}, max {max(times):.2f})", flush=True)  # fmt: skip
+    figures: dict[str, object] = {"controller": args.controller, "starts": len(times),
+                                  "ready_s_median": statistics.median(times), "ready_s_max": max(times)}  # fmt: skip
     if args.hover > 0:
         found: dict[Controller, tuple[int, int]] = {}
         for controller in ("mpc", "pid"):
             print(f"hovering together for {args.hover:g} s at {HOVER_ALT_M:g} m, paced at real time ({controller}):",
                   flush=True)  # fmt: skip
             found[controller] = hover_capacity(controller, args.hover, args.max_fleet)
+        figures["hover_s"] = args.hover
+        figures["fleets"] = {controller: {"held": held, "at_real_time": at_real_time}
+                             for controller, (held, at_real_time) in found.items()}  # fmt: skip
         for controller, (held, at_real_time) in found.items():
             print(f"vehicles hovering together for {args.hover:g} s ({controller}): {held} held, {at_real_time} of "
                   f"them at x{REAL_TIME} of real time or better")  # fmt: skip
+
+    if args.json:
+        args.json.write_text(json.dumps(figures, indent=1) + "\n")
 
 
 if __name__ == "__main__":

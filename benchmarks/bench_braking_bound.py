@@ -13,7 +13,7 @@ the ramp when it starts, flying the model exactly (no servo or motor lag, an all
 error is the whole vector's, v_sp = (ramp, 0, 0): a braking that slides sideways (a bank or a yaw into a sideslip)
 pays for its v_y, as a flight's velocity error does. The problem is not convex, so what IPOPT returns is a local
 optimum: a braking the model can fly (the best one is at least as good), not a bound below which
-no controller can go. docs/mpc.md 2.9 gives what it measured.
+no controller can go. docs/design/alternatives.md, the long horizon gives what it measured.
 """
 
 from __future__ import annotations

@@ -11,6 +11,7 @@ processes (plant, autopilot, ground station) already use more than one core, so 
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
 import subprocess
 import sys
@@ -52,6 +53,7 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=3.0, help="simulated seconds of each flight's profile")
     parser.add_argument("--controller", choices=("mpc", "pid"), default="mpc")
     parser.add_argument("--repeats", type=int, default=1)
+    parser.add_argument("--json", type=Path, metavar="FILE", help="also write the figures to FILE (JSON)")
     args = parser.parse_args()
     text = campaign_text(args.flights, args.duration, args.controller)
     rates = {}
@@ -65,6 +67,10 @@ def main() -> None:
             flush=True,
         )
     print(f"scaling 1 -> 2 workers: {rates[2] / rates[1]:.2f}x")
+    if args.json:
+        figures = {"flights": args.flights, "duration_s": args.duration, "controller": args.controller,
+                   "flights_per_minute": {str(workers): rate for workers, rate in rates.items()}}  # fmt: skip
+        args.json.write_text(json.dumps(figures, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Ray against Dask for campaigns (docs/campaigns.md, "Why Dask"): a local cluster of 2 workers on 127.0.0.1,
+"""Ray against Dask for campaigns (docs/design/alternatives.md, "Dask rather than Ray"): a local cluster of 2 workers on 127.0.0.1,
 started, given 200 empty tasks and a few real short flights (the campaign's own fly_point), stopped; prints the
 medians of the start, per-task and stop times, the memory of the cluster's processes and the flights per minute.
 

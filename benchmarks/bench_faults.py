@@ -13,7 +13,7 @@ import time
 from pathlib import Path
 
 from ground_tools.fault_campaign import fly_plant_link, junk_while_hovering
-from ground_tools.fault_proxy import DOWNSTREAM, UPSTREAM, Faults
+from tiltrotor_sitl.fault_proxy import DOWNSTREAM, UPSTREAM, Faults
 
 
 def main() -> None:

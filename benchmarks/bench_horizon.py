@@ -2,7 +2,7 @@
 
     python benchmarks/bench_horizon.py [--grids paper,long] [--profile accel-decel] [--seconds 32] [--decel A]
 
-A screening tool for the grids of docs/mpc.md 2.9 (the decision itself rests on `vtol scenario` through MAVLink).
+A screening tool for the grids of docs/design/alternatives.md, the long horizon (the decision itself rests on `vtol scenario` through MAVLink).
 Per grid: the largest velocity error |v - v_sp| while braking (15-28 s of accel-decel; sideways too), max |v_z|,
 max |pitch|, max |roll|, the largest heading error from the set-point's course, the largest tick-to-tick step of
 the pitch set-point, failed solves, whether the PID took over, and the solve times.

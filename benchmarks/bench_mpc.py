@@ -2,7 +2,7 @@
 
     python benchmarks/bench_mpc.py [--seconds 25] [--ipopt-samples 20] [--horizons 10,25,50,100] [--levers]
 
-The paper's horizon (25 x 10 ms) and the long one (docs/mpc.md 2.9) fly the same profile, each timed.
+The paper's horizon (25 x 10 ms) and the long one (docs/design/alternatives.md, the long horizon) fly the same profile, each timed.
 
 The closed loop runs in one process (plant physics + the autopilot's flight controller, no sockets), so the
 figures are the MPC's own: one RTI per 100 Hz tick, including Python. The paper's way is IPOPT on the same NLP,
@@ -14,9 +14,11 @@ built with each QP back-end and HPIPM setting, so every variant solves the same 
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -147,6 +149,7 @@ def main() -> None:
     parser.add_argument("--horizons", default="10,25,50,100")
     parser.add_argument("--scaling-seconds", type=float, default=4.0)
     parser.add_argument("--levers", action="store_true", help="replay the run through each solver variant")
+    parser.add_argument("--json", type=Path, metavar="FILE", help="also write the figures to FILE (JSON)")
     args = parser.parse_args()
     controller, records, times_ms = closed_loop(args.seconds)
     mpc = controller.mpc
@@ -155,6 +158,9 @@ def main() -> None:
           f"{mpc.solves_failed} failed, fell back to PID: {controller.fell_back_to_pid}, back-end "
           f"{mpc.solver.backend.value}")  # fmt: skip
     print(f"RTI, the paper's horizon (N = 25 x 0.01 s)   {spread(times_ms)}   (goal: median <= 0.5 ms, p99 <= 1 ms)")
+    figures: dict[str, float | int] = {"seconds": args.seconds, "solves": len(times_ms),
+                                       "solves_failed": mpc.solves_failed, "rti_ms_median": median,
+                                       "rti_ms_p99": float(np.percentile(times_ms, 99)), "rti_ms_max": max(times_ms)}  # fmt: skip
     samples = records[:: max(1, len(records) // max(args.ipopt_samples, 1))][: args.ipopt_samples]
     if samples:
         reference = ReferenceNlp(mpc.solver, tol=1e-8)
@@ -168,6 +174,7 @@ def main() -> None:
             solve_reference_nlp(mpc.solver, record.x0, record.params, tol=1e-8)
             rebuilt.append((time.perf_counter() - started) * 1e3)
         once = statistics.median(built_once)
+        figures |= {"ipopt_built_once_ms_median": once, "ipopt_rebuilt_ms_median": statistics.median(rebuilt)}
         print(f"IPOPT converged, NLP built once, cold start  median {once:7.1f} ms   max {max(built_once):7.1f} ms "
               f"over {len(built_once)} states of the run; ratio of medians {once / median:5.0f}x")  # fmt: skip
         again = statistics.median(rebuilt)
@@ -178,6 +185,9 @@ def main() -> None:
     print(f"RTI, the long horizon ({grid.stages} stages, {grid.span_s:g} s, {LONG.gauss_newton_steps} QPs per tick) "
           f"{spread(long_ms)}   {long_controller.mpc.solves_failed} failed; ratio of medians "
           f"{statistics.median(long_ms) / median:4.2f}x")  # fmt: skip
+    figures |= {"long_ms_median": statistics.median(long_ms), "long_solves_failed": long_controller.mpc.solves_failed}
+    if args.json:
+        args.json.write_text(json.dumps(figures, indent=1) + "\n")
     if args.levers:
         levers(records)
     if args.horizons:

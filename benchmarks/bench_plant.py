@@ -10,9 +10,11 @@ plus one MAVLink round trip per step.
 from __future__ import annotations
 
 import argparse
+import json
 import signal
 import statistics
 import time
+from pathlib import Path
 
 import casadi as ca
 import numpy as np
@@ -111,6 +113,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=20.0, help="simulated seconds per lockstep run")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--json", type=Path, metavar="FILE", help="also write the figures to FILE (JSON)")
     args = parser.parse_args()
     costs = component_costs()
     for name, value in costs.items():
@@ -132,6 +135,12 @@ def main() -> None:
         f"(budget for 40x: {1e6 / 400 / 40:.0f} us)"
     )
     print(f"missed commands               {sum(run['missed_commands'] for run in runs)}")
+    if args.json:
+        figures = {"seconds": args.seconds, "repeats": args.repeats, "component_us": costs,
+                   "lockstep_real_time_factor": statistics.median(factors),
+                   "plant_alone_real_time_factor": statistics.median(alone),
+                   "wall_us_per_step": statistics.median(per_step)}  # fmt: skip
+        args.json.write_text(json.dumps(figures, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -20,6 +20,7 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
 from bench_sitl import GOALS  # the same real-time factors are asked of `vtol scenario accel`
 
@@ -33,6 +34,7 @@ def main() -> int:
     parser.add_argument("--out", help="keep the runs here (default: a temporary folder)")
     parser.add_argument("--no-record", action="store_true", help="pass --no-record (no zenoh recording)")
     parser.add_argument("--jobs", type=int, help="pass --jobs J (default: the command's default)")
+    parser.add_argument("--json", type=Path, metavar="FILE", help="also write the figures and metrics to FILE (JSON)")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as scratch:
         out = Path(args.out) if args.out else Path(scratch)
@@ -49,12 +51,18 @@ def main() -> int:
             print(result.stderr[-2000:])
         runs = load_runs(out)
         factors = []
+        figures: dict[str, Any] = {"wall_s": wall, "jobs": args.jobs, "record": not args.no_record, "runs": {},
+                                   "alone": {}, "checks": [], "pid_failed": []}  # fmt: skip
         print(f"{'scenario':15} {'ctrl':4} {'sim s':>6} {'wall s':>7} {'x real time':>11} {'holds':>6}")
         for name, by in runs.items():
             for controller, (_, run) in by.items():
                 factor = run["sim_s"] / run["wall_s"]
                 factors.append(factor)
                 holds = run["processes"]["autopilot"].get("links", {}).get("lockstep_holds")
+                figures["runs"].setdefault(name, {})[controller] = {
+                    "sim_s": run["sim_s"], "wall_s": run["wall_s"], "real_time_factor": factor, "holds": holds,
+                    "metrics": by[controller][0],
+                }  # fmt: skip
                 print(f"{name:15} {controller:4} {run['sim_s']:6.1f} {run['wall_s']:7.1f} {factor:11.1f} {holds:>6}")
         if factors:
             print(f"real-time factor: median {statistics.median(factors):.1f}x over {len(factors)} runs")
@@ -69,6 +77,7 @@ def main() -> int:
                 continue
             run = json.loads((alone / "accel" / controller / "run.json").read_text())
             recording = "off" if args.no_record else "on"
+            figures["alone"][controller] = run["sim_s"] / run["wall_s"]
             print(f"accel, {controller.upper()}, alone, through MAVLink, recording {recording}: "
                   f"{run['sim_s'] / run['wall_s']:.1f}x real time (goal >= {GOALS[controller]:g}x)")  # fmt: skip
         for name, by in runs.items():
@@ -76,8 +85,12 @@ def main() -> int:
                 pid = by["pid"][0] if "pid" in by else None
                 for text, passed in acceptance(name, by["mpc"][0], pid):
                     print(f"  {name}: MPC {text}: {'pass' if passed else 'FAIL'}")
+                    figures["checks"].append({"scenario": name, "check": text, "passed": passed})
         failed_pid = [name for name, by in runs.items() if "pid" in by and not by["pid"][0]["survived"]]
         print(f"PID does not survive: {', '.join(failed_pid) or 'none'}")
+        figures["pid_failed"] = failed_pid
+        if args.json:
+            args.json.write_text(json.dumps(figures, indent=1) + "\n")
         if args.out:
             print(f"report: {out / 'report.md'}")
         print(json.dumps({"wall_s": round(wall, 1), "runs": sum(len(by) for by in runs.values())}))

@@ -12,6 +12,7 @@ meets each of them alike.
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
 import tempfile
 from pathlib import Path
@@ -20,7 +21,7 @@ from autopilot.storage.parameters import ParameterStore
 from ground_tools.lockstep_flight import fly_lockstep
 from scenarios.profiles import PROFILES
 
-GOALS = {"pid": 25.0, "mpc": 10.0}  # real-time factors asked for the whole SITL (docs/performance.md)
+GOALS = {"pid": 25.0, "mpc": 10.0}  # real-time factors asked for the whole SITL (docs/figures.md)
 
 
 def run_once(profile: str, duration: float, controller: str, params: Path) -> dict[str, float]:
@@ -60,6 +61,7 @@ def main() -> None:
     parser.add_argument("--duration", type=float, help="simulated seconds (default: the profile's)")
     parser.add_argument("--controller", choices=("both", "mpc", "pid"), default="both")
     parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--json", type=Path, metavar="FILE", help="also write the figures to FILE (JSON)")
     args = parser.parse_args()
     duration = args.duration or PROFILES[args.profile][1]
     print(f"profile {args.profile}, {duration:g} s simulated, lockstep, {args.repeats} runs each")
@@ -73,6 +75,11 @@ def main() -> None:
                 runs[label].append(run_once(args.profile, duration, controller, params[overlap]))
     for label, controller, _ in configurations:
         report(label, GOALS[controller], runs[label])
+    if args.json:
+        medians = {label: {key: statistics.median(run[key] for run in runs[label]) for key in runs[label][0]}
+                   for label in runs}  # fmt: skip
+        args.json.write_text(json.dumps({"profile": args.profile, "seconds": duration, "repeats": args.repeats,
+                                         "configurations": medians}, indent=1) + "\n")  # fmt: skip
     if OVERLAPPED in runs and SYNCHRONOUS in runs:
         ratios = [a["real_time_factor"] / b["real_time_factor"] for a, b in zip(runs[OVERLAPPED], runs[SYNCHRONOUS])]
         print(f"mpc, overlapped / synchronous, round by round: median {statistics.median(ratios):.2f} "

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 from pymavlink import mavutil
 
-from tiltrotor_sitl import Controller, Vehicle
+from tiltrotor_sitl import Controller, ProcessOptions, Vehicle
 
 M = mavutil.mavlink
 # (t s, v_north, v_east, v_down m/s): multirotor speeds in every direction, linear between the knots
@@ -77,8 +77,14 @@ def fly_profile(folder: Path, duration_s: float = 40.0, controller: Controller =
     left = False
     started = time.monotonic()
     try:
-        with Vehicle(controller=controller, spawn_alt=50.0, speed=1.0, truth=False, summary=True,
-                     folder=folder / "vehicle") as vehicle:  # fmt: skip
+        with Vehicle(
+            controller=controller,
+            spawn_alt=50.0,
+            speed=1.0,
+            truth=False,
+            folder=folder / "vehicle",
+            processes=ProcessOptions(summary=True),
+        ) as vehicle:
             link = mavutil.mavlink_connection(vehicle.pymavlink, source_system=255, source_component=190)
             try:
                 errors, left = _fly(link, vehicle.sysid, duration_s)

@@ -1,166 +1,93 @@
 """`vtol`: ground tools (docs/architecture.md).
 
-    vtol fly PROFILE [--controller pid|mpc] [--out DIR]
+    vtol fly PROFILE [--controller mpc|pid] [--out DIR] [--duration S] [--spawn-alt M] [--no-progress]
     vtol scenario NAME|all [--controller mpc|pid|both] [--out DIR] [--instance I] [--jobs J] [--no-record]
                            [--no-progress]
-    vtol mission FILE.plan|FILE.waypoints [--controller mpc|pid|both] [--out DIR]
+    vtol mission FILE.plan|FILE.waypoints [--controller mpc|pid|both] [--out DIR] [--no-progress]
     vtol campaign FILE [--out DIR] [--workers N | --address ADDR] [--report] [--no-progress]
-    vtol up [--instance I] [--count N] [--controller mpc|pid] [--spawn-alt M] [--speed F] [--params FILE] [--no-zenoh]
-            [--wind SPEED,FROM_DEG] [--turbulence SIGMA] [--wind-seed N]
+    vtol up [--instance I] [--count N] [--controller mpc|pid] [--spawn-alt M] [--speed F] [--params FILE]
+            [--log-dir DIR] [--no-zenoh]
     vtol record --out FILE.jsonl [--instance I | --connect ENDPOINT ...] [--sysid N|all] [--duration S]
+                [--no-progress]
     vtol watch [--instance I | --connect ENDPOINT ...] [--sysid N] [--duration S] [--snapshot FILE.png] [--text]
 
-`fly` starts the plant and the autopilot in lockstep on free ports, flies one of the paper's velocity profiles
-with the autopilot's internal set-point source, and writes the flight log and figures to DIR/PROFILE/.
+`fly` flies one of the paper's velocity profiles with the autopilot's internal set-points (fly_command.py).
 `scenario` flies the paper's experiments through MAVLink in lockstep and writes run folders, figures and a
 report (ground_tools/scenario_command.py).
 `mission` flies a mission file in lockstep, uploaded through the MAVLink mission protocol, with figures and each
 waypoint's closest approach (ground_tools/mission_command.py).
-`campaign` flies many scenario variants on a Dask cluster into a DuckDB store, with envelope maps (ground_tools/campaign/).
+`campaign` flies many scenario variants on a Dask cluster into a DuckDB store, with envelope maps (ground_tools/campaign/;
+the campaign extra: pip install 'tiltrotor-sitl[campaign]').
 `up` starts the plant in real time and the autopilot for a ground station (ground_tools/up.py).
 `record` and `watch` record / show a running vehicle's zenoh telemetry (ground_tools/telemetry_record.py, watch.py).
+
+Every command and subcommand has --version; each --help ends with what its exit statuses mean
+(ground_tools/exit_status.py). Options that take a value name it with capitals: a letter for a number (I instance,
+N count, S seconds, M metres, F factor, J jobs), a word for a path or an address (DIR, FILE, ADDR, ENDPOINT).
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import sys
-from pathlib import Path
+from collections.abc import Callable
 
 from ground_tools.campaign.arguments import add_campaign_arguments
-from ground_tools.figures import plot_flight
-from ground_tools.lockstep_flight import FlightFailed, fly_lockstep
+from ground_tools.fly_command import add_fly_arguments, fly
 from ground_tools.mission_command import add_mission_arguments, mission
 from ground_tools.scenario_command import add_scenario_arguments, scenario
 from ground_tools.telemetry_record import add_record_arguments, record
-from ground_tools.up import up
+from ground_tools.up import add_up_arguments, up
 from ground_tools.watch import add_watch_arguments, watch
-from scenarios.profiles import PROFILES
-from tiltrotor_sitl import Controller
-from transport.cli import (
-    OneLineArgumentParser,
-    bounded_int,
-    fail,
-    finite_float,
-    nonnegative_float,
-    positive_float,
-    writable_folder,
-)
-from transport.flight_log import read_flight_log
-from transport.plant_parameters import SEED_MAX
+from transport.cli import OneLineArgumentParser, fail
 
 PROG = "vtol"
+CAMPAIGN_MODULES = ("dask", "distributed", "duckdb", "pandas")  # the campaign extra (pyproject.toml)
+COMMANDS = {
+    "fly": "fly a paper velocity profile in lockstep (internal set-points) and plot it",
+    "scenario": "fly a paper experiment through MAVLink, with metrics, figures and recordings",
+    "mission": "fly a mission file (.plan, .waypoints) in lockstep through MAVLink, with figures and waypoint errors",
+    "campaign": "fly a campaign of scenario variants on a Dask cluster, into a DuckDB store, with envelope maps",
+    "up": "start the plant (real time) and the autopilot for a ground station",
+    "record": "record a vehicle's zenoh telemetry (JSON lines)",
+    "watch": "live view of a vehicle's zenoh telemetry",
+}
 
 
-def wind_speed_and_direction(text: str) -> tuple[float, float]:
-    """'SPEED,FROM_DEG' -> two finite numbers (their ranges are checked with the rest of the wind)."""
-    parts = text.split(",")
-    if len(parts) != 2:
-        raise argparse.ArgumentTypeError(f"expected SPEED,FROM_DEG: {text!r}")
-    speed, direction = (finite_float(part) for part in parts)
-    return speed, direction
+def parser() -> OneLineArgumentParser:
+    """`vtol`'s command line, every subcommand's with it."""
+    top = OneLineArgumentParser(prog=PROG, description="tiltrotor-sitl ground tools",
+                                epilog="exit status: 2 for bad arguments, refused in one line; each command's --help "
+                                "says what its exit statuses mean.")  # fmt: skip
+    commands = top.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                                  parser_class=OneLineArgumentParser)  # fmt: skip
+    adders = {"fly": add_fly_arguments, "scenario": add_scenario_arguments, "mission": add_mission_arguments,
+              "campaign": add_campaign_arguments, "up": add_up_arguments, "record": add_record_arguments,
+              "watch": add_watch_arguments}  # fmt: skip
+    for name, summary in COMMANDS.items():
+        adders[name](commands.add_parser(name, help=summary, description=summary))
+    return top
 
 
-def fly(profile: str, controller: Controller, out: Path, duration: float, spawn_alt: float) -> int:
-    run_dir = writable_folder(PROG, out / profile / controller)
-    log_path = run_dir / "flight.csv"
-    print(f"{PROG}: flying '{profile}' ({duration:g} s simulated) with the {controller} controller...",
-          file=sys.stderr, flush=True)  # fmt: skip
+def campaign_command() -> Callable[[argparse.Namespace], int]:
+    """`vtol campaign`, imported on demand: Dask, DuckDB and pandas (the campaign extra) take 1.2 s to import, and
+    only this command needs them; without them, one line naming the extra."""
     try:
-        flight = fly_lockstep(profile, duration, controller=controller, spawn_alt=spawn_alt, log_path=log_path)
-    except FlightFailed as exc:
-        fail(PROG, f"the flight failed: {exc}")
-    summary = {"autopilot": flight.autopilot, "plant": flight.plant}
-    (run_dir / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    figures = plot_flight(read_flight_log(log_path), run_dir, f"{profile}, {controller}")
-    print(f"{PROG}: {flight.plant['sim_time_s']:g} s flown at {flight.plant['real_time_factor']}x real time")
-    print(f"{PROG}: log {log_path}")
-    for figure in figures:
-        print(f"{PROG}: figure {figure}")
-    return 0
+        from ground_tools.campaign.command import campaign
+    except ModuleNotFoundError as missing:
+        if (missing.name or "").split(".")[0] not in CAMPAIGN_MODULES:
+            raise
+        fail(f"{PROG} campaign", f"needs {missing.name}, which comes with the campaign extra: pip install "
+                                 f"'tiltrotor-sitl[campaign]'")  # fmt: skip
+    return campaign
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = OneLineArgumentParser(prog=PROG, description="tiltrotor-sitl ground tools")
-    commands = parser.add_subparsers(dest="command", required=True, parser_class=OneLineArgumentParser)
-    fly_parser = commands.add_parser("fly", help="fly a paper velocity profile in lockstep and plot it")
-    fly_parser.add_argument("profile", choices=sorted(PROFILES))
-    fly_parser.add_argument("--controller", choices=("mpc", "pid"), default="pid")
-    fly_parser.add_argument("--out", default="runs", metavar="DIR", help="output folder (default ./runs)")
-    fly_parser.add_argument("--duration", type=positive_float, metavar="S", help="default: the profile's")
-    fly_parser.add_argument("--spawn-alt", type=positive_float, default=100.0, metavar="M")
-    add_scenario_arguments(
-        commands.add_parser(
-            "scenario", help="fly a paper experiment through MAVLink, with metrics, figures and recordings"
-        )
-    )
-    add_mission_arguments(
-        commands.add_parser(
-            "mission",
-            help="fly a mission file (.plan, .waypoints) in lockstep through MAVLink, with figures and waypoint errors",
-        )
-    )
-    add_campaign_arguments(
-        commands.add_parser(
-            "campaign",
-            help="fly a campaign of scenario variants on a Dask cluster, into a DuckDB store, with envelope maps",
-        )
-    )
-    up_parser = commands.add_parser("up", help="start the plant (real time) and the autopilot for a ground station")
-    up_parser.add_argument("--instance", type=bounded_int(0, 999), default=0, help="shift every port by I")
-    up_parser.add_argument(
-        "--count",
-        type=bounded_int(1, 100),
-        default=1,
-        metavar="N",
-        help="start N vehicles: instances I..I+N-1, system ids I+1..I+N, 5 m apart (default 1)",
-    )
-    up_parser.add_argument("--controller", choices=("mpc", "pid"), help="default: the VT_CTRL parameter")
-    up_parser.add_argument(
-        "--spawn-alt",
-        type=nonnegative_float,
-        default=0.0,
-        metavar="M",
-        help="start hovering at M metres, armed, in Hold (default: on the ground, disarmed)",
-    )
-    up_parser.add_argument(
-        "--speed", type=positive_float, default=1.0, metavar="F", help="simulated seconds per wall second (default 1)"
-    )
-    up_parser.add_argument("--params", metavar="FILE", help="the autopilot's parameter file")
-    up_parser.add_argument("--wind", type=wind_speed_and_direction, default=(0.0, 0.0), metavar="SPEED,FROM_DEG",
-                           help="mean wind: its speed (m/s) and where it blows from (deg, 90 = from the east); "
-                                "SIM_WIND_SPD, SIM_WIND_DIR")  # fmt: skip
-    up_parser.add_argument("--turbulence", type=nonnegative_float, default=0.0, metavar="SIGMA",
-                           help="Dryden turbulence, the vertical gusts' standard deviation (m/s); SIM_WIND_TURB")  # fmt: skip
-    up_parser.add_argument("--wind-seed", type=bounded_int(0, SEED_MAX), default=0, metavar="N",
-                           help="the turbulence's seed (SIM_WIND_SEED)")  # fmt: skip
-    up_parser.add_argument(
-        "--plant-signing-key",
-        metavar="FILE",
-        help="sign each vehicle's plant link with this key (64 hex digits; docs/plant-link.md)",
-    )
-    up_parser.add_argument("--no-zenoh", action="store_true", help="no zenoh telemetry")
-    add_record_arguments(commands.add_parser("record", help="record a vehicle's zenoh telemetry (JSON lines)"))
-    add_watch_arguments(commands.add_parser("watch", help="live view of a vehicle's zenoh telemetry"))
-    args = parser.parse_args(argv)
-    if args.command == "up":
-        return up(args)
-    if args.command == "scenario":
-        return scenario(args)
-    if args.command == "mission":
-        return mission(args)
+    args = parser().parse_args(argv)
     if args.command == "campaign":
-        # Dask, DuckDB and pandas take 1.2 s to import: only this command pays for them.
-        from ground_tools.campaign.command import campaign
-
-        return campaign(args)
-    if args.command == "record":
-        return record(args)
-    if args.command == "watch":
-        return watch(args)
-    duration = args.duration or PROFILES[args.profile][1]
-    return fly(args.profile, args.controller, Path(args.out), duration, args.spawn_alt)
+        return campaign_command()(args)
+    run = {"fly": fly, "scenario": scenario, "mission": mission, "up": up, "record": record, "watch": watch}
+    return run[args.command](args)
 
 
 if __name__ == "__main__":

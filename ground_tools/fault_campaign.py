@@ -19,10 +19,10 @@ import numpy as np
 
 from autopilot.storage.mission_store import MissionStore
 from autopilot.storage.parameters import ParameterStore
-from ground_tools.fault_proxy import FaultProxy, Faults
 from tiltrotor_sitl._children import Stream, start, stop
 from tiltrotor_sitl._commands import AutopilotCommand, SimCommand, Zenoh, free_link_ports
 from tiltrotor_sitl._free_ports import free_udp_port
+from tiltrotor_sitl.fault_proxy import FaultProxy, Faults
 from transport.flight_log import DOWN, PITCH, ROLL, VN, VN_SP, read_flight_log
 from transport.mavlink import Link
 from transport.mavlink import mavlink as M

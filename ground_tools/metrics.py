@@ -22,6 +22,19 @@ FINAL_WINDOW_S = 1.0  # final_speed: mean speed over the last second
 COURSE_MIN_SPEED = 1.0  # m/s: heading_error_max_deg counts where the horizontal set-point is at least this fast
 
 
+METRIC_KINDS: dict[str, type] = {
+    **{key: float for key in (
+        "vx_rmse", "vy_rmse", "vz_rmse", "vz_max_abs", "roll_max_abs_deg", "pitch_max_abs_deg",
+        "heading_error_max_deg", "alt_change_max_m", "alt_loss_max_m", "t_reach_s", "tilt_tv_ratio", "radial_rmse_m",
+        "radial_max_m", "bank_mean_deg", "final_speed", "failure_t_s", "vx_rmse_after_failure", "solve_ms_median",
+        "solve_ms_p99", "solve_ms_max")},
+    "mode_switches": int,
+    "solves_failed": int,
+    "survived": bool,
+}  # fmt: skip
+"""Every metric flight_metrics gives, by name, and the kind of its value (None where it does not apply)."""
+
+
 def rms(values: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.square(values)))) if values.size else math.nan
 
@@ -47,7 +60,7 @@ def mean_tilt(log: Mapping[str, np.ndarray]) -> np.ndarray:
 def heading_error_max_deg(yaw: np.ndarray, vn_sp: np.ndarray, ve_sp: np.ndarray) -> float | None:
     """Largest |yaw - the set-point's course| (deg, wrapped to 180) where the horizontal set-point is at least
     COURSE_MIN_SPEED; None if it never is. The scenarios fly with the nose on the course, so a large value is the
-    aircraft turned across its path (a controller braking on the fuselage's side force, docs/mpc.md 2.9)."""
+    aircraft turned across its path (a controller braking on the fuselage's side force, docs/design/alternatives.md, the long horizon)."""
     moving = np.hypot(vn_sp, ve_sp) >= COURSE_MIN_SPEED
     if not np.any(moving):
         return None

@@ -1,4 +1,4 @@
-"""`vtol mission FILE.plan|FILE.waypoints [--controller mpc|pid|both] [--out DIR]` (docs/scenarios.md, "Missions").
+"""`vtol mission FILE.plan|FILE.waypoints [--controller mpc|pid|both] [--out DIR] [--no-progress]` (docs/missions.md).
 
 Flies the mission file with each controller (ground_tools/mission_run.py), prints and writes each waypoint's
 closest approach and the landing error, and draws the flights overlaid into `<out>/<mission>/`:
@@ -15,11 +15,14 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
+from ground_tools.exit_status import CHECK_FAILED, FAILED, INTERRUPTED, OK, epilog
 from ground_tools.figures import pyplot, save_ground_track
 from ground_tools.metrics import mean_tilt
 from ground_tools.mission_file import MissionFileError, read_mission_file
 from ground_tools.mission_run import MissionResult, MissionRunFailed, fly_mission
+from ground_tools.progress import advance_to, items_bar
 from ground_tools.scenario_figures import _style
 from tiltrotor_sitl import Controller
 from transport import flight_log
@@ -29,8 +32,13 @@ PROG = "vtol"
 FIGURE_FILES = ("ground_track.png", "speed.png", "tilt.png")
 
 
+EPILOG = epilog(ok="flown and every waypoint reached", failed="a flight failed (its error on stderr)",
+                check_failed="flown, but a waypoint was missed (MISSED)")  # fmt: skip
+
+
 def add_mission_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("file", help="a QGroundControl .plan or a QGC WPL 110 .waypoints file")
+    parser.epilog = EPILOG
+    parser.add_argument("file", metavar="FILE", help="a QGroundControl .plan or a QGC WPL 110 .waypoints file")
     parser.add_argument(
         "--controller",
         choices=("mpc", "pid", "both"),
@@ -38,6 +46,7 @@ def add_mission_arguments(parser: argparse.ArgumentParser) -> None:
         help="velocity controller(s) to fly (default mpc)",
     )
     parser.add_argument("--out", default="runs", metavar="DIR", help="output folder (default ./runs)")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
 
 
 def plot_mission(results: list[MissionResult], logs: dict[str, flight_log.FlightLog], folder: Path) -> list[Path]:
@@ -97,13 +106,24 @@ def mission(args: argparse.Namespace) -> int:
     controllers: list[Controller] = ["mpc", "pid"] if args.controller == "both" else [args.controller]
     results, logs, failed = [], {}, []
     for controller in controllers:
-        print(f"{PROG}: flying {path.name} with the {controller} controller (lockstep)...", file=sys.stderr, flush=True)
+        bar = items_bar(len(rows), f"{path.name} ({controller})", "items", disable=args.no_progress)
+
+        def progress(sim_s: float, item: int, bar: tqdm = bar) -> None:
+            advance_to(bar, item)
+            bar.set_postfix_str(f"t = {sim_s:.0f} s simulated", refresh=False)
+
         try:
-            result = fly_mission(rows, path.stem, controller, out)
+            result = fly_mission(rows, path.stem, controller, out, on_progress=progress)
+            advance_to(bar, len(rows))
         except MissionRunFailed as exc:
-            print(f"{PROG}: {path.name} with the {controller} failed: {exc}", file=sys.stderr)
+            tqdm.write(f"{PROG}: {path.name} with the {controller} failed: {exc}", file=sys.stderr)
             failed.append(controller)
             continue
+        except KeyboardInterrupt:
+            print(f"{PROG}: interrupted: the flight was stopped, its processes killed", file=sys.stderr)
+            return INTERRUPTED
+        finally:
+            bar.close()
         results.append(result)
         logs[controller] = flight_log.read_flight_log(result.run_dir / "flight.csv")
         print("\n".join(f"{PROG}: {line}" for line in report_lines(result)))
@@ -112,5 +132,9 @@ def mission(args: argparse.Namespace) -> int:
         print(f"{PROG}: figures {', '.join(str(f) for f in figures)}")
     if failed:
         print(f"{PROG}: error: the flight(s) with {', '.join(failed)} failed", file=sys.stderr)
-        return 1
-    return 0 if all(w.reached for r in results for w in r.waypoints) else 1
+        return FAILED
+    missed = [f"{r.controller} item {w.seq}" for r in results for w in r.waypoints if not w.reached]
+    if missed:
+        print(f"{PROG}: error: waypoint(s) missed: {', '.join(missed)}", file=sys.stderr)
+        return CHECK_FAILED
+    return OK

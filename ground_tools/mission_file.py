@@ -1,4 +1,4 @@
-"""Mission files as users have them (docs/mavlink.md, "Mission"): QGroundControl's .plan (JSON, its SimpleItems)
+"""Mission files as users have them (docs/missions.md): QGroundControl's .plan (JSON, its SimpleItems)
 and the QGC WPL 110 text format (.waypoints, as QGroundControl, Mission Planner and MAVProxy write it), read into
 the items a MISSION_ITEM_INT upload sends (autopilot/topics/mission_items.py's MissionItem). Pure functions; a file that cannot be flown is a MissionFileError.
 """

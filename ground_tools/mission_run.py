@@ -1,4 +1,4 @@
-"""One mission flown by one controller, end to end (docs/scenarios.md, "Missions"): the plant and the autopilot
+"""One mission flown by one controller, end to end (docs/missions.md): the plant and the autopilot
 in lockstep on free ports (the public API, tiltrotor_sitl.Vehicle, speed None), the mission uploaded through the
 MAVLink mission protocol by a pymavlink ground station, Mission mode, arm, flown until the vehicle disarms on
 the ground; the autopilot's 100 Hz log kept. Then the per-waypoint closest approach and the landing error.
@@ -13,23 +13,20 @@ import json
 import math
 import shutil
 import time
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pymavlink import mavutil
 
 from autopilot.topics.mission_items import MissionItem
-from tiltrotor_sitl import Controller, Vehicle
+from tiltrotor_sitl import CommandError, Controller, FlightMode, GroundStation, ProcessOptions, Vehicle
 from transport import flight_log
 from transport.geodesy import Home, ned_from_geodetic
 from transport.mavlink import mavlink as M
 
-MISSION_MODE = (4, 4)  # PX4 main mode AUTO, sub-mode MISSION
-GCS_SYSTEM, GCS_COMPONENT = 255, M.MAV_COMP_ID_MISSIONPLANNER
-HEARTBEAT_PERIOD_S = 0.5  # wall seconds between our HEARTBEATs (the vehicle's data-link failsafe listens)
-REPLY_TIMEOUT_S = 10.0
+PROGRESS_PERIOD_S = 1.0  # wall seconds between progress reports (a HEARTBEAT comes each simulated second)
 FLIGHT_TIMEOUT_S = 1200.0  # wall seconds a mission may take before the run is given up
 
 
@@ -66,71 +63,6 @@ class MissionResult:
                 "waypoints": [{**asdict(w), "reached": w.reached} for w in self.waypoints]}  # fmt: skip
 
 
-class MissionGroundStation:
-    """A pymavlink ground station on the vehicle's GCS link: uploads, commands, waits, says HEARTBEAT."""
-
-    def __init__(self, url: str, target: int) -> None:
-        """`url`: where the vehicle's GCS link sends; `target`: its system id, which the requests are addressed to."""
-        self.target = target
-        self.conn = mavutil.mavlink_connection(url, source_system=GCS_SYSTEM, source_component=GCS_COMPONENT,
-                                               dialect="common")  # fmt: skip
-        self.armed = False
-        self.statustexts: list[str] = []
-        self._heartbeat_at = 0.0
-
-    def close(self) -> None:
-        self.conn.close()
-
-    def receive(self, kinds: tuple[str, ...], timeout_s: float = REPLY_TIMEOUT_S) -> Any:
-        """The next message of one of `kinds` (HEARTBEAT and STATUSTEXT noted on the way); MissionRunFailed if none."""
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            if time.monotonic() - self._heartbeat_at > HEARTBEAT_PERIOD_S:
-                self._heartbeat_at = time.monotonic()
-                self.conn.mav.heartbeat_send(M.MAV_TYPE_GCS, M.MAV_AUTOPILOT_INVALID, 0, 0, 0)
-            message = self.conn.recv_match(blocking=True, timeout=0.1)
-            if message is None:
-                continue
-            kind = message.get_type()
-            if kind == "HEARTBEAT" and message.get_srcComponent() == 1:
-                self.armed = bool(message.base_mode & M.MAV_MODE_FLAG_SAFETY_ARMED)
-            elif kind == "STATUSTEXT":
-                self.statustexts.append(message.text)
-            if kind in kinds:
-                return message
-        raise MissionRunFailed(f"no {' or '.join(kinds)} within {timeout_s:g} s; last STATUSTEXT "
-                               f"{self.statustexts[-3:]}")  # fmt: skip
-
-    def command(self, command: int, *params: float) -> None:
-        self.conn.mav.command_long_send(self.target, 1, command, 0, *params, *[0.0] * (7 - len(params)))
-        while (ack := self.receive(("COMMAND_ACK",))).command != command:
-            pass
-        if ack.result != M.MAV_RESULT_ACCEPTED:
-            raise MissionRunFailed(f"command {command} refused ({ack.result}); last STATUSTEXT {self.statustexts[-3:]}")
-
-    def upload(self, rows: list[MissionItem]) -> None:
-        """The mission protocol's upload: MISSION_COUNT, each MISSION_REQUEST_INT answered, the MISSION_ACK."""
-        kind = M.MAV_MISSION_TYPE_MISSION
-        self.conn.mav.mission_count_send(self.target, 1, len(rows), kind)
-        while True:
-            message = self.receive(("MISSION_REQUEST_INT", "MISSION_REQUEST", "MISSION_ACK"))
-            if message.get_type() == "MISSION_ACK":
-                if message.type != M.MAV_MISSION_ACCEPTED:
-                    raise MissionRunFailed(f"the mission was refused: MISSION_ACK {message.type}; last STATUSTEXT "
-                                           f"{self.statustexts[-3:]}")  # fmt: skip
-                return
-            row = rows[message.seq]
-            self.conn.mav.mission_item_int_send(self.target, 1, message.seq, row.frame, row.command, int(message.seq == 0),
-                                                row.autocontinue, row.param1, row.param2, row.param3, row.param4,
-                                                row.x, row.y, row.z, kind)  # fmt: skip
-
-    def parameter(self, name: str) -> float:
-        self.conn.mav.param_request_read_send(self.target, 1, name.encode(), -1)
-        while (value := self.receive(("PARAM_VALUE",))).param_id != name:
-            pass
-        return float(value.param_value)
-
-
 def waypoint_results(rows: list[MissionItem], home: Home, log: flight_log.FlightLog,
                      default_acceptance: float) -> list[WaypointResult]:  # fmt: skip
     """Each NAV_WAYPOINT's closest horizontal approach in the log, with its acceptance radius (param2, else
@@ -147,8 +79,10 @@ def waypoint_results(rows: list[MissionItem], home: Home, log: flight_log.Flight
 
 
 def fly_mission(rows: list[MissionItem], name: str, controller: Controller, out: Path,
-                params: dict[str, float] | None = None) -> MissionResult:  # fmt: skip
-    """Fly `rows` with `controller` in lockstep from the ground at home; raises MissionRunFailed."""
+                params: dict[str, float] | None = None,
+                on_progress: Callable[[float, int], None] = lambda sim_s, item: None) -> MissionResult:  # fmt: skip
+    """Fly `rows` with `controller` in lockstep from the ground at home; raises MissionRunFailed. `on_progress`
+    hears the simulated seconds and the mission item being flown at each HEARTBEAT (each simulated second)."""
     run_dir = out / name / controller
     run_dir.mkdir(parents=True, exist_ok=True)
     log_path = run_dir / "flight.csv"
@@ -157,22 +91,12 @@ def fly_mission(rows: list[MissionItem], name: str, controller: Controller, out:
         shutil.rmtree(run_dir / "vehicle")  # a fresh vehicle each run: no parameters or mission from the last
     started = time.perf_counter()
     vehicle = Vehicle(controller=controller, speed=None, truth=False, params=params, folder=run_dir / "vehicle",
-                      autopilot_args=("--log", str(log_path), "--quiet"))  # fmt: skip
+                      processes=ProcessOptions(autopilot_args=("--log", str(log_path), "--quiet")))  # fmt: skip
     with vehicle:
-        gs = MissionGroundStation(vehicle.pymavlink, vehicle.sysid)
         try:
-            gs.receive(("HEARTBEAT",))
-            acceptance = gs.parameter("NAV_ACC_RAD")
-            gs.upload(rows)
-            gs.command(M.MAV_CMD_DO_SET_MODE, M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED, *MISSION_MODE)
-            gs.command(M.MAV_CMD_COMPONENT_ARM_DISARM, 1)
-            while not gs.armed:
-                gs.receive(("HEARTBEAT",))
-            deadline = time.monotonic() + FLIGHT_TIMEOUT_S
-            while gs.armed:
-                gs.receive(("HEARTBEAT",), timeout_s=max(deadline - time.monotonic(), 0.1))
-        finally:
-            gs.close()
+            acceptance = _fly(vehicle.ground_station, rows, on_progress)
+        except (CommandError, TimeoutError) as exc:
+            raise MissionRunFailed(str(exc)) from None
     wall_s = time.perf_counter() - started
     log = flight_log.read_flight_log(log_path)
     landing_error = float(math.hypot(log[flight_log.NORTH][-1], log[flight_log.EAST][-1]))
@@ -181,3 +105,24 @@ def fly_mission(rows: list[MissionItem], name: str, controller: Controller, out:
                            run_dir)  # fmt: skip
     (run_dir / "result.json").write_text(json.dumps(result.as_json(), indent=2) + "\n")
     return result
+
+
+def _fly(gcs: GroundStation, rows: list[MissionItem], on_progress: Callable[[float, int], None]) -> float:
+    """Upload the mission, fly it in Mission mode from the ground until the vehicle disarms; NAV_ACC_RAD (m)."""
+    acceptance = gcs.get_parameter("NAV_ACC_RAD")
+    gcs.upload_mission(rows)
+    gcs.set_mode(FlightMode.MISSION)
+    gcs.arm()
+    gcs.wait_message("HEARTBEAT", lambda heartbeat: _armed(heartbeat))
+    deadline = time.monotonic() + FLIGHT_TIMEOUT_S
+    while (heartbeat := gcs.next_message("HEARTBEAT", timeout_s=PROGRESS_PERIOD_S)) is None or _armed(heartbeat):
+        attitude, current = gcs.latest("ATTITUDE"), gcs.latest("MISSION_CURRENT")
+        on_progress(attitude.time_boot_ms / 1000.0 if attitude else 0.0, current.seq if current else 0)
+        if time.monotonic() > deadline:
+            raise MissionRunFailed(f"still flying after {FLIGHT_TIMEOUT_S:g} wall seconds; last STATUSTEXT "
+                                   f"{gcs.statustexts[-3:]}")  # fmt: skip
+    return acceptance
+
+
+def _armed(heartbeat: Any) -> bool:
+    return bool(heartbeat.base_mode & M.MAV_MODE_FLAG_SAFETY_ARMED)

@@ -15,19 +15,26 @@ import time
 from pathlib import Path
 
 from autopilot.mpc.horizon import HORIZONS
+from ground_tools.exit_status import CHECK_FAILED, FAILED, INTERRUPTED, OK, epilog
 from ground_tools.scenario_flights import FlightQueue
 from ground_tools.scenario_report import acceptance, usable_cpus, write_report
 from ground_tools.scenario_run import RunResult
 from scenarios.experiments import SCENARIOS
 from tiltrotor_sitl import Controller
-from transport.cli import bounded_int, positive_float, writable_folder
+from transport.cli import bounded_int, fail, positive_float, writable_folder
 
 PROG = "vtol"
 SHOWN = ("survived", "vx_rmse", "vz_max_abs", "pitch_max_abs_deg", "alt_change_max_m", "t_reach_s", "radial_rmse_m",
          "radial_max_m", "bank_mean_deg", "vx_rmse_after_failure", "solve_ms_median", "solves_failed")  # fmt: skip
 
 
+EPILOG = epilog(ok="every run flown and every acceptance check passed",
+                failed="a run failed to fly (its error on stderr)",
+                check_failed="every run flew but an acceptance check printed FAIL")  # fmt: skip
+
+
 def add_scenario_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.epilog = EPILOG
     parser.add_argument("name", choices=[*SCENARIOS, "all"], help="a paper experiment, or all five")
     parser.add_argument(
         "--controller",
@@ -36,7 +43,7 @@ def add_scenario_arguments(parser: argparse.ArgumentParser) -> None:
         help="velocity controller(s) to fly (default both, overlaid in the figures)",
     )
     parser.add_argument("--mpc-horizon", choices=sorted(HORIZONS),
-                        help="the MPC's horizon: paper (25 x 10 ms) or long (docs/mpc.md 2.9); default: the "
+                        help="the MPC's horizon: paper (25 x 10 ms) or long (docs/design/alternatives.md, the long horizon); default: the "
                              "autopilot's VT_MPC_HRZN")  # fmt: skip
     parser.add_argument("--out", default="runs", metavar="DIR", help="output folder (default ./runs)")
     parser.add_argument(
@@ -60,15 +67,13 @@ def add_scenario_arguments(parser: argparse.ArgumentParser) -> None:
 
 def default_jobs(instance: int | None) -> int:
     """Two runs at a time where there are two cores: a lockstep pair mostly alternates, so one run leaves a core
-    partly idle (docs/performance.md); one with --instance, whose ports only one run can use."""
+    partly idle (docs/figures.md); one with --instance, whose ports only one run can use."""
     return 1 if instance is not None else min(2, usable_cpus())
 
 
 def scenario(args: argparse.Namespace) -> int:
     if args.jobs is not None and args.jobs > 1 and args.instance is not None:
-        print(f"{PROG} scenario: error: --instance gives one vehicle's ports; it cannot go with --jobs {args.jobs}",
-              file=sys.stderr)  # fmt: skip
-        return 2
+        fail(f"{PROG} scenario", f"--instance gives one vehicle's ports; it cannot go with --jobs {args.jobs}")
     out = writable_folder(PROG, Path(args.out))
     names = list(SCENARIOS) if args.name == "all" else [args.name]
     controllers: list[Controller] = ["mpc", "pid"] if args.controller == "both" else [args.controller]
@@ -92,21 +97,43 @@ def scenario(args: argparse.Namespace) -> int:
             )
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted: the runs in flight were stopped, their processes killed", file=sys.stderr)
-        return 130
+        return INTERRUPTED
+    checks_failed = []
     for name in names:
         figures = queue.figures.get(name)
         if figures:
             print(f"{PROG}: {name}: figures in {figures[0].parent.parent}/*/")
-        mpc_metrics = out / name / "mpc" / "metrics.json"
-        if "mpc" in controllers and mpc_metrics.is_file() and args.duration is None:
-            pid_path = out / name / "pid" / "metrics.json"
-            pid = json.loads(pid_path.read_text()) if pid_path.is_file() else None
-            for text, passed in acceptance(name, json.loads(mpc_metrics.read_text()), pid):
-                print(f"{PROG}: {name}: MPC {text}: {'pass' if passed else 'FAIL'}")
+        if "mpc" in controllers and args.duration is None:
+            checks_failed += checked(out, name)
     if args.name == "all":
         report = write_report(out, time.perf_counter() - started)
         print(f"{PROG}: report {report}")
-    if failed:
-        print(f"{PROG}: error: {len(failed)} run(s) failed: {', '.join(failed)}", file=sys.stderr)
-        return 1
-    return 0
+    return exit_status(failed, checks_failed)
+
+
+def checked(out: Path, name: str) -> list[str]:
+    """Print the MPC's acceptance checks of scenario `name` from its run folders under `out` (pass or FAIL); the
+    ones that failed."""
+    mpc_metrics = out / name / "mpc" / "metrics.json"
+    if not mpc_metrics.is_file():
+        return []
+    pid_path = out / name / "pid" / "metrics.json"
+    pid = json.loads(pid_path.read_text()) if pid_path.is_file() else None
+    failed = []
+    for text, passed in acceptance(name, json.loads(mpc_metrics.read_text()), pid):
+        print(f"{PROG}: {name}: MPC {text}: {'pass' if passed else 'FAIL'}")
+        if not passed:
+            failed.append(f"{name}: {text}")
+    return failed
+
+
+def exit_status(failed_runs: list[str], failed_checks: list[str]) -> int:
+    """FAILED when a run failed to fly, else CHECK_FAILED when an acceptance check failed, else OK; says why."""
+    if failed_runs:
+        print(f"{PROG}: error: {len(failed_runs)} run(s) failed: {', '.join(failed_runs)}", file=sys.stderr)
+        return FAILED
+    if failed_checks:
+        print(f"{PROG}: error: {len(failed_checks)} acceptance check(s) failed: {'; '.join(failed_checks)}",
+              file=sys.stderr)  # fmt: skip
+        return CHECK_FAILED
+    return OK

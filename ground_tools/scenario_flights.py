@@ -25,6 +25,7 @@ from tqdm import tqdm
 
 from ground_tools.lockstep_client import START_MS, ScenarioError
 from ground_tools.lockstep_flight import FlightFailed
+from ground_tools.progress import advance_to, sim_time_bar
 from ground_tools.scenario_figures import plot_scenario
 from ground_tools.scenario_run import RunResult, run_scenario
 from scenarios.experiments import SCENARIOS, Scenario
@@ -69,16 +70,7 @@ def fly(name: str, controller: Controller, out: Path, args: argparse.Namespace, 
     """One run with its progress bar; its FlightFailed or ScenarioError as the outcome when it fails."""
     scenario = flown_scenario(name, args)
     total = START_MS / 1000.0 + scenario.duration_s
-    bar = tqdm(
-        total=round(total, 2),
-        desc=f"{scenario.name} ({controller})",
-        unit="sim s",
-        leave=True,
-        disable=True if args.no_progress else None,
-        file=sys.stderr,
-        position=bar_position,
-        bar_format="{desc}: {percentage:3.0f}%|{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]",
-    )
+    bar = sim_time_bar(total, f"{scenario.name} ({controller})", disable=args.no_progress, position=bar_position)
     try:
         return run_scenario(
             scenario,
@@ -87,7 +79,7 @@ def fly(name: str, controller: Controller, out: Path, args: argparse.Namespace, 
             instance=args.instance,
             record=not args.no_record,
             mpc_horizon=args.mpc_horizon,
-            on_progress=lambda sim_s: bar.update(round(min(sim_s, total) - bar.n, 2)),
+            on_progress=lambda sim_s: advance_to(bar, sim_s),
         )
     except (FlightFailed, ScenarioError) as exc:
         return exc

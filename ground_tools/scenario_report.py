@@ -34,7 +34,7 @@ def _at_most(key: str, limit: float) -> Callable[[Metrics], bool]:
 
 
 # Every experiment flies nose on the course; the paper's MPC is 12.9 deg off it at most, at the circle's entry. A
-# controller that brakes by skidding across its path (the long horizon, docs/mpc.md 2.9) is not.
+# controller that brakes by skidding across its path (the long horizon, docs/design/alternatives.md) is not.
 HEADING_LIMIT_DEG = 20.0
 
 # What the MPC must achieve in each scenario (issue 6's "done means"); every run must also survive and keep its

@@ -6,16 +6,22 @@ scenario through the autopilot's API link, while a zenoh subscriber records the 
 autopilot's control and MPC samples. The run folder `<out>/<scenario>/<controller>/` gets:
 
     flight.tlog        every MAVLink message sent and received (pymavlink's mavlogdump reads it)
+    flight.ulg         the autopilot's ULog of the run (PX4's topics; pyulog, PlotJuggler, Flight Review read it)
     timeseries.csv     the autopilot's 100 Hz log (truth state, set-points, actuators), t = 0 at the profile start
     metrics.json       the metrics of docs/scenarios.md (ground_tools/metrics.py)
     telemetry.jsonl.gz the zenoh recording, gzip JSON lines (ground_tools/telemetry_record.py), unless --no-record
     run.json           the processes' summaries, the flight's events, ports and timings
     autopilot.log, plant.log   the processes' stderr
+
+Both processes run in a process group of their own (a Ctrl-C in the terminal reaches only the command, whose run
+kills them) and are killed (SIGKILL) by the kernel when the thread that started them ends, however it ends: the
+command's, a `vtol scenario` worker's, a campaign's Dask worker's (an abandoned run has nothing to save).
 """
 
 from __future__ import annotations
 
 import json
+import shutil
 import signal
 import sys
 import time
@@ -41,6 +47,7 @@ PLANT_LOCKSTEP_TIMEOUT_S = 120.0  # the plant waits this long for a held autopil
 RUN_TIMEOUT_S = 1800.0
 ZENOH_CONNECT_TIMEOUT_S = 10.0
 EXIT_GRACE_S = 10.0  # once one process has ended, the other gets this long to end too
+VEHICLE_ROOT = "vehicle"  # the autopilot's file root within the run folder, while the run lasts
 WALL_CLOCK_KEYS = ("solve_ms_median", "solve_ms_p99", "solve_ms_max")  # measurements of the machine, not the flight
 
 
@@ -57,6 +64,17 @@ class RunResult:
     metrics: dict[str, Any]
     sim_s: float
     wall_s: float
+
+
+def keep_ulog(root: Path, target: Path) -> None:
+    """The run's ULog (its one log, from the spawn in the air to the end) moved out of the vehicle's scratch root
+    to `target`, beside the .tlog; the root is removed."""
+    logs = sorted((root / "log").glob("*/*.ulg"))
+    if logs:
+        logs[-1].replace(target)
+    else:
+        print(f"vtol: warning: the autopilot wrote no ULog in {root}", file=sys.stderr)
+    shutil.rmtree(root, ignore_errors=True)
 
 
 def write_timeseries(autopilot_log: Path, table: Path, start_s: float) -> None:
@@ -99,8 +117,17 @@ def run_scenario(
     the MPC's weights; checked, ValueError) to the autopilot, in its parameter file."""
     run_dir = out / scenario.name / controller
     run_dir.mkdir(parents=True, exist_ok=True)
-    for old in ("params.json", "telemetry.jsonl.gz", "metrics.json", "run.json", "timeseries.csv", "autopilot_log.csv"):
+    for old in (
+        "params.json",
+        "telemetry.jsonl.gz",
+        "metrics.json",
+        "run.json",
+        "timeseries.csv",
+        "autopilot_log.csv",
+        "flight.ulg",
+    ):
         (run_dir / old).unlink(missing_ok=True)
+    shutil.rmtree(run_dir / VEHICLE_ROOT, ignore_errors=True)
     write_parameters(run_dir / "params.json", autopilot_params or {})
     if block is None:
         ports = run_ports(instance)
@@ -124,17 +151,18 @@ def run_scenario(
             wind_turbulence=wind_turbulence, wind_seed=wind_seed,
         )  # fmt: skip
         plant = start("vtol-sim", plant_command.argv(), stdout=Stream.CAPTURE, stderr=run_dir / "plant.log",
-                      deterministic=True)  # fmt: skip
+                      deterministic=True, own_group=True, parent_death=signal.SIGKILL)  # fmt: skip
         processes.append(plant)
         autopilot_command = AutopilotCommand(
             sim_port=ports.plant, links=ports.links, spawn_alt=SPAWN_ALT_M, controller=controller,
             mpc_horizon=mpc_horizon,
-            offboard_lockstep=True, duration_s=duration_s, log=run_dir / "autopilot_log.csv",
+            offboard_lockstep=True, duration_s=duration_s, log=run_dir / "autopilot_log.csv", root=run_dir / VEHICLE_ROOT,
             params=run_dir / "params.json", summary=True, quiet=True, sysid=sysid,
             zenoh=Zenoh.listening(ports.zenoh_autopilot) if record else Zenoh.off(),
         )  # fmt: skip
         autopilot = start("vtol-autopilot", autopilot_command.argv(), stdout=Stream.CAPTURE,
-                          stderr=run_dir / "autopilot.log", deterministic=True)  # fmt: skip
+                          stderr=run_dir / "autopilot.log", deterministic=True, own_group=True,
+                          parent_death=signal.SIGKILL)  # fmt: skip
         processes.append(autopilot)
 
         def start_recording(hold_ms: int) -> None:
@@ -186,6 +214,7 @@ def run_scenario(
         gcs.close()
     wall_s = time.perf_counter() - started
 
+    keep_ulog(run_dir / VEHICLE_ROOT, run_dir / "flight.ulg")
     start_s = events.profile_start_ms / 1000.0
     write_timeseries(run_dir / "autopilot_log.csv", run_dir / "timeseries.csv", start_s)
     (run_dir / "autopilot_log.csv").unlink()

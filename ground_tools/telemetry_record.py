@@ -30,6 +30,8 @@ from typing import Any
 import numpy as np
 import orjson
 
+from ground_tools.exit_status import FAILED, OK, epilog
+from ground_tools.progress import advance_to, counter
 from transport.cli import bounded_int, fail, positive_float, stop_on_signals
 from transport.ports import Ports
 from transport.telemetry import PLANT_STATE_FIELDS, decode_plant_states, plant_state_rows
@@ -353,9 +355,15 @@ def add_source_arguments(parser: argparse.ArgumentParser, *, allow_all: bool) ->
     )
 
 
+RECORD_EPILOG = epilog(ok="samples were recorded", failed="nothing was received (is a vehicle publishing there?), "
+                       "or the file could not be written")  # fmt: skip
+
+
 def add_record_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.epilog = RECORD_EPILOG
     parser.add_argument("--out", required=True, metavar="FILE.jsonl", help="the recording (JSON lines; replaced)")
     add_source_arguments(parser, allow_all=True)
+    parser.add_argument("--no-progress", action="store_true", help="no running count of the samples recorded")
 
 
 def sysid_from_args(args: Any) -> int | None:
@@ -401,17 +409,25 @@ def record(args: Any) -> int:
     print(f"{PROG}: recording {key_expression(sysid)} from {', '.join(endpoints)} to {out}; Ctrl-C stops",
           file=sys.stderr, flush=True)  # fmt: skip
     start = time.monotonic()
-    while not stop_requested() and (args.duration is None or time.monotonic() - start < args.duration):
-        time.sleep(0.05)
+    recorded = counter("recorded", "samples", disable=args.no_progress)
+    try:
+        while not stop_requested() and (args.duration is None or time.monotonic() - start < args.duration):
+            time.sleep(0.05)
+            advance_to(recorded, sum(recorder.counts.values()))
+    finally:
+        recorded.close()
     try:
         counts = recorder.stop()
     except OSError as exc:
-        fail(PROG, f"writing {out} failed: {exc.strerror or exc} ({sum(recorder.counts.values())} samples received)")
+        print(f"{PROG}: error: writing {out} failed: {exc.strerror or exc} ({sum(recorder.counts.values())} samples "
+              "received)", file=sys.stderr)  # fmt: skip
+        return FAILED
     for key in sorted(counts):
         errors = recorder.errors.get(key, 0)
         print(f"{key}: {counts[key]}" + (f" ({errors} undecodable)" if errors else ""))
     total = sum(counts.values())
-    if total == 0:
-        print(f"{PROG}: nothing received: is a vehicle publishing on {', '.join(endpoints)}?", file=sys.stderr)
     print(f"{PROG}: {total} samples in {out}", file=sys.stderr)
-    return 0
+    if total == 0:
+        print(f"{PROG}: error: nothing received: is a vehicle publishing on {', '.join(endpoints)}?", file=sys.stderr)
+        return FAILED
+    return OK

@@ -20,14 +20,56 @@ import time
 from pathlib import Path
 
 from autopilot.storage.parameters import ParameterFileError, ParameterStore, default_parameter_path, vehicle_system_id
+from ground_tools.exit_status import FAILED, OK, epilog
 from tiltrotor_sitl._children import Child, Stream, start, stop
 from tiltrotor_sitl._commands import AutopilotCommand, SimCommand, Zenoh, fleet_home, plant_wind
-from transport.cli import fail, stop_on_signals
+from transport.cli import bounded_int, fail, finite_float, nonnegative_float, stop_on_signals
+from transport.plant_parameters import SEED_MAX
 from transport.ports import LOOPBACK, Ports
 from transport.wind import Wind
 
 PROG = "vtol"
 STOP_TIMEOUT_S = 10.0
+
+
+EPILOG = epilog(ok="stopped by Ctrl-C or SIGTERM", failed="a process ended by itself (the other ones were stopped)")
+
+
+def add_up_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.epilog = EPILOG
+    parser.add_argument("--instance", type=bounded_int(0, 999), default=0, metavar="I",
+                        help="shift every port by I (default 0; docs/plant-link.md)")  # fmt: skip
+    parser.add_argument("--count", type=bounded_int(1, 100), default=1, metavar="N",
+                        help="start N vehicles: instances I..I+N-1, system ids I+1..I+N, 5 m apart (default 1)")  # fmt: skip
+    parser.add_argument("--controller", choices=("mpc", "pid"),
+                        help="velocity controller (default: the VT_CTRL parameter, whose default is mpc)")  # fmt: skip
+    parser.add_argument("--spawn-alt", type=nonnegative_float, default=0.0, metavar="M",
+                        help="start hovering at M metres, armed, in Hold (default: on the ground, disarmed)")  # fmt: skip
+    parser.add_argument("--speed", type=nonnegative_float, default=1.0, metavar="F",
+                        help="simulated seconds per wall second (default 1; 0: lockstep as fast as possible)")  # fmt: skip
+    parser.add_argument("--params", metavar="FILE", help="the autopilot's parameter file")
+    parser.add_argument("--log-dir", metavar="DIR",
+                        help="write the ULogs to DIR/YYYY-MM-DD/HH_MM_SS.ulg (with --count: DIR/vehicle-<sysid>/...; "
+                        "default: the vehicle's root, microsd-I beside its parameter file)")  # fmt: skip
+    parser.add_argument("--plant-signing-key", metavar="FILE",
+                        help="sign each vehicle's plant link with this key (64 hex digits; docs/plant-link.md)")  # fmt: skip
+    parser.add_argument("--wind", type=wind_speed_and_direction, default=(0.0, 0.0), metavar="SPEED,FROM_DEG",
+                        help="mean wind: its speed (m/s) and where it blows from (deg, 90 = from the east); "
+                             "SIM_WIND_SPD, SIM_WIND_DIR")  # fmt: skip
+    parser.add_argument("--turbulence", type=nonnegative_float, default=0.0, metavar="SIGMA",
+                        help="Dryden turbulence, the vertical gusts' standard deviation (m/s); SIM_WIND_TURB")  # fmt: skip
+    parser.add_argument("--wind-seed", type=bounded_int(0, SEED_MAX), default=0, metavar="N",
+                        help="the turbulence's seed (SIM_WIND_SEED)")  # fmt: skip
+    parser.add_argument("--no-zenoh", action="store_true", help="no zenoh telemetry")
+
+
+def wind_speed_and_direction(text: str) -> tuple[float, float]:
+    """'SPEED,FROM_DEG' -> two finite numbers (their ranges are checked with the rest of the wind)."""
+    parts = text.split(",")
+    if len(parts) != 2:
+        raise argparse.ArgumentTypeError(f"expected SPEED,FROM_DEG: {text!r}")
+    speed, direction = (finite_float(part) for part in parts)
+    return speed, direction
 
 
 def commands(args: argparse.Namespace, index: int, sysid: int) -> tuple[list[str], list[str]]:
@@ -37,9 +79,12 @@ def commands(args: argparse.Namespace, index: int, sysid: int) -> tuple[list[str
     instance = args.instance + index
     home = fleet_home(index) if index > 0 else None
     key = Path(args.plant_signing_key) if args.plant_signing_key else None
+    log_dir = None
+    if args.log_dir:
+        log_dir = Path(args.log_dir) if args.count == 1 else Path(args.log_dir) / f"vehicle-{sysid}"
     plant = SimCommand(
         instance=instance,
-        realtime_speed=args.speed,
+        realtime_speed=args.speed or None,
         spawn_alt=args.spawn_alt,
         zenoh=zenoh,
         home=home,
@@ -55,6 +100,7 @@ def commands(args: argparse.Namespace, index: int, sysid: int) -> tuple[list[str
         controller=args.controller,
         params=Path(args.params) if args.params else None,
         plant_signing_key=key,
+        log_dir=log_dir,
     )
     return plant.argv(), autopilot.argv()
 
@@ -92,6 +138,7 @@ def up(args: argparse.Namespace) -> int:
     if args.count > 1 and args.params:
         fail(PROG, "--params names one vehicle's parameter file: it does not go with --count")
     processes: list[Child] = []
+    pacing = f"real time x{args.speed:g}" if args.speed else "lockstep, as fast as it goes"
     sysids = [system_id(args, args.instance + index) for index in range(args.count)]
     for index, sysid in enumerate(sysids):
         ports = Ports(args.instance + index)
@@ -100,19 +147,19 @@ def up(args: argparse.Namespace) -> int:
         autopilot = start_in_terminal("vtol-autopilot", autopilot_command)
         processes += [autopilot, plant]
         print(f"{PROG}: vehicle {sysid} (instance {ports.instance}): plant pid {plant.pid} "
-              f"(real time x{args.speed:g}), autopilot pid {autopilot.pid}; "
+              f"({pacing}), autopilot pid {autopilot.pid}; "
               f"MAVSDK udpin://{LOOPBACK}:{ports.api_remote} (the vehicle listens on {ports.api_bind})",
               file=sys.stderr, flush=True)  # fmt: skip
     ports = Ports(args.instance)
     print(f"{PROG}: ground stations: QGroundControl or MAVProxy on udp {LOOPBACK}:{ports.gcs_remote} "
           f"(system id{'s' if args.count > 1 else ''} {', '.join(map(str, sysids))}); "
           f"Ctrl-C stops {'both' if args.count == 1 else 'all'}", file=sys.stderr, flush=True)  # fmt: skip
-    code = 0
+    code = OK
     while not stop_requested():
         ended = [p for p in processes if p.poll() is not None]
         if ended:
             process = ended[0]
-            code = process.returncode or 1
+            code = FAILED
             print(f"{PROG}: {process.name} ended (exit code {process.returncode}) (pid {process.pid}); "
                   f"stopping the {'other' if len(processes) == 2 else 'others'}", file=sys.stderr)  # fmt: skip
             break

@@ -17,6 +17,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from ground_tools.exit_status import FAILED, OK, epilog
 from ground_tools.telemetry_record import (
     CHANNEL_CAPACITY,
     add_source_arguments,
@@ -35,7 +36,11 @@ STATUS_S = 1.0  # text status period (wall)
 GUI_BACKENDS = ("QtAgg", "TkAgg", "GTK4Agg", "GTK3Agg")
 
 
+EPILOG = epilog(ok="samples were received", failed="nothing was received (is a vehicle publishing there?)")
+
+
 def add_watch_arguments(parser: Any) -> None:
+    parser.epilog = EPILOG
     add_source_arguments(parser, allow_all=False)
     parser.add_argument("--snapshot", metavar="FILE.png", help="write the figure to FILE when the watch ends")
     parser.add_argument("--text", action="store_true", help="status lines even when a display is available")
@@ -128,7 +133,7 @@ def watch(args: Any) -> int:
     errors = sum(view.errors.values())
     print(f"{PROG}: {received} samples received" + (f", {errors} undecodable (last: {view.last_error})"
                                                    if errors else ""), file=sys.stderr)  # fmt: skip
-    return 0
+    return OK if received else FAILED
 
 
 def check_snapshot_path(path: Path) -> None:

@@ -34,7 +34,7 @@ DECEL_START_S = 15.0  # s, where accel-decel's braking starts
 
 def accel_decel(t: float, deceleration: float = ACCELERATION) -> np.ndarray:
     """v_x = min(2t, 24) up to 15 s, then max(0, 24 - 2 (t - 15)); 32 s. `deceleration` (m/s^2) other than 2 is for
-    measuring how fast the aircraft can brake (accel_decel_braking_at; docs/mpc.md 2.9)."""
+    measuring how fast the aircraft can brake (accel_decel_braking_at; docs/design/alternatives.md, the long horizon)."""
     if t <= DECEL_START_S:
         return np.array([min(ACCELERATION * t, DECEL_CRUISE), 0.0, 0.0])
     return np.array([max(0.0, DECEL_CRUISE - deceleration * (t - DECEL_START_S)), 0.0, 0.0])

@@ -54,8 +54,9 @@ def build_parser() -> OneLineArgumentParser:
         prog=PROG,
         description="Tilt-rotor VTOL plant: 6-DOF physics behind a MAVLink UDP link (lockstep by default).",
     )
-    parser.add_argument("--instance", type=bounded_int(0, 999), default=0, help="shift every port by I (default 0)")
-    parser.add_argument("--port", type=bounded_int(1, 65535), help="plant link UDP port (default 4560+I)")
+    parser.add_argument("--instance", type=bounded_int(0, 999), default=0, metavar="I",
+                        help="shift every port by I (default 0)")  # fmt: skip
+    parser.add_argument("--port", type=bounded_int(1, 65535), metavar="P", help="plant link UDP port (default 4560+I)")
     parser.add_argument("--autopilot-port", type=bounded_int(1, 65535), metavar="P",
                         help="belong only to the autopilot on udp 127.0.0.1:P (default: the first autopilot to "
                              "complete the handshake)")  # fmt: skip
@@ -96,9 +97,14 @@ def build_parser() -> OneLineArgumentParser:
     )
     parser.add_argument("--airframe", metavar="FILE", help="airframe TOML file (default: the paper's vehicle)")
     parser.add_argument(
-        "--sysid", type=bounded_int(1, 255), default=None, help="vehicle system id (default I+1, as the autopilot's)"
+        "--sysid",
+        type=bounded_int(1, 255),
+        default=None,
+        metavar="N",
+        help="vehicle system id (default I+1, as the autopilot's)",
     )
-    parser.add_argument("--compid", type=bounded_int(1, 255), default=200, help="plant component id (default 200)")
+    parser.add_argument("--compid", type=bounded_int(1, 255), default=200, metavar="N",
+                        help="plant component id (default 200)")  # fmt: skip
     parser.add_argument(
         "--home",
         type=float_triple,

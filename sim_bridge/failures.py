@@ -3,7 +3,7 @@ function's parameters (override flags and values, scales) and to the state (a ro
 once), the checks that depend on the airframe, and how an applied failure is announced.
 
 The request's vocabulary (units, types, instances, param4, the checks that do not depend on the airframe)
-is aircraft/failures.py; what each failure does to each actuator is in docs/model.md (Failures).
+is aircraft/failures.py; what each failure does to each actuator is in docs/model.md, "Failures".
 """
 
 from __future__ import annotations

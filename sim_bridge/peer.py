@@ -1,4 +1,4 @@
-"""The plant's peer: the one autopilot it belongs to (docs/plant-link.md#the-handshake).
+"""The plant's peer: the one autopilot it belongs to (docs/plant-link.md, "The handshake").
 
 The gate sits between the socket and the plant. Datagrams from the peer go through; from anyone else they are
 counted and dropped, except the handshake (transport/plant_handshake.py) while the plant has no peer. With a named

@@ -18,8 +18,9 @@ import subprocess
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
+from autopilot.topics.controller_kind import ControllerKind
 from tiltrotor_sitl._free_ports import lease_ports
 from transport.geodesy import Home, LocalGeodetic, home_from
 from transport.ports import Ports, zenoh_endpoint
@@ -28,7 +29,7 @@ from transport.wind import Wind
 FLEET_SPACING_M = 5.0  # vehicles of a fleet stand this far apart, in a row to the east
 SIM_MODULE = "sim_bridge"
 AUTOPILOT_MODULE = "autopilot"
-Controller = Literal["mpc", "pid"]
+Controller = ControllerKind  # "mpc" (the unified MPC, the PID its back-up) or "pid" (the PID baseline alone)
 
 
 def python_module(module: str, args: list[str]) -> list[str]:
@@ -218,6 +219,8 @@ class AutopilotCommand:
     offboard_lockstep: bool = False  # hold the lockstep in Offboard until stamped set-points cover the time
     duration_s: float | None = None  # simulated seconds, then stop
     log: Path | None = None  # the 100 Hz flight log (transport/flight_log.py)
+    root: Path | None = None  # the vehicle's file root (ULogs in root/log, MAVLink FTP; default microsd-I)
+    log_dir: Path | None = None  # where the ULogs go (default root/log)
     summary: bool = False  # a JSON line of counters on stdout at the end
     quiet: bool = False  # no flight events (STATUSTEXT) on stderr
     zenoh: Zenoh = field(default_factory=Zenoh)
@@ -235,7 +238,8 @@ class AutopilotCommand:
             *_option("--params", self.params),
             *_option("--airframe", self.airframe), *_option("--profile", self.profile),
             *_flag("--offboard-lockstep", self.offboard_lockstep), *_option("--duration", self.duration_s),
-            *_option("--log", self.log), *_flag("--summary", self.summary), *_flag("--quiet", self.quiet),
+            *_option("--log", self.log), *_option("--root", self.root), *_option("--log-dir", self.log_dir),
+            *_flag("--summary", self.summary), *_flag("--quiet", self.quiet),
             *self.zenoh.argv(), *_option("--sysid", self.sysid), *_home(self.home),
             *_option("--plant-signing-key", self.plant_signing_key), *self.extra,
         ])  # fmt: skip

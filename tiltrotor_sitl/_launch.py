@@ -30,6 +30,7 @@ from tiltrotor_sitl._commands import (
 )
 from tiltrotor_sitl._free_ports import bind_error, free_udp_port, protocol
 from tiltrotor_sitl._readiness import ReadinessWatch
+from tiltrotor_sitl.fault_proxy import FaultProxy, Faults
 from tiltrotor_sitl.truth import TruthFeed
 from transport.geodesy import Home, home_from
 from transport.ports import LOOPBACK, Ports, endpoint_port
@@ -42,128 +43,45 @@ class VehicleError(RuntimeError):
     """A vehicle could not be started (the message names the cause); nothing it started is left running."""
 
 
-class VehicleOptions(TypedDict, total=False):
-    """The keyword arguments of Vehicle and Fleet, as a caller gives them (what each means: Vehicle's docstring);
-    Options holds them checked and with their defaults."""
-
-    controller: Controller
-    airframe: str | Path | None
-    spawn_alt: float
-    home: Home | None
-    speed: float | None
-    params: Mapping[str, float] | None
-    instance: int | None
-    sysid: int | None
-    gcs_port: int | None
-    truth: bool
-    ready_timeout_s: float
-    folder: str | Path | None
-    summary: bool
-    autopilot_args: Sequence[str]
-    wait_ready: bool
-    params_file: str | Path | None
-    duration_s: float | None
-    plant_args: Sequence[str]
-    autopilot: bool
-    plant_port: int | None
-    wind: Wind | None
-
-
 @dataclass(frozen=True)
-class Options:
-    """What every vehicle of one start shares (see Vehicle for the meaning of each): VehicleOptions with their
-    defaults, paths as Path, command-line words as tuples."""
+class ProcessOptions:
+    """The expert arguments of Vehicle and Fleet (`processes=ProcessOptions(...)`): which processes start, how they
+    are started and run, and what they are given besides the everyday arguments.
 
-    controller: Controller = "mpc"
-    airframe: Path | None = None
-    spawn_alt: float = 0.0
-    home: Home | None = None
-    speed: float | None = 1.0
-    params: dict[str, float] = field(default_factory=dict)
-    instance: int | None = None
-    sysid: int | None = None
-    gcs_port: int | None = None
-    truth: bool = True
-    ready_timeout_s: float = 60.0
-    folder: Path | None = None
-    params_file: Path | None = None
-    summary: bool = False
-    autopilot_args: tuple[str, ...] = ()
-    wait_ready: bool = True
-    duration_s: float | None = None
-    plant_args: tuple[str, ...] = ()
+    autopilot: False starts the plant alone (for a flight controller of your own; ready when the plant says it
+    listens). plant_port: P starts the autopilot alone, flying the plant already running on UDP port P. wait_ready:
+    False returns as soon as the processes are started (to test start-up itself). ready_timeout_s: wall seconds to
+    wait for readiness. duration_s: both processes stop by themselves after that many simulated seconds (wait for it
+    with wait_finished()). summary: both processes print their counters when they stop (summary()). params_file:
+    the parameter file the autopilot keeps (default: params.json in the vehicle's folder); an existing one is used as
+    it is, with `params` set into it, and stays after the stop, with the missions beside it. autopilot_args,
+    plant_args: further vtol-autopilot / vtol-sim options, as they are (`--help` lists them)."""
+
     autopilot: bool = True
     plant_port: int | None = None
-    wind: Wind | None = None
-
-    @classmethod
-    def of(cls, options: VehicleOptions) -> Options:
-        """The options Vehicle's or Fleet's keyword arguments give; TypeError for a keyword that is none of them."""
-        names = {option.name for option in fields(cls)}
-        for name in options:
-            if name not in names:
-                raise TypeError(f"unexpected keyword argument {name!r}")
-        given: dict[str, Any] = dict(options)
-        for name in ("airframe", "folder", "params_file"):
-            if given.get(name) is not None:
-                given[name] = Path(given[name])
-        for name in ("autopilot_args", "plant_args"):
-            if name in given:
-                given[name] = tuple(given[name])
-        if "params" in given:
-            given["params"] = dict(given["params"] or {})
-        if "spawn_alt" in given:
-            given["spawn_alt"] = float(given["spawn_alt"])
-        return cls(**given)
+    wait_ready: bool = True
+    ready_timeout_s: float = 60.0
+    duration_s: float | None = None
+    summary: bool = False
+    params_file: str | Path | None = None
+    autopilot_args: Sequence[str] = ()
+    plant_args: Sequence[str] = ()
 
     def check(self, count: int) -> None:
         """Raise ValueError naming the first bad argument."""
-        if count < 1:
-            raise ValueError(f"count must be at least 1, not {count}")
-        if self.controller not in ("mpc", "pid"):
-            raise ValueError(f"controller must be 'mpc' or 'pid', not {self.controller!r}")
-        if not (math.isfinite(self.spawn_alt) and self.spawn_alt >= 0):
-            raise ValueError(f"spawn_alt must be a finite number of metres >= 0, not {self.spawn_alt!r}")
-        if self.speed is not None and not (math.isfinite(self.speed) and self.speed > 0):
-            raise ValueError(f"speed must be a positive factor (or None: lockstep, as fast as possible), not "
-                             f"{self.speed!r}")  # fmt: skip
-        if self.instance is not None and not 0 <= self.instance <= 999 - (count - 1):
-            raise ValueError(f"instance must be in 0..{999 - (count - 1)}, not {self.instance}")
-        if self.sysid is not None and not 1 <= self.sysid <= 250 - (count - 1):
-            raise ValueError(f"sysid must be in 1..{250 - (count - 1)}, not {self.sysid}")
-        if self.gcs_port is not None and not 1 <= self.gcs_port <= 65535:
-            raise ValueError(f"gcs_port must be a UDP port 1..65535, not {self.gcs_port}")
-        if self.airframe is not None and not Path(self.airframe).is_file():
-            raise ValueError(f"airframe: no such file: {self.airframe}")
-        if self.home is not None and not (-90 <= self.home.lat <= 90 and -180 <= self.home.lon <= 180):
-            raise ValueError(f"home latitude/longitude out of range: {self.home}")
+        for name, args in (("autopilot_args", self.autopilot_args), ("plant_args", self.plant_args)):
+            if isinstance(args, str) or not all(isinstance(arg, str) for arg in args):
+                raise ValueError(f"{name} must be a sequence of strings (command-line words), not {args!r}")
         if self.params_file is not None and count > 1:
             raise ValueError(f"params_file is for one vehicle, not a fleet of {count} (each keeps its own file)")
         if self.params_file is not None and Path(self.params_file).is_dir():
             raise ValueError(f"params_file is a folder, not a file: {self.params_file}")
-        for name, args in (("autopilot_args", self.autopilot_args), ("plant_args", self.plant_args)):
-            if not all(isinstance(arg, str) for arg in args):
-                raise ValueError(f"{name} must be strings (command-line words), not {args!r}")
         if self.duration_s is not None and not (math.isfinite(self.duration_s) and self.duration_s > 0):
             raise ValueError(f"duration_s must be a positive number of simulated seconds (or None), not "
                              f"{self.duration_s!r}")  # fmt: skip
-        self._check_which(count)
         if not self.ready_timeout_s > 0:
             raise ValueError(f"ready_timeout_s must be positive, not {self.ready_timeout_s}")
-        store = ParameterStore(None)
-        for name, value in self.params.items():
-            try:
-                definition = store.check(name, float(value))
-            except ParameterRejected as refusal:
-                raise ValueError(f"params: {refusal}") from None
-            if definition.plant:
-                raise ValueError(f"params: {name} is the plant's (the wind): give wind=Wind(...)")
-        if self.wind is not None:
-            if not isinstance(self.wind, Wind):
-                raise ValueError(f"wind must be a tiltrotor_sitl.Wind, not {self.wind!r}")
-            self.wind.check()
-            if not self.starts_plant:
-                raise ValueError("wind with plant_port: no plant is started (the wind is the plant's)")
+        self._check_which(count)
 
     def _check_which(self, count: int) -> None:
         """The arguments that choose which processes start (both, the plant alone, the autopilot alone)."""
@@ -180,9 +98,120 @@ class Options:
         if self.plant_args:
             raise ValueError("plant_args with plant_port: no plant is started (the plant on plant_port is yours)")
 
+
+class VehicleOptions(TypedDict, total=False):
+    """The keyword arguments of Vehicle and Fleet, as a caller gives them (what each means: Vehicle's docstring):
+    the everyday ones, where the vehicle lives, and the expert ones grouped in `processes`. Options holds them
+    checked and with their defaults."""
+
+    controller: Controller
+    speed: float | None
+    spawn_alt: float
+    params: Mapping[str, float] | None
+    home: Home | None
+    airframe: str | Path | None
+    link_faults: Faults | None
+    wind: Wind | None
+    instance: int | None
+    sysid: int | None
+    gcs_port: int | None
+    truth: bool
+    folder: str | Path | None
+    processes: ProcessOptions
+
+
+@dataclass(frozen=True)
+class Options:
+    """What every vehicle of one start shares (see Vehicle for the meaning of each): VehicleOptions with their
+    defaults, paths as Path, speed 0 as None (lockstep as fast as possible)."""
+
+    controller: Controller = "mpc"
+    speed: float | None = 1.0
+    spawn_alt: float = 0.0
+    params: dict[str, float] = field(default_factory=dict)
+    home: Home | None = None
+    airframe: Path | None = None
+    link_faults: Faults | None = None
+    wind: Wind | None = None
+    instance: int | None = None
+    sysid: int | None = None
+    gcs_port: int | None = None
+    truth: bool = True
+    folder: Path | None = None
+    processes: ProcessOptions = ProcessOptions()
+
+    @classmethod
+    def of(cls, options: VehicleOptions) -> Options:
+        """The options Vehicle's or Fleet's keyword arguments give; TypeError for a keyword that is none of them."""
+        names = {option.name for option in fields(cls)}
+        for name in options:
+            if name not in names:
+                expert = {option.name for option in fields(ProcessOptions)}
+                hint = f" (an expert argument: processes=ProcessOptions({name}=...))" if name in expert else ""
+                raise TypeError(f"unexpected keyword argument {name!r}{hint}")
+        given: dict[str, Any] = dict(options)
+        for name in ("airframe", "folder"):
+            if given.get(name) is not None:
+                given[name] = Path(given[name])
+        if "params" in given:
+            given["params"] = dict(given["params"] or {})
+        if "spawn_alt" in given:
+            given["spawn_alt"] = float(given["spawn_alt"])
+        if given.get("speed") == 0:
+            given["speed"] = None
+        if "processes" in given and not isinstance(given["processes"], ProcessOptions):
+            raise TypeError(f"processes must be a ProcessOptions, not {type(given['processes']).__name__}")
+        return cls(**given)
+
+    def check(self, count: int) -> None:
+        """Raise ValueError naming the first bad argument."""
+        if count < 1:
+            raise ValueError(f"count must be at least 1, not {count}")
+        if self.controller not in ("mpc", "pid"):
+            raise ValueError(f"controller must be 'mpc' or 'pid', not {self.controller!r}")
+        if not (math.isfinite(self.spawn_alt) and self.spawn_alt >= 0):
+            raise ValueError(f"spawn_alt must be a finite number of metres >= 0, not {self.spawn_alt!r}")
+        if self.speed is not None and not (math.isfinite(self.speed) and self.speed > 0):
+            raise ValueError(f"speed must be a factor >= 0 (0 or None: lockstep, as fast as possible), not "
+                             f"{self.speed!r}")  # fmt: skip
+        if self.instance is not None and not 0 <= self.instance <= 999 - (count - 1):
+            raise ValueError(f"instance must be in 0..{999 - (count - 1)}, not {self.instance}")
+        if self.sysid is not None and not 1 <= self.sysid <= 250 - (count - 1):
+            raise ValueError(f"sysid must be in 1..{250 - (count - 1)}, not {self.sysid}")
+        if self.gcs_port is not None and not 1 <= self.gcs_port <= 65535:
+            raise ValueError(f"gcs_port must be a UDP port 1..65535, not {self.gcs_port}")
+        if self.airframe is not None and not Path(self.airframe).is_file():
+            raise ValueError(f"airframe: no such file: {self.airframe}")
+        if self.home is not None and not (-90 <= self.home.lat <= 90 and -180 <= self.home.lon <= 180):
+            raise ValueError(f"home latitude/longitude out of range: {self.home}")
+        if self.link_faults is not None and not isinstance(self.link_faults, Faults):
+            raise ValueError(f"link_faults must be a Faults, not {self.link_faults!r}")
+        if self.link_faults is not None and not self.processes.autopilot:
+            raise ValueError("link_faults with autopilot=False: no ground-station link is started")
+        self.processes.check(count)
+        store = ParameterStore(None)
+        for name, value in self.params.items():
+            try:
+                definition = store.check(name, float(value))
+            except ParameterRejected as refusal:
+                raise ValueError(f"params: {refusal}") from None
+            if definition.plant:
+                raise ValueError(f"params: {name} is the plant's (the wind): give wind=Wind(...)")
+        if self.wind is not None:
+            if not isinstance(self.wind, Wind):
+                raise ValueError(f"wind must be a tiltrotor_sitl.Wind, not {self.wind!r}")
+            self.wind.check()
+            if not self.starts_plant:
+                raise ValueError("wind with plant_port: no plant is started (the wind is the plant's)")
+
     @property
     def starts_plant(self) -> bool:
-        return self.plant_port is None
+        return self.processes.plant_port is None
+
+    @property
+    def params_file(self) -> Path | None:
+        file = self.processes.params_file
+        return None if file is None else Path(file)
 
     def first_sysid(self) -> int:
         """The first vehicle's system id: sysid, else MAV_SYS_ID as params or an existing params_file set it,
@@ -201,7 +230,8 @@ class Options:
 
 @dataclass
 class Started:
-    """One running vehicle: its system id, ports, processes and truth feed."""
+    """One running vehicle: its system id, ports (as its ground stations see them), processes, folder, truth feed and
+    the fault proxies on its ground-station links (with link_faults)."""
 
     sysid: int
     ports: VehiclePorts
@@ -210,6 +240,7 @@ class Started:
     folder: Path
     params_path: Path
     truth: TruthFeed | None = None
+    proxies: list[FaultProxy] = field(default_factory=list)  # the GCS link's, then the API link's
 
 
 def _vehicle_ports(options: Options, index: int, gcs_remote: int) -> VehiclePorts:
@@ -218,7 +249,7 @@ def _vehicle_ports(options: Options, index: int, gcs_remote: int) -> VehiclePort
     else:
         ports = VehiclePorts.of_instance(options.instance + index)
     links = ports.links
-    plant = ports.plant if options.plant_port is None else options.plant_port
+    plant = ports.plant if options.starts_plant else options.processes.plant_port
     return VehiclePorts(plant, LinkPorts(links.gcs_bind, gcs_remote, links.api_bind, links.api_remote),
                         ports.zenoh_plant, ports.zenoh_autopilot)  # fmt: skip
 
@@ -229,7 +260,7 @@ def _check_free(options: Options, ports: VehiclePorts, sysid: int) -> None:
     if options.starts_plant:
         udp.append(("the plant link", ports.plant))
         tcp.append(("the plant's zenoh", ports.zenoh_plant))
-    if options.autopilot:
+    if options.processes.autopilot:
         udp += [("the GCS link", ports.links.gcs_bind), ("the API link", ports.links.api_bind)]
         tcp.append(("the autopilot's zenoh", ports.zenoh_autopilot))
     checks = [(name, port, socket.SOCK_DGRAM) for name, port in udp]
@@ -258,27 +289,57 @@ def _write_params(path: Path, params: dict[str, float]) -> Path:
     return path
 
 
-def _start_one(options: Options, index: int, sysid: int, ports: VehiclePorts, root: Path) -> Started:
+def _link_proxies(faults: Faults | None, links: LinkPorts, sysid: int) -> list[FaultProxy]:
+    """With link faults: a seeded fault proxy in front of each ground-station port (the GCS link's, then the API
+    link's), started; the vehicle is their client, its ground stations their target."""
+    if faults is None:
+        return []
+    proxies = [
+        FaultProxy(links.gcs_remote, faults, seed=sysid),
+        FaultProxy(links.api_remote, faults, seed=sysid + 1000),
+    ]
+    return [proxy.start() for proxy in proxies]
+
+
+def _autopilot_links(links: LinkPorts, proxies: list[FaultProxy]) -> LinkPorts:
+    """Where the autopilot's links send: its ground stations' ports, or the fault proxies in front of them."""
+    if not proxies:
+        return links
+    gcs, api = proxies
+    return LinkPorts(links.gcs_bind, gcs.port, links.api_bind, api.port)
+
+
+def _prepare(options: Options, index: int, sysid: int, ports: VehiclePorts, root: Path) -> Started:
+    """A vehicle's folder, parameter file and, with link faults, its running fault proxies."""
     folder = root / f"vehicle-{sysid}"
     folder.mkdir()
     home = fleet_home(index, options.home) if index > 0 else (options.home or home_from(None, os.environ))
     params_path = _write_params(options.params_file or folder / "params.json", options.params)
+    started = Started(sysid, ports, home, [], folder, params_path)
+    if options.processes.autopilot:
+        started.proxies = _link_proxies(options.link_faults, ports.links, sysid)
+    return started
+
+
+def _start_processes(options: Options, started: Started) -> None:
+    """Start the vehicle's plant and autopilot (those the options ask for), each appended to its children."""
+    ports, processes = started.ports, options.processes
     plant_zenoh = Zenoh.listening(ports.zenoh_plant) if options.truth else Zenoh.off()
     autopilot_zenoh = Zenoh.listening(ports.zenoh_autopilot) if options.truth else Zenoh.off()
-    plant = SimCommand(port=ports.plant, spawn_alt=options.spawn_alt, realtime_speed=options.speed,
-                       duration_s=options.duration_s, zenoh=plant_zenoh, airframe=options.airframe, sysid=sysid,
-                       home=home, summary=options.summary, extra=options.plant_args,
-                       **plant_wind(options.wind))  # fmt: skip
-    autopilot = AutopilotCommand(sim_port=ports.plant, links=ports.links, spawn_alt=options.spawn_alt,
-                                 controller=options.controller, params=params_path, airframe=options.airframe,
-                                 duration_s=options.duration_s, zenoh=autopilot_zenoh, sysid=sysid, home=home,
-                                 summary=options.summary, extra=options.autopilot_args)  # fmt: skip
-    started = Started(sysid, ports, home, [], folder, params_path)
     if options.starts_plant:
-        started.children.append(_start_child("vtol-sim", plant.argv(), folder))
-    if options.autopilot:
-        started.children.append(_start_child("vtol-autopilot", autopilot.argv(), folder))
-    return started
+        plant = SimCommand(port=ports.plant, spawn_alt=options.spawn_alt, realtime_speed=options.speed,
+                           duration_s=processes.duration_s, zenoh=plant_zenoh, airframe=options.airframe,
+                           sysid=started.sysid, home=started.home, summary=processes.summary,
+                           extra=tuple(processes.plant_args), **plant_wind(options.wind))  # fmt: skip
+        started.children.append(_start_child("vtol-sim", plant.argv(), started.folder))
+    if processes.autopilot:
+        autopilot = AutopilotCommand(sim_port=ports.plant, links=_autopilot_links(ports.links, started.proxies),
+                                     spawn_alt=options.spawn_alt, controller=options.controller,
+                                     params=started.params_path, root=started.folder, airframe=options.airframe,
+                                     duration_s=processes.duration_s, zenoh=autopilot_zenoh, sysid=started.sysid,
+                                     home=started.home, summary=processes.summary,
+                                     extra=tuple(processes.autopilot_args))  # fmt: skip
+        started.children.append(_start_child("vtol-autopilot", autopilot.argv(), started.folder))
 
 
 def _start_child(name: str, argv: list[str], folder: Path) -> Child:
@@ -306,7 +367,7 @@ def _wait_listening(plants: list[Started], timeout_s: float, keep_going: Callabl
 def _watch(options: Options, vehicles: list[Started]) -> ReadinessWatch | None:
     """A watch on the GCS port the vehicles send to; if it is taken (a ground station already there), on their
     API ports instead."""
-    if not options.autopilot:
+    if not options.processes.autopilot:
         return None
     sysids = [vehicle.sysid for vehicle in vehicles]
     gcs = vehicles[0].ports.links.gcs_remote
@@ -341,7 +402,8 @@ def launch(options: Options, count: int) -> tuple[list[Started], Path, float]:
         watch_started = [Started(sysid, ports, Home(), [], root, root) for sysid, ports in plan]
         watch = _watch(options, watch_started)
         for index, (sysid, ports) in enumerate(plan):
-            vehicles.append(_start_one(options, index, sysid, ports, root))
+            vehicles.append(_prepare(options, index, sysid, ports, root))
+            _start_processes(options, vehicles[-1])
 
         def keep_going() -> None:
             for vehicle in vehicles:
@@ -349,16 +411,17 @@ def launch(options: Options, count: int) -> tuple[list[Started], Path, float]:
                     if not child.running():
                         raise VehicleError(f"vehicle {vehicle.sysid}: {child.describe_exit('during start-up')}")
 
-        if options.wait_ready:
+        timeout_s = options.processes.ready_timeout_s
+        if options.processes.wait_ready:
             if watch is not None:
-                ready, missing = watch.wait(options.ready_timeout_s, keep_going), watch.missing
+                ready, missing = watch.wait(timeout_s, keep_going), watch.missing
             else:
-                ready, missing = _wait_listening(vehicles, options.ready_timeout_s, keep_going), _not_listening
+                ready, missing = _wait_listening(vehicles, timeout_s, keep_going), _not_listening
             if not ready:
                 tails = "\n".join(f"--- vehicle {v.sysid} {c.name} (pid {c.pid}) stderr:\n{c.stderr_tail()}"
                                   for v in vehicles for c in v.children)  # fmt: skip
                 what = "ready to arm" if watch is not None else "listening"
-                raise VehicleError(f"not {what} within {options.ready_timeout_s:g} s ({missing()})\n{tails}")
+                raise VehicleError(f"not {what} within {timeout_s:g} s ({missing()})\n{tails}")
         ready_s = time.monotonic() - began
         if options.truth and options.starts_plant:
             for vehicle in vehicles:
@@ -377,7 +440,8 @@ def _not_listening() -> str:
 
 
 def stop(vehicles: list[Started], remove: Path | None) -> None:
-    """Close the truth feeds, stop every process (by PID), remove the folder `remove` (a temporary one)."""
+    """Close the truth feeds, stop every process (by PID), then the fault proxies, remove the folder `remove` (a
+    temporary one)."""
     for vehicle in vehicles:
         if vehicle.truth is not None:
             vehicle.truth.close()
@@ -385,5 +449,8 @@ def stop(vehicles: list[Started], remove: Path | None) -> None:
     children = [child for vehicle in vehicles for child in vehicle.children]
     _children.stop([child for child in children if child.name == "vtol-autopilot"])  # the controllers first,
     _children.stop([child for child in children if child.name != "vtol-autopilot"])  # then the plants
+    for vehicle in vehicles:
+        for proxy in vehicle.proxies:
+            proxy.stop()
     if remove is not None:
         shutil.rmtree(remove, ignore_errors=True)

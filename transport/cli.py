@@ -6,22 +6,36 @@ Bad arguments give exactly one line on stderr, "<prog>: error: <what>", and exit
 from __future__ import annotations
 
 import argparse
+import importlib.metadata
 import math
 import signal
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import NoReturn
+from typing import Any, NoReturn
 
 from transport.link_signing import KeyFileRefused, read_key_file
 
 
 class OneLineArgumentParser(argparse.ArgumentParser):
-    """argparse with a one-line error (no usage dump) and exit code 2."""
+    """argparse with a one-line error (no usage dump) and exit code 2, and --version (each subcommand too)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.add_argument("--version", action="version", version=f"%(prog)s {package_version()}",
+                          help="print the version and exit")  # fmt: skip
 
     def error(self, message: str) -> NoReturn:
         print(f"{self.prog}: error: {message}", file=sys.stderr)
         raise SystemExit(2)
+
+
+def package_version() -> str:
+    """The installed tiltrotor-sitl's version."""
+    try:
+        return importlib.metadata.version("tiltrotor-sitl")
+    except importlib.metadata.PackageNotFoundError:
+        return "(not installed: run from a source tree)"
 
 
 def fail(prog: str, message: str) -> NoReturn:

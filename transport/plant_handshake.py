@@ -1,4 +1,4 @@
-"""The plant link's start-up handshake (docs/plant-link.md#the-handshake): which sender the plant belongs to.
+"""The plant link's start-up handshake (docs/plant-link.md, "The handshake"): which sender the plant belongs to.
 
 Three messages, standard MAVLink (HEARTBEAT and the PING protocol), over the plant's UDP port:
 

@@ -61,7 +61,7 @@ class PlantLinkClient:
                          checked=() if sensors else (HIL_SENSOR, HIL_GPS))  # fmt: skip
         self.sensors = sensors
         self.received_other: list[Any] = []
-        self.confirmed = 0  # handshake challenges answered (docs/plant-link.md#the-handshake)
+        self.confirmed = 0  # handshake challenges answered (docs/plant-link.md, "The handshake")
         self.plant_ids: tuple[int, int] | None = None  # (system, component) of the plant that challenged us last
         self.foreign = 0  # datagrams from anyone but the plant's address, ignored
         self._nonce = new_client_nonce()

@@ -1,15 +1,8 @@
-"""zenoh key expressions and payload layouts (documented in docs/telemetry.md).
+"""zenoh key expressions and payload layouts: each key function's docstring says what its payload holds
+(docs/reference/zenoh.md lists them; docs/telemetry.md says how to subscribe, record and watch).
 
-`vtol/<sysid>/plant/state`: every physics step, little-endian float64 values in PLANT_STATE_FIELDS order; a payload
-holds one or more consecutive steps (up to PLANT_STATE_BATCH_STEPS, see `PlantStateBatch`).
-`vtol/<sysid>/plant/events`: JSON objects, e.g. {"t": 12.5, "event": "failure", "text": "rotor 1: OFF"}.
-`vtol/<sysid>/autopilot/control`: at the velocity controller's 100 Hz, a JSON object with the time, the
-controller's mode, the velocity set-point, the attitude set-point, the tilt commands, the allocated actuators
-u (8), the wrench set-point and the allocation's residual (see `encode_control`).
-`vtol/<sysid>/autopilot/mpc`: after each MPC solve (100 Hz, MPC flying), JSON: `t`, `ok`, `status`, `solve_time_ms`,
-`qp_iterations`, `cost`, `predicted_velocity` (N+1 x 3, NED m/s), `predicted_tilt` (N+1 x 4, rad), `thrust`
-(4, N, first stage), `attitude_sp` (3, rad, first stage).
-A payload of the two autopilot keys holds one or more samples, one JSON object a line (`join_samples`).
+A payload of the two autopilot keys control and mpc holds one or more samples, one JSON object a line
+(`join_samples`).
 """
 
 from __future__ import annotations
@@ -31,20 +24,24 @@ PLANT_STATE_FIELDS: tuple[str, ...] = (
 
 
 def plant_state_key(system_id: int) -> str:
+    """The plant's state every physics step (400 Hz): little-endian float64 values in PLANT_STATE_FIELDS order, one
+    or more consecutive steps a payload (up to PLANT_STATE_BATCH_STEPS)."""
     return f"vtol/{system_id}/plant/state"
 
 
 def plant_events_key(system_id: int) -> str:
+    """The plant's events as JSON, e.g. {"t": 12.5, "event": "failure", "text": "rotor 1: OFF"} (t: simulation s)."""
     return f"vtol/{system_id}/plant/events"
 
 
 def autopilot_events_key(system_id: int) -> str:
+    """The autopilot's STATUSTEXTs as JSON, e.g. {"t": 3.2, "event": "statustext", "text": "Armed", "severity": 6}."""
     return f"vtol/{system_id}/autopilot/events"
 
 
 PLANT_STATE_BYTES = 8 * len(PLANT_STATE_FIELDS)
 # One put per physics step woke zenoh's threads 400 times a simulated second, a quarter of a recorded lockstep
-# flight's wall time on 2 cores (docs/performance.md); 10 steps is 25 ms of simulated time.
+# flight's wall time on 2 cores; 10 steps is 25 ms of simulated time.
 PLANT_STATE_BATCH_STEPS = 10
 
 
@@ -108,7 +105,7 @@ def decode_plant_states(payload: bytes) -> list[dict[str, float]]:
 
 
 # The JSON payloads are written by orjson: at 100 Hz the MPC's prediction (about 190 numbers) took json.dumps 93 us a
-# sample and orjson 6 us, on the cores the lockstep pair flies on (docs/performance.md). Compact separators; a
+# sample and orjson 6 us, on the cores the lockstep pair flies on. Compact separators; a
 # non-finite number is written as null (JSON has no NaN).
 
 
@@ -123,6 +120,8 @@ def encode_event(t: float, event: str, text: str, **fields: int | float | str) -
 
 
 def control_key(system_id: int) -> str:
+    """The flight controller at 100 Hz, JSON lines: t, the controller's mode, velocity_sp, euler_sp, tilt_cmd, the
+    allocated actuators u (8), wrench_sp and the allocation's residual (SI units, angles in rad)."""
     return f"vtol/{system_id}/autopilot/control"
 
 
@@ -152,8 +151,15 @@ def encode_control(
 
 
 def mpc_key(system_id: int) -> str:
+    """Each MPC solve (100 Hz, the MPC flying), JSON lines: t, ok, status, solve_time_ms, qp_iterations, cost,
+    predicted_velocity (N+1 x 3, NED m/s), predicted_tilt (N+1 x 4, rad), thrust (4, N) and attitude_sp (3, rad) of the
+    first stage."""
     return f"vtol/{system_id}/autopilot/mpc"
 
 
 def encode_mpc_solution(t: float, summary: dict) -> bytes:
     return orjson.dumps({"t": t, **summary})
+
+
+# Every key the processes publish (the reference docs list them).
+KEY_EXPRESSIONS = (plant_state_key, plant_events_key, autopilot_events_key, control_key, mpc_key)

@@ -1,7 +1,7 @@
 """Low-latency UDP receive for the lockstep link.
 
 A blocking receive costs a scheduler wake-up: ~57 us per round trip between two processes on this kind of
-machine, against ~11 us when the waiting side polls a non-blocking socket (measured, docs/performance.md).
+machine, against ~11 us when the waiting side polls a non-blocking socket (measured).
 In lockstep the answer usually comes within tens of microseconds, so `receive` polls for a short spin
 window and only then blocks, which keeps an idle process from burning a core. The poll loop yields the CPU
 at each turn: with more runnable processes than cores (a third process, a loaded CI machine) a pure spin

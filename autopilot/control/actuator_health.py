@@ -1,7 +1,7 @@
 """What the autopilot knows about failed actuators, and the tilt servos' positions it cannot measure.
 
 A failure the plant accepted (aircraft/failures.py, the one failure vocabulary; the plant applies the same
-failure physically in sim_bridge/failures.py) changes the allocator's bounds or columns (docs/autopilot.md 3.6)
+failure physically in sim_bridge/failures.py) changes the allocator's bounds or columns (docs/autopilot.md)
 and the tilt estimate (a stuck servo stays where it stuck).
 """
 

@@ -1,4 +1,4 @@
-"""Control allocation (docs/autopilot.md 3; paper section "Control allocation"): body wrench set-point -> 8 actuators.
+"""Control allocation (docs/autopilot.md; paper section "Control allocation"): body wrench set-point -> 8 actuators.
 
 Actuators u = (u1..u4 rotor thrust fractions 0..1, aileron L, aileron R, elevator, rudder -1..1), the order of
 aircraft.wrench.ALLOCATED_ACTUATORS. Tilts are not allocated: they are inputs (the velocity controller's).
@@ -7,11 +7,11 @@ The QP, its data and the optimality gap are CasADi functions of the shared model
 
 u = u_trim + du is clipped to [lb, ub] (the solver meets the box only to its tolerance) and the achieved wrench
 W(u) is evaluated with the same model function. The QP is solved by proxsuite's dense solver with native box
-constraints, kept alive between calls and warm started from its previous result (docs/performance.md), its
+constraints, kept alive between calls and warm started from its previous result (docs/design/solver.md), its
 preconditioner updated at every call; each answer's optimality gap is checked, and a wrong one solved again by a
-fresh solver (docs/autopilot.md 3.3).
+fresh solver (docs/autopilot.md).
 
-Failures (docs/autopilot.md 3.6; sim_bridge/failures.py is the plant's side):
+Failures (docs/autopilot.md; sim_bridge/failures.py is the plant's side):
 
 | plant failure (MAV_CMD_INJECT_FAILURE)     | allocator call                                             |
 | rotor OFF                                  | set_failed(i): column zeroed, bounds [0, 0]                |
@@ -87,7 +87,7 @@ class AllocationResult:
 
 
 class ControlAllocator:
-    """Wrench set-point -> actuator commands, with failure-aware bounds (docs/autopilot.md 3); one per vehicle."""
+    """Wrench set-point -> actuator commands, with failure-aware bounds (docs/autopilot.md); one per vehicle."""
 
     def __init__(
         self,
@@ -240,7 +240,7 @@ class ControlAllocator:
         """A persistent dense QP with native box constraints, warm started from its previous result.
 
         proxsuite 0.8.0 segfaults when a WARM_START_WITH_PREVIOUS_RESULT solve follows init + update before any
-        solve has run (docs/performance.md), so it is solved once here on a dummy problem.
+        solve has run (docs/design/solver.md), so it is solved once here on a dummy problem.
         """
         qp = _QP.dense.QP(N_ACTUATORS, 0, 0, True)
         qp.settings.eps_abs = self._eps_abs

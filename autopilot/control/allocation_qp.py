@@ -1,9 +1,9 @@
-"""The allocation QP as CasADi functions of the shared model (docs/autopilot.md 3.1), generated to C by the
+"""The allocation QP as CasADi functions of the shared model (docs/autopilot.md), generated to C by the
 allocator (autopilot/control/allocation.py).
 
 At every call the allocator linearises the shared model W(u) = aircraft.wrench.actuator_wrench(u; tilts, v_air_body, rates_body)
 (force N and moment N m in body FRD, gravity excluded, wing aerodynamics included) at the previous solution
-u_trim and solves the box-constrained least-squares QP of docs/autopilot.md 3.1 (the paper's "Control Allocation"
+u_trim and solves the box-constrained least-squares QP of docs/autopilot.md (the paper's "Control Allocation"
 paragraph only says that a QP distributes the wrench W^B over all actuators at once; it gives no equation)
 
     min_du  1/2 (A du - dW)^T Q (A du - dW) + eps/2 ||u_trim + du||^2      s.t.  lb - u_trim <= du <= ub - u_trim

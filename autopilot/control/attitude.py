@@ -1,4 +1,4 @@
-"""The attitude loop (docs/autopilot.md section 2, paper "State Update"), defined once for the autopilot and the MPC.
+"""The attitude loop (docs/autopilot.md, paper "State Update"), defined once for the autopilot and the MPC.
 
 P on attitude to a rate set-point, PD on rates to an angular-acceleration demand:
     rate_sp   = K_att (Psi_sp - Psi)                         (yaw wrapped, paper eq. for Psi_dot_sp; limited
@@ -48,15 +48,21 @@ DEFAULT_GAINS = AttitudeGains()
 
 
 def attitude_law(euler: ca.SX, euler_rate: ca.SX, euler_rate_prev: ca.SX, euler_sp: ca.SX, gains: ca.SX) -> ca.SX:
-    """Euler-angle acceleration demand (rad/s^2) of the attitude loop (docs/autopilot.md 2.1); `gains` the
+    """Euler-angle acceleration demand (rad/s^2) of the attitude loop (docs/autopilot.md); `gains` the
     GAIN_COUNT-vector of AttitudeGains.vector (symbols, or numbers)."""
-    k_att, k_p, k_d = gains[ATTITUDE_GAINS], gains[RATE_P_GAINS], gains[RATE_D_GAINS]
+    k_p, k_d = gains[RATE_P_GAINS], gains[RATE_D_GAINS]
+    rate_sp = euler_rate_setpoint(euler, euler_sp, gains)
+    return k_p * (rate_sp - euler_rate) + k_d * (euler_rate_prev - euler_rate)
+
+
+def euler_rate_setpoint(euler: ca.SX, euler_sp: ca.SX, gains: ca.SX) -> ca.SX:
+    """The Euler-angle rate set-point (rad/s) of the attitude loop's P law (docs/autopilot.md); `gains` as in
+    attitude_law."""
     error = ca.vertcat(euler_sp[0] - euler[0], euler_sp[1] - euler[1], wrap_angle(euler_sp[2] - euler[2]))
     # Smooth rate limit (limit tanh(x / limit)): equal to the P law for small errors, bounded by the limit, and
     # with a gradient everywhere (a hard clamp left the MPC's QP blind to the set-point when saturated).
     limit = ca.DM(MAX_RATE)
-    rate_sp = limit * ca.tanh(k_att * error / limit)
-    return k_p * (rate_sp - euler_rate) + k_d * (euler_rate_prev - euler_rate)
+    return limit * ca.tanh(gains[ATTITUDE_GAINS] * error / limit)
 
 
 def euler_rate_matrix(euler: ca.SX) -> ca.SX:

@@ -1,5 +1,5 @@
 """Offboard attitude set-points flown by the attitude loop and the allocation with the velocity controller out of
-the loop (docs/mavlink.md "Offboard attitude"): the `VelocityCommand` an `AttitudeTarget` stands for.
+the loop (docs/mavlink.md, "Offboard"): the `VelocityCommand` an `AttitudeTarget` stands for.
 
 The thrust is mapped as PX4 maps SET_ATTITUDE_TARGET's thrust for a VTOL in multicopter mode: a collective thrust
 along body -z, 0..1 of the rotors' full thrust (thrust_body = (0, 0, -thrust)), with the rotors upright (tilts 0).

@@ -1,5 +1,5 @@
 """The autopilot's control core: velocity controller at 100 Hz, attitude loop and allocation at 250 Hz, in
-simulation time, producing the 12 actuator commands of every 400 Hz plant step (docs/autopilot.md 1.1).
+simulation time, producing the 12 actuator commands of every 400 Hz plant step (docs/autopilot.md).
 
     measured velocity  --(400 Hz)--> VelocityEstimate (accelerometer-aided) --> the velocity the controllers use
     velocity set-point --(100 Hz)--> velocity controller --> attitude set-point, tilts, force set-point
@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from typing import Literal
 
 import casadi as ca
 import numpy as np
@@ -27,7 +26,7 @@ from aircraft.failures import Failure
 from aircraft.rotors import rotor_wrench
 from autopilot.control.actuator_health import ActuatorHealth, ServoEstimate
 from autopilot.control.allocation import ControlAllocator
-from autopilot.control.attitude import AttitudeController
+from autopilot.control.attitude import AttitudeController, AttitudeGains
 from autopilot.control.attitude_setpoint import attitude_command
 from autopilot.control.pid_baseline import PidVelocityController
 from autopilot.control.tuning import attitude_gains, pid_parameters
@@ -36,12 +35,10 @@ from autopilot.control.velocity_controller import PrimaryVelocityController, Vel
 from autopilot.control.velocity_estimate import VelocityEstimate
 from autopilot.storage.parameters import ParameterStore
 from autopilot.topics.attitude_target import AttitudeTarget
+from autopilot.topics.controller_kind import MPC, PID, ControllerKind
 from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.yaw_setpoint import YawReference
 
-ControllerKind = Literal["mpc", "pid"]
-MPC: ControllerKind = "mpc"  # the unified MPC, with the PID baseline as its back-up
-PID: ControllerKind = "pid"  # the PID baseline alone
 VELOCITY_PERIOD_USEC = 10_000  # 100 Hz
 ATTITUDE_PERIOD_USEC = 4_000  # 250 Hz
 # Priorities when the demand is infeasible, as PX4's allocation has them: roll and pitch first (1 N m of
@@ -144,6 +141,11 @@ class FlightController:
     def mode_switches(self) -> int:
         """The flying velocity controller's phase changes."""
         return self.velocity_controller.mode_switches
+
+    @property
+    def attitude_gains(self) -> AttitudeGains:
+        """The attitude loop's gains flown now."""
+        return self.attitude.gains
 
     def set_velocity_setpoint(self, velocity_ned: np.ndarray) -> bool:
         """Accept a NED velocity set-point (m/s); a non-finite one is refused (False) and the last one kept."""

@@ -1,4 +1,4 @@
-"""PX4-style mode-switching PID velocity controller for the tilt-rotor (docs/autopilot.md 4): the paper's baseline.
+"""PX4-style mode-switching PID velocity controller for the tilt-rotor (docs/autopilot.md): the paper's baseline.
 
 Phases, as PX4's standard VTOL logic runs them for a tiltrotor, one method each as in PX4's vtol_type (update_phase
 switches between them):

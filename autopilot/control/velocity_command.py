@@ -16,7 +16,7 @@ def has_course(v_sp_north: float | np.ndarray, v_sp_east: float | np.ndarray) ->
 
 
 def setpoint_course(v_sp_north: float, v_sp_east: float) -> float | None:
-    """The course (rad) both velocity controllers point the nose along (docs/mpc.md 1.7: psi_ref), or None when the
+    """The course (rad) both velocity controllers point the nose along (docs/mpc.md, the yaw reference: psi_ref), or None when the
     horizontal set-point is too slow to have one (then the controller keeps its yaw)."""
     if not has_course(v_sp_north, v_sp_east):
         return None
@@ -85,7 +85,7 @@ def course_rate(v_sp: np.ndarray, rate: np.ndarray) -> float:
 
 @dataclass
 class VelocityCommand:
-    """Outer-loop output, refreshed at 100 Hz (docs/autopilot.md 1.2).
+    """Outer-loop output, refreshed at 100 Hz (docs/autopilot.md).
 
     euler_sp: attitude set-point (roll, pitch, yaw) in rad for the attitude loop.
     tilt_sp: tilt servo set-points chi_1..4 in rad, sent straight to the servos (not allocated).

@@ -3,7 +3,7 @@
 HIL_STATE_QUATERNION carries the velocity in whole cm/s; the MPC answered that +-5 mm/s quantisation with white
 noise on its attitude and force set-points (0.1 deg, 0.5 N per 10 ms tick), which the attitude loop
 (K_p K_att I ~ 100 N m/rad) and the allocation (roll authority ~3 N m per unit command in cruise) turned into
-actuator chatter (docs/autopilot.md 1.6). An accelerometer-aided complementary filter, as PX4's estimator blends
+actuator chatter (docs/autopilot.md). An accelerometer-aided complementary filter, as PX4's estimator blends
 the IMU into velocity, removes it without lag.
 """
 

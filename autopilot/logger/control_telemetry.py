@@ -3,8 +3,8 @@
 
 In lockstep faster than real time the samples are gathered, up to BATCH_SAMPLES a payload, one JSON object a
 line: every put wakes zenoh's threads here and in each subscriber, and on a machine whose cores the lockstep pair
-already keeps busy those wake-ups, not the bytes, were most of what a recorded flight's telemetry cost
-(docs/performance.md). Paced to the wall clock at real time, each sample goes out on its own, as it is made.
+already keeps busy those wake-ups, not the bytes, were most of what a recorded flight's telemetry cost.
+Paced to the wall clock at real time, each sample goes out on its own, as it is made.
 """
 
 from __future__ import annotations

@@ -115,6 +115,11 @@ class CommandService:
             M.MAV_CMD_ACTUATOR_TEST: lambda origin, p, frame: self._parsed(actuator_test(p)),
         }
 
+    @property
+    def handled_commands(self) -> tuple[int, ...]:
+        """The MAV_CMD ids this service carries out (its dispatch table)."""
+        return tuple(self._commands)
+
     # ---- messages ---------------------------------------------------------------------------------------------
     def on_command_long(self, link: GroundLink, message: Any) -> None:
         if not for_us(self.system_id, message.target_system, message.target_component):

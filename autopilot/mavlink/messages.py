@@ -9,9 +9,12 @@ from collections.abc import Callable
 from typing import Any
 
 from aircraft.failures import FailureUnit, failed_sensors
+from autopilot.mavlink.component_metadata import MAVLINK_MSG_ID_COMPONENT_METADATA, component_metadata
 from autopilot.topics.battery import BatteryStatus, BatteryWarning
 from autopilot.topics.flight_mode import PX4_AUTO_MISSION, PX4_MAIN_AUTO
 from autopilot.topics.home_position import HomePosition
+from autopilot.topics.software_version import CUSTOM_VERSION as CUSTOM_VERSION_TAG
+from autopilot.topics.software_version import PX4_RELEASE
 from autopilot.topics.vehicle_status import VehicleStatus
 from transport.mavlink import mavlink as M
 
@@ -37,10 +40,12 @@ CAPABILITIES = (
     # without MISSION_INT)
     | M.MAV_PROTOCOL_CAPABILITY_MISSION_INT | M.MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
     | M.MAV_PROTOCOL_CAPABILITY_MISSION_RALLY
+    # MAVLink FTP: the vehicle's files and its component metadata (docs/logs.md)
+    | M.MAV_PROTOCOL_CAPABILITY_FTP
 )  # fmt: skip
 # The PX4 protocol level this vehicle behaves like (QGroundControl checks it); ours is in flight_custom_version.
-PX4_VERSION = (1 << 24) | (15 << 16) | (0 << 8) | 255  # 1.15.0 release
-CUSTOM_VERSION = list(b"trsitl01")
+PX4_VERSION = PX4_RELEASE  # 1.15.0 release
+CUSTOM_VERSION = list(CUSTOM_VERSION_TAG)
 CHARGE_STATES = {BatteryWarning.NONE: M.MAV_BATTERY_CHARGE_STATE_OK, BatteryWarning.LOW: M.MAV_BATTERY_CHARGE_STATE_LOW,
                  BatteryWarning.CRITICAL: M.MAV_BATTERY_CHARGE_STATE_CRITICAL,
                  BatteryWarning.EMERGENCY: M.MAV_BATTERY_CHARGE_STATE_EMERGENCY}  # fmt: skip
@@ -183,6 +188,7 @@ BUILDERS: dict[int, Callable[[Any, VehicleStatus], Any]] = {
     M.MAVLINK_MSG_ID_AUTOPILOT_VERSION: lambda mav, status: autopilot_version(mav),
     M.MAVLINK_MSG_ID_MISSION_CURRENT: mission_current,
     M.MAVLINK_MSG_ID_HOME_POSITION: lambda mav, status: home_position(mav, status.home, status.time_usec),
+    MAVLINK_MSG_ID_COMPONENT_METADATA: component_metadata,
 }
 
 

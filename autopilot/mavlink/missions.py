@@ -1,4 +1,4 @@
-"""The mission protocol as PX4 serves it (docs/mavlink.md, "Missions"), for the mission, geofence and rally lists.
+"""The mission protocol as PX4 serves it (docs/missions.md), for the mission, geofence and rally lists.
 
 Uploads and downloads run one at a time (mission_transfer.py holds their state); a complete, checked upload
 becomes a `StoreMission` request to the flight stack, which keeps the lists (autopilot/storage/mission_store.py). The

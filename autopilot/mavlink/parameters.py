@@ -13,7 +13,8 @@ from autopilot.storage.parameters import MAV_TYPE_OF, ParameterRejected, Paramet
 from transport.mavlink import mavlink as M
 
 TAKES_EFFECT_LATER = {"MAV_SYS_ID": "from the next start",
-                      "VT_CTRL": "from the next start or takeoff from the ground"}  # fmt: skip
+                      "VT_CTRL": "from the next start or takeoff from the ground",
+                      "SDLOG_MODE": "from the next start"}  # fmt: skip
 
 
 class ParameterService:

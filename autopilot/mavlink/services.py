@@ -20,6 +20,9 @@ from typing import Any
 
 from autopilot.mavlink import messages
 from autopilot.mavlink.commands import CommandService
+from autopilot.mavlink.ftp import FtpService
+from autopilot.mavlink.ftp_protocol import FileRoot
+from autopilot.mavlink.log_download import LogDownloadService
 from autopilot.mavlink.manual_control import ManualControlService
 from autopilot.mavlink.missions import MissionService
 from autopilot.mavlink.offboard import OffboardService
@@ -27,9 +30,10 @@ from autopilot.mavlink.offboard_attitude import OffboardAttitudeService
 from autopilot.mavlink.parameters import ParameterService
 from autopilot.mavlink.router import GroundLink, Router
 from autopilot.mavlink.signing import SigningService
-from autopilot.mavlink.statustext import Announcer
+from autopilot.mavlink.statustext import Announcer, StatustextSink
 from autopilot.mavlink.view import StatusView
 from autopilot.storage.parameters import ParameterStore
+from autopilot.storage.vehicle_files import VehicleFiles
 from autopilot.topics.flight_mode import ModeId
 from autopilot.topics.home_position import HomePosition
 from autopilot.topics.missions import Missions
@@ -49,14 +53,17 @@ Handler = Callable[[GroundLink, Any], None]
 class MavlinkServices:
     def __init__(self, router: Router, params: ParameterStore, flight_stack: RequestHandler, *, system_id: int,
                  home: Home, missions: Missions, modes: tuple[ModeId, ...], events_publisher: Any | None = None,
-                 quiet: bool = False) -> None:  # fmt: skip
+                 quiet: bool = False, files: FileRoot | None = None, logs: VehicleFiles | None = None,
+                 statustext_sink: StatustextSink | None = None) -> None:  # fmt: skip
         """missions: the stored lists as loaded from the mission file at start (served until the first publish);
-        modes: the vehicle's flight modes (the navigator's table), which ground stations may choose."""
+        modes: the vehicle's flight modes (the navigator's table), which ground stations may choose; files: what
+        MAVLink FTP serves (None: FTP is not answered); logs: the ULogs log download lists (None: an empty list);
+        statustext_sink: told every STATUSTEXT said (the logger)."""
         self.router = router
         self.flight_stack = flight_stack
         self.view = StatusView(loaded_missions=missions)
         self._announced_home: HomePosition | None = None
-        self.announcer = Announcer(router, self.view.clock, events_publisher, quiet)
+        self.announcer = Announcer(router, self.view.clock, events_publisher, quiet, statustext_sink)
         self.commands = CommandService(
             flight_stack, self.view, self.announcer, system_id=system_id, home=home, modes=modes
         )
@@ -66,6 +73,8 @@ class MavlinkServices:
         self.parameters = ParameterService(params, router, self.announcer, system_id=system_id)
         self.missions = MissionService(flight_stack, self.view, router, self.announcer, system_id=system_id)
         self.signing = SigningService(params, router, self.announcer, system_id=system_id)
+        self.ftp = None if files is None else FtpService(files, system_id=system_id)
+        self.log_download = None if logs is None else LogDownloadService(logs, system_id=system_id)
         self.holds = 0  # --offboard-lockstep: steps held for set-points, and the wall time spent holding
         self.hold_wall_s = 0.0
         self._heartbeat_version = 0
@@ -94,6 +103,25 @@ class MavlinkServices:
             "TIMESYNC": self._on_timesync,
             "SETUP_SIGNING": self.signing.on_setup_signing,
         }
+        if self.ftp is not None:
+            self._handlers["FILE_TRANSFER_PROTOCOL"] = self.ftp.on_file_transfer_protocol
+        if self.log_download is not None:
+            self._handlers |= {
+                "LOG_REQUEST_LIST": self.log_download.on_request_list,
+                "LOG_REQUEST_DATA": self.log_download.on_request_data,
+                "LOG_REQUEST_END": self.log_download.on_request_end,
+                "LOG_ERASE": self.log_download.on_erase,
+            }
+
+    @property
+    def handled_messages(self) -> tuple[str, ...]:
+        """The names of the messages the services take (the dispatch table); any other is counted and ignored."""
+        return tuple(self._handlers)
+
+    @property
+    def handled_commands(self) -> tuple[int, ...]:
+        """The MAV_CMD ids that COMMAND_LONG and COMMAND_INT take; any other is answered UNSUPPORTED."""
+        return self.commands.handled_commands
 
     # ---- per step ---------------------------------------------------------------------------------------------
     def receive(self, now_usec: int, wait_ms: int = 0, budget_s: float = INPUT_BUDGET_S) -> bool:
@@ -107,6 +135,10 @@ class MavlinkServices:
                 for data, sender in link.receive(deadline):
                     self._datagram(link, data, sender)
         self.missions.tick()
+        if self.ftp is not None:
+            self.ftp.send()
+        if self.log_download is not None:
+            self.log_download.send()
         return bool(ready)
 
     def publish(self, status: VehicleStatus) -> None:
@@ -221,7 +253,12 @@ class MavlinkServices:
                 "lockstep_hold_wall_s": round(self.hold_wall_s, 3),
             }
             | self.signing.summary()
+            | ({} if self.ftp is None else {"ftp": self.ftp.summary()})
         )
 
     def close(self) -> None:
+        if self.ftp is not None:
+            self.ftp.close()
+        if self.log_download is not None:
+            self.log_download.close()
         self.router.close()

@@ -21,10 +21,16 @@ CHUNK_BYTES = 50
 MAX_CHUNKS = 20
 
 
+StatustextSink = Callable[[int, int, str], None]  # (simulation time us, MAV_SEVERITY, text)
+
+
 class Announcer:
-    def __init__(self, router: Router, clock: Callable[[], int], events_publisher: Any | None, quiet: bool) -> None:
-        """clock: the simulation time (us); events_publisher: zenoh's vtol/<sysid>/autopilot/events (None: none)."""
+    def __init__(self, router: Router, clock: Callable[[], int], events_publisher: Any | None, quiet: bool,
+                 sink: StatustextSink | None = None) -> None:  # fmt: skip
+        """clock: the simulation time (us); events_publisher: zenoh's vtol/<sysid>/autopilot/events (None: none);
+        sink: told every text said (the logger's logged messages)."""
         self.router = router
+        self.sink = sink
         self.clock = clock
         self.events_publisher = events_publisher
         self.quiet = quiet
@@ -49,6 +55,8 @@ class Announcer:
                 link.queue(link.mav.statustext_encode(severity, chunk, text_id, sequence))
         if self.events_publisher is not None:
             self.events_publisher.put(encode_event(self.clock() / 1e6, "statustext", text, severity=severity))
+        if self.sink is not None:
+            self.sink(self.clock(), severity, text)
 
     def _may_say(self, key: str) -> bool:
         now = self.clock()

@@ -51,7 +51,7 @@ from autopilot.storage.parameters import ParameterStore
 from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.yaw_setpoint import YawReference
 
-DEFAULT_HORIZON = PAPER  # the stages' lengths and the weights that go with them (docs/mpc.md 2.9)
+DEFAULT_HORIZON = PAPER  # the stages' lengths and their weights (docs/design/alternatives.md, the long horizon)
 MAX_FAILURES = 3
 LEVENBERG = 0.1  # Marquardt damping of each RTI step (mpc.py)
 WARM_UP_ITERATIONS = 10  # RTI iterations at the first state, so the first plan is converged
@@ -121,7 +121,7 @@ class MpcVelocityController:
         return self.solver.predict_tick(x, u)
 
     def _bounds_from_health(self) -> None:
-        """What the allocator and the servo estimate know of failures, as the MPC's bounds (docs/mpc.md 3.5)."""
+        """What the allocator and the servo estimate know of failures, as the MPC's bounds (docs/mpc.md, the solver, failures)."""
         a, allocator = self.airframe, self.allocator
         working = allocator.effectiveness[ALLOCATED_ROTORS] > 0
         planned_max = np.minimum(a.thrust_planned_max, allocator.upper[ALLOCATED_ROTORS] * a.thrust_max)
@@ -158,7 +158,7 @@ class MpcVelocityController:
 
     def start(self, state: VehicleState, v_sp: np.ndarray, tilts: np.ndarray,
               yaw_ref: YawReference | None = None) -> None:  # fmt: skip
-        """`update` in two halves: the solve runs on the solver's worker thread until `finish` (mpc_overlap.py)."""
+        """`update` in two halves: the solve runs on the solver's worker thread until `finish` (mpc/overlap.py)."""
         self.solver.start(self._prepare(state, v_sp, tilts, yaw_ref), self.params)
 
     def finish(self) -> VelocityCommand:

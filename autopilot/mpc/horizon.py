@@ -1,4 +1,4 @@
-"""The MPC's horizon (docs/mpc.md 2.9): how long each stage is, and the velocity set-point laid along it.
+"""The MPC's horizon (docs/design/alternatives.md, the long horizon): how long each stage is, and the velocity set-point laid along it.
 
 Every stage lasts a whole number of fine steps (the controller's 10 ms tick), so the grid's node times are exact
 multiples of the tick and the warm start can be moved on by one tick by interpolation (`shift_sources`). The
@@ -121,6 +121,6 @@ def extrapolate_setpoint(
 
 
 PAPER = MpcHorizon("paper", StageGrid.uniform(25))
-# 10 stages of 10 ms, then 15 of 130 ms: 2.05 s. See docs/mpc.md 2.9 for the variants measured.
+# 10 stages of 10 ms, then 15 of 130 ms: 2.05 s. See docs/design/alternatives.md, the long horizon for the variants measured.
 LONG = MpcHorizon("long", StageGrid((1,) * 10 + (13,) * 15), gauss_newton_steps=2, turning_setpoint=True)
 HORIZONS = {h.name: h for h in (PAPER, LONG)}

@@ -4,7 +4,7 @@ autopilot/mpc/rti.c evaluates the CasADi-generated stage functions, writes each 
 structures and runs HPIPM's interior-point method; this module builds it (with aircraft/codegen.py's cache,
 linked against the HPIPM and BLASFEO that the casadi wheel ships) and calls it through ctypes, which releases the
 GIL during the call: `solve` (one QP), `iterate` (a tick's Gauss-Newton steps), and `start` / `finish` (the same
-steps on the C object's worker thread, docs/mpc.md 3.9). Building returns None where there is no C compiler; the
+steps on the C object's worker thread, docs/mpc.md, options). Building returns None where there is no C compiler; the
 caller then uses CasADi's `conic`.
 """
 

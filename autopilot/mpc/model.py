@@ -1,4 +1,4 @@
-"""The unified velocity MPC's optimal control problem (paper section "Model Predictive Control"; docs/mpc.md 1).
+"""The unified velocity MPC's optimal control problem (paper section "Model Predictive Control"; docs/mpc.md).
 
 State x (16):  v (NED, m/s) | tilts chi_1..4 (rad) | Psi = (roll, pitch, yaw) | Psi_dot | Psi_dot_prev
 Input u (11):  tilt rates chi_dot_1..4 (rad/s) | thrusts T_1..4 (N) | attitude set-point Psi_d (rad)
@@ -12,7 +12,7 @@ Cost per stage (paper eq. for J and Table 2): |v - v_sp,k|^2_Qref + |(phi - phi_
        (exp(s / 2))^2.
 No flight-mode logic anywhere: the soft tilt cost alone keeps the rotors up at low speed.
 The per-stage references (v_sp,k along the set-point's trajectory, and the coordinated-turn phi_ref,
-psi_rate_ref, psi_d_ref) come from the controller (mpc_controller, docs/mpc.md 2.5); for a constant set-point
+psi_rate_ref, psi_d_ref) come from the controller (mpc/controller.py, docs/mpc.md, deviation 7); for a constant set-point
 they are the paper's (v_sp, 0, 0, psi_ref).
 
 Deviation (docs/mpc.md): the paper weighs the thrust itself, 0.025 T^2 (T in N). Measured with this plant:
@@ -26,7 +26,7 @@ So the weight acts on what the wing should take over: each rotor's lifting compo
 T_ref(V); a small weight on T itself keeps the least-effort preference. No mode switch: e(V) is the shared
 model's smooth effectiveness.
 
-Deviation (docs/mpc.md 2.8): the roll and pitch bound |phi|, |theta| <= pi/4 is soft, a smooth penalty in every
+Deviation (docs/mpc.md, deviation 6): the roll and pitch bound |phi|, |theta| <= pi/4 is soft, a smooth penalty in every
 stage and at the end, not the paper's hard state bound: with x_0 fixed, a pitch already moving past the bound
 faster than the attitude loop can stop it made every QP infeasible (accel-decel, 22.3 s: 3 failed solves, PID).
 """
@@ -53,7 +53,7 @@ CHI_DOT, THRUST, PSI_D = slice(0, 4), slice(4, 8), slice(8, 11)
 ROLL_PITCH_D, PSI_D_INDEX = slice(8, 10), 10  # within PSI_D
 # Parameters per stage: v_sp (3), psi_ref, free_tilt (4: 1 for a working servo, 0 for a stuck one; the MPC's own
 # layout, not the actuators'), and the rest of the set-point trajectory's coordinated-turn attitude: phi_ref,
-# psi_rate_ref, psi_d_ref (docs/mpc.md 2.5); and the stage's place on the time grid (docs/mpc.md 2.9): its length dt
+# psi_rate_ref, psi_d_ref (docs/mpc.md, deviation 7); and the stage's place on the time grid (docs/design/alternatives.md, the long horizon): its length dt
 # (s) and rate_held (1: Psi_dot_prev is the previous stage's rate, held over this one, as in the paper's 10 ms
 # stages; 0: a long stage, on which the delayed rate is taken in its continuous-time form); the attitude loop's gains
 # (autopilot/control/attitude.py, its GAIN_COUNT-vector); the roll and pitch set-point flown at the previous tick and
@@ -81,7 +81,7 @@ REFERENCE_STAGE_S = 0.01
 
 @dataclass(frozen=True)
 class MpcWeights:
-    """Paper Table 2 (docs/mpc.md 1.5), q_ref ... r_psi_d: stage parameters (VT_MPC_*); the others shape the problem
+    """Paper Table 2 (docs/mpc.md, the cost), q_ref ... r_psi_d: stage parameters (VT_MPC_*); the others shape the problem
     (a weight of 0 removes its term) and are built in."""
 
     q_ref: tuple[float, float, float] = (20.0, 10.0, 50.0)
@@ -92,20 +92,20 @@ class MpcWeights:
     r_rotor_lift: float = 0.25  # per N^2, on each rotor's lifting component beyond T_ref(V)
     r_tilt_rate: float = 1.0
     r_psi_d: tuple[float, float, float] = (10.0, 20.0, 10.0)
-    # The roll and pitch bound |phi|, |theta| <= MpcLimits.attitude as a soft constraint (docs/mpc.md 2.8): a
+    # The roll and pitch bound |phi|, |theta| <= MpcLimits.attitude as a soft constraint (docs/mpc.md, deviation 6): a
     # penalty q (width softplus((|angle| - bound) / width))^2, q per rad^2, in every stage and at the end. q = 0
     # makes it the paper's hard state bound again.
     q_attitude_bound: float = 1e6
     attitude_bound_width: float = math.radians(3.0)
-    # Each working servo's tilt away from the working servos' mean, per rad^2 (docs/mpc.md 2.9); 0 leaves the four
+    # Each working servo's tilt away from the working servos' mean, per rad^2 (docs/design/alternatives.md, the long horizon); 0 leaves the four
     # tilts independent, as the paper does.
     q_tilt_spread: float = 0.0
     # The yaw's error from its reference bounded softly in every stage (not at the end), |psi - psi_ref| <=
-    # yaw_bound (rad), q per rad^2, the roll and pitch bound's width (docs/mpc.md 2.9); q = 0: no bound, as the paper.
+    # yaw_bound (rad), q per rad^2, the roll and pitch bound's width (docs/design/alternatives.md, the long horizon); q = 0: no bound, as the paper.
     q_yaw_bound: float = 0.0
     yaw_bound: float = math.radians(15.0)
     # The first stage's roll and pitch set-point away from the one flown at the previous tick, per rad^2 (move
-    # suppression, docs/mpc.md 2.9); 0: none, as the paper.
+    # suppression, docs/design/alternatives.md, the long horizon); 0: none, as the paper.
     q_attitude_sp_move: float = 0.0
     # Each stage's cost weighed by its length over REFERENCE_STAGE_S (the same integral on any grid), or each stage
     # alike (as the paper's uniform stages are).
@@ -128,7 +128,7 @@ class MpcWeights:
 class SoftTiltCost:
     """J_soft = exp(a v_B chi + b chi + c v_B + d), chi = mean tilt in degrees, v_B forward body speed (m/s).
 
-    The authors' final constants (docs/mpc.md 1.6); the paper's stated ones contradict its own table. The exponent is
+    The authors' final constants (docs/mpc.md, the cost); the paper's stated ones contradict its own table. The exponent is
     capped so the solver stays well conditioned.
     """
 
@@ -148,7 +148,7 @@ class SoftTiltCost:
 
 @dataclass(frozen=True)
 class MpcLimits:
-    """Constraints (paper eq. for the constraints; docs/mpc.md 1.4)."""
+    """Constraints (paper eq. for the constraints; docs/mpc.md, constraints)."""
 
     attitude: tuple[float, float] = (math.pi / 4, math.pi / 4)  # |phi|, |theta|
     attitude_sp: tuple[float, float] = (math.pi / 3, math.pi / 3)  # |phi_d|, |theta_d|
@@ -164,7 +164,7 @@ def continuous_dynamics(airframe: Airframe, gains: ca.SX, x: ca.SX, u: ca.SX, ra
     rate_held 1: Psi_dot_prev is held over the interval (the paper's 10 ms stages); 0: the delayed rate in continuous
     time, Psi_dot_prev = Psi_dot(t - tau) ~ Psi_dot - tau Psi_ddot with tau = REFERENCE_STAGE_S, so that
     K_d (Psi_dot_prev - Psi_dot) = -K_d tau Psi_ddot: on a stage many ticks long a held rate would be that many ticks
-    old (docs/mpc.md 2.9)."""
+    old (docs/design/alternatives.md, the long horizon)."""
     euler = x[PSI]
     rotation = rotation_from_euler(euler)
     v_air_body = rotation.T @ x[V]
@@ -213,8 +213,8 @@ def soft_bound(q: float, width: float, excess: ca.SX) -> ca.SX:
 
 
 def attitude_bound_residual(weights: MpcWeights, x: ca.SX, bound: ca.SX) -> ca.SX:
-    """The soft roll and pitch bound |angle| <= bound (rad, the stage parameters P_ATTITUDE_BOUND; docs/mpc.md
-    2.8)."""
+    """The soft roll and pitch bound |angle| <= bound (rad, the stage parameters P_ATTITUDE_BOUND; docs/mpc.md,
+    deviation 6)."""
     if weights.q_attitude_bound <= 0:
         return ca.SX.zeros(0)
     angles = x[ROLL_PITCH]
@@ -224,7 +224,7 @@ def attitude_bound_residual(weights: MpcWeights, x: ca.SX, bound: ca.SX) -> ca.S
 
 def yaw_bound_residual(weights: MpcWeights, x: ca.SX, psi_ref: ca.SX) -> ca.SX:
     """The soft bound |psi - psi_ref| <= yaw_bound: on a 2 s horizon the cheapest braking at speed was to yaw the
-    aircraft across its course and brake on the fuselage's side force (docs/mpc.md 2.9)."""
+    aircraft across its course and brake on the fuselage's side force (docs/design/alternatives.md, the long horizon)."""
     if weights.q_yaw_bound <= 0:
         return ca.SX.zeros(0)
     error = wrap_angle(x[PSI_INDEX] - psi_ref)
@@ -235,7 +235,7 @@ def yaw_bound_residual(weights: MpcWeights, x: ca.SX, psi_ref: ca.SX) -> ca.SX:
 def tilt_spread_residual(weights: MpcWeights, x: ca.SX, free_tilt: ca.SX) -> ca.SX:
     """sqrt(q) (chi_i - mean chi) for each working servo: the model plans force alone, and a tilt split between the
     left and right rotors is a yaw moment it does not see (on a long horizon its plans split them and spun the
-    aircraft up, docs/mpc.md 2.9). A stuck servo is not counted."""
+    aircraft up, docs/design/alternatives.md, the long horizon). A stuck servo is not counted."""
     if weights.q_tilt_spread <= 0:
         return ca.SX.zeros(0)
     mean = ca.dot(free_tilt, x[CHI]) / ca.fmax(ca.sum1(free_tilt), 1)
@@ -298,5 +298,5 @@ def angle_chain(start: float, angles: np.ndarray, valid: np.ndarray) -> np.ndarr
 def yaw_references(v_sp: np.ndarray, yaw_now: float) -> np.ndarray:
     """psi_ref at each stage of the set-point v_sp (3, T): its course where it has one
     (autopilot.control.velocity_command.setpoint_course), else the stage before's, the current yaw before the first
-    (docs/mpc.md 1.7)."""
+    (docs/mpc.md, the yaw reference)."""
     return angle_chain(yaw_now, np.arctan2(v_sp[1], v_sp[0]), has_course(v_sp[0], v_sp[1]))

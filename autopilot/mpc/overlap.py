@@ -1,4 +1,4 @@
-"""The MPC's solve overlapped with the plant's steps: a fixed one-tick computation delay (docs/mpc.md 3.9).
+"""The MPC's solve overlapped with the plant's steps: a fixed one-tick computation delay (docs/mpc.md, options).
 
 The paper solves at tick k from the state measured at tick k and applies the plan at once, as if the solve took
 no time. Here the solve of tick k+1 runs on the solver's worker thread (on the second core) while the autopilot
@@ -36,7 +36,7 @@ from autopilot.topics.yaw_setpoint import YawReference
 
 
 def body_rates(euler: np.ndarray, rates: np.ndarray) -> np.ndarray:
-    """omega = E(Psi) Psi_dot for ZYX Euler angles: the inverse of mpc_controller.euler_rates."""
+    """omega = E(Psi) Psi_dot for ZYX Euler angles: the inverse of control.attitude.euler_rates."""
     sf, cf = math.sin(euler[0]), math.cos(euler[0])
     st, ct = math.sin(euler[1]), math.cos(euler[1])
     roll_rate, pitch_rate, yaw_rate = rates
@@ -130,7 +130,7 @@ class OverlappedMpc:
         self.mpc.health_changed(allocator, servos)
 
     def statistics(self) -> dict:
-        """The MPC's solver metrics (mpc_controller), the solve in flight included (waited for: its command is held
+        """The MPC's solver metrics (mpc/controller.py), the solve in flight included (waited for: its command is held
         for its tick, but the MPC's last solution and failure counts are that solve's from now on)."""
         if self._in_flight:
             self._held = self._finish()

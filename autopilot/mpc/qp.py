@@ -1,4 +1,4 @@
-"""The QP of one real-time iteration of the unified MPC (docs/mpc.md 3), as CasADi functions.
+"""The QP of one real-time iteration of the unified MPC (docs/mpc.md), as CasADi functions.
 
 `stage_functions` gives the per-stage blocks (RK4 gap and its Jacobians, Gauss-Newton Hessian J^T J and gradient
 J^T r, cost) that both QP back-ends use: the C driver (autopilot/mpc/rti.c) writes them into HPIPM's
@@ -112,7 +112,7 @@ def build_qp_functions(functions: StageFunctions, horizon: int, limits: MpcLimit
     lbx = lbw - w
     ubx = ubw - w
     # The initial state is not free: its step is fixed to reach the measurement (dx0 = x0 - w0; a free dx0
-    # tracks wrongly, docs/performance.md).
+    # tracks wrongly, docs/design/solver.md).
     dx0 = x0 - w[0:NX]
     lbx = ca.vertcat(dx0, lbx[NX:])
     ubx = ca.vertcat(dx0, ubx[NX:])

@@ -1,5 +1,5 @@
 """The MPC's NLP solved the paper's way, by IPOPT to convergence: the reference the real-time iteration is checked
-against (tests/test_mpc.py's agreement test) and the benchmark's "paper's way" figures (docs/mpc.md 3.7)."""
+against (tests/test_mpc.py's agreement test) and the benchmark's "paper's way" figures (docs/mpc.md, the solver)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
-"""Real-time iteration (RTI) solver of the unified velocity MPC (docs/mpc.md 3), built once at start-up.
+"""Real-time iteration (RTI) solver of the unified velocity MPC (docs/mpc.md), built once at start-up.
 
-The paper rebuilt and solved the NLP with IPOPT at every call (~23 ms here, docs/performance.md). This is the
+The paper rebuilt and solved the NLP with IPOPT at every call (~23 ms here, docs/design/solver.md). This is the
 standard real-time NMPC instead: one Gauss-Newton SQP iteration per control step, warm started from the
 shifted previous plan, with the QP data (RK4 gaps and their Jacobians, Gauss-Newton Hessian blocks J^T J and
 gradients J^T r) from CasADi functions compiled to C, and the structured QP solved by HPIPM: by default in one
@@ -215,7 +215,7 @@ class RtiSolver:
         x_ub = np.full(NX, np.inf)
         x_lb[V], x_ub[V] = -np.array(lim.velocity), lim.velocity
         x_lb[CHI], x_ub[CHI] = a.tilt_min, a.tilt_max
-        if self.weights.q_attitude_bound <= 0:  # else the roll and pitch bound is soft, in the cost (docs/mpc.md 2.8)
+        if self.weights.q_attitude_bound <= 0:  # else the roll and pitch bound is soft (docs/mpc.md, deviation 6)
             x_lb[ROLL_PITCH], x_ub[ROLL_PITCH] = -np.array(lim.attitude), lim.attitude
         x_lb[PSI_DOT], x_ub[PSI_DOT] = -lim.rate, lim.rate
         u_lb = np.full(NU, -np.inf)
@@ -236,7 +236,7 @@ class RtiSolver:
         thrust_min: np.ndarray | None = None,
         tilt_rate_scale: np.ndarray | None = None,
     ) -> None:
-        """Failure awareness (docs/mpc.md 3.5): per-rotor thrust ceilings and floors (N; a stuck motor has both at its
+        """Failure awareness (docs/mpc.md, the solver, failures): per-rotor thrust ceilings and floors (N; a stuck motor has both at its
         thrust), stuck tilts (rad, NaN = free) and per-servo tilt-rate fractions (a slowed servo)."""
         thrust_min = np.zeros(4) if thrust_min is None else thrust_min
         tilt_rate_scale = np.ones(4) if tilt_rate_scale is None else tilt_rate_scale
@@ -342,7 +342,7 @@ class RtiSolver:
         return MpcSolution(ok, status, elapsed, qp_iterations, self.states(), self.inputs(), cost)
 
     def start(self, x0: np.ndarray, params: np.ndarray) -> None:
-        """`solve` on the C back-end's worker thread (docs/mpc.md 3.9): returns at once, `finish` waits for it and
+        """`solve` on the C back-end's worker thread (docs/mpc.md, options): returns at once, `finish` waits for it and
         gives the solution; meanwhile the plan (`w`, `states()`) is the guess it started from. Without the C back-end
         the solve runs here, now."""
         if self.fast is None:

@@ -1,4 +1,4 @@
-"""MANUAL_CONTROL as PX4 takes it from a ground station's virtual joystick (docs/mavlink.md "Manual control"): the
+"""MANUAL_CONTROL as PX4 takes it from a ground station's virtual joystick (docs/mavlink.md, "Modes"): the
 latest sticks and when they came, for Position and Altitude (navigator/modes/sticks.py) and the COM_RC_LOSS_T
 failsafe.
 

@@ -1,4 +1,4 @@
-"""AUTO.MISSION and AUTO.RTL as routes (docs/mavlink.md, "Mission" and "Return"): the stored mission stepped
+"""AUTO.MISSION and AUTO.RTL as routes (docs/missions.md and "Return"): the stored mission stepped
 through item by item, each navigation item turned into targets for AutoFlight (autopilot/navigator/auto_flight.py), the
 progress reported to the mission store (MISSION_CURRENT, MISSION_ITEM_REACHED).
 
@@ -37,7 +37,7 @@ landing items.
 
 A mission with a DO_VTOL_TRANSITION item flies as PX4 flies it: in multicopter until the item to fixed wing,
 back to multicopter at the item to MC (so the PID back-transitions before its landing). A mission without one
-chooses each leg's speed by its length: the unified MPC transitions by itself (docs/mavlink.md, "Mission").
+chooses each leg's speed by its length: the unified MPC transitions by itself (docs/missions.md).
 
 A yaw (param4, degrees; NaN: the velocity controllers' own rule, the nose along the leg) is the item's targets' yaw
 set-point (autopilot/navigator/auto_flight.py: a waypoint with one is reached once the heading is within MIS_YAW_ERR, or

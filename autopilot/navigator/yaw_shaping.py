@@ -1,4 +1,4 @@
-"""Yaw set-points shaped for the velocity controllers (docs/autopilot.md section 6), while the vehicle flies as a
+"""Yaw set-points shaped for the velocity controllers (docs/mavlink.md, Yaw), while the vehicle flies as a
 multicopter.
 
     StickYaw       the yaw stick -> set-point: a rate while it is out, then the heading locked where the nose stopped

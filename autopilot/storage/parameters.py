@@ -46,6 +46,9 @@ class ParameterDefinition:
     unit: str
     description: str
     px4: bool = True  # False: this project's own parameter (PX4 has no such one)
+    reboot_required: bool = False  # takes effect at the next start (the parameter metadata's rebootRequired)
+    px4_default: float | None = None  # PX4's default where it differs from ours (None: the same, or not PX4's)
+    px4_unit: str | None = None  # PX4's unit where ours differs (px4_default is in it): the same name, another law
     plant: bool = False  # True: the plant keeps it (the wind); shown and set here, never in the parameter file
 
 
@@ -82,7 +85,7 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         1,
         "",
         "the MPC's horizon: 0 the paper's 25 stages of 10 ms, 1 the long one "
-        "(2.05 s, docs/mpc.md 2.9) (at the next start or takeoff from the ground; --mpc-horizon overrides at start)",
+        "(2.05 s, experimental) (at the next start or takeoff from the ground; --mpc-horizon overrides at start)",
         px4=False,
     ),
     P(
@@ -168,8 +171,8 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         5.0,
         360.0,
         "deg/s",
-        "fastest turn to a yaw set-point (Offboard, Mission, "
-        "Go-to, Orbit; PX4's default 45: docs/autopilot.md section 6)",
+        "fastest turn to a yaw set-point (Offboard, Mission, Go-to, Orbit)",
+        px4_default=45.0,
     ),
     P(
         "MIS_YAW_ERR",
@@ -240,11 +243,30 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         10.0,
         "m/s^2",
         "acceleration of the velocity set-points that fly to an Offboard position set-point",
+        px4_default=3.0,
     ),
     P("MPC_XY_P", REAL32, 0.95, 0.0, 2.0, "1/s", "horizontal position gain (Hold, Takeoff, Land, Offboard position)"),
     P("MPC_Z_P", REAL32, 1.0, 0.0, 2.0, "1/s", "vertical position gain (Hold, Takeoff)"),
-    P("VT_ARSP_BLEND", REAL32, 13.5, 5.0, 40.0, "m/s", "PID baseline: airspeed where MC/FW blending starts"),
-    P("VT_ARSP_TRANS", REAL32, 23.0, 5.0, 40.0, "m/s", "PID baseline: airspeed where the transition completes"),
+    P(
+        "VT_ARSP_BLEND",
+        REAL32,
+        13.5,
+        5.0,
+        40.0,
+        "m/s",
+        "PID baseline: airspeed where MC/FW blending starts",
+        px4_default=8.0,
+    ),
+    P(
+        "VT_ARSP_TRANS",
+        REAL32,
+        23.0,
+        5.0,
+        40.0,
+        "m/s",
+        "PID baseline: airspeed where the transition completes",
+        px4_default=10.0,
+    ),
     P(
         "FW_AIRSPD_TRIM",
         REAL32,
@@ -253,6 +275,7 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         30.0,
         "m/s",
         "cruise speed of the fixed-wing Hold (loiter) after a transition to fixed wing",
+        px4_default=15.0,
     ),
     P(
         "NAV_ACC_RAD",
@@ -322,11 +345,40 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         "s",
         "Return: wait this long at RTL_DESCEND_ALT before landing (0: land at once; -1: wait for ever, no landing)",
     ),
-    P("NAV_LOITER_RAD", REAL32, 250.0, 100.0, 2000.0, "m", "radius of the fixed-wing Hold circle"),
+    P("NAV_LOITER_RAD", REAL32, 250.0, 100.0, 2000.0, "m", "radius of the fixed-wing Hold circle", px4_default=80.0),
+    P(
+        "SDLOG_MODE",
+        INT32,
+        0,
+        0,
+        2,
+        "",
+        "logging mode: 0 a ULog from arming to disarming, 1 from the start until the first disarming (then as 0), "
+        "2 from the start until the autopilot stops (at the next start)",
+        reboot_required=True,
+    ),
     # The attitude loop (autopilot/control/attitude.py), both controllers' and the MPC's model of it.
-    P("MC_ROLL_P", REAL32, 6.0, 0.5, 12.0, "1/s", "roll attitude gain: roll error -> roll rate set-point"),
-    P("MC_PITCH_P", REAL32, 6.0, 0.5, 12.0, "1/s", "pitch attitude gain: pitch error -> pitch rate set-point"),
-    P("MC_YAW_P", REAL32, 3.0, 0.5, 5.0, "1/s", "yaw attitude gain: yaw error -> yaw rate set-point"),
+    P(
+        "MC_ROLL_P",
+        REAL32,
+        6.0,
+        0.5,
+        12.0,
+        "1/s",
+        "roll attitude gain: roll error -> roll rate set-point",
+        px4_default=6.5,
+    ),
+    P(
+        "MC_PITCH_P",
+        REAL32,
+        6.0,
+        0.5,
+        12.0,
+        "1/s",
+        "pitch attitude gain: pitch error -> pitch rate set-point",
+        px4_default=6.5,
+    ),
+    P("MC_YAW_P", REAL32, 3.0, 0.5, 5.0, "1/s", "yaw attitude gain: yaw error -> yaw rate set-point", px4_default=2.8),
     P(
         "MC_ROLLRATE_P",
         REAL32,
@@ -336,6 +388,8 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         "1/s",
         "roll rate gain: rate error -> angular acceleration (not PX4's normalised torque: PX4's values, 0.01..0.5, "
         "are refused)",
+        px4_default=0.15,
+        px4_unit="normalised torque per rad/s",
     ),
     P(
         "MC_PITCHRATE_P",
@@ -345,6 +399,8 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         80.0,
         "1/s",
         "pitch rate gain: rate error -> angular acceleration (not PX4's normalised torque)",
+        px4_default=0.15,
+        px4_unit="normalised torque per rad/s",
     ),
     P(
         "MC_YAWRATE_P",
@@ -354,6 +410,8 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         40.0,
         "1/s",
         "yaw rate gain: rate error -> angular acceleration (not PX4's normalised torque)",
+        px4_default=0.2,
+        px4_unit="normalised torque per rad/s",
     ),
     P(
         "MC_ROLLRATE_D",
@@ -363,6 +421,8 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         10.0,
         "",
         "roll rate damping on the rate's change between two attitude ticks (4 ms; PX4's is in seconds)",
+        px4_default=0.003,
+        px4_unit="s",
     ),
     P(
         "MC_PITCHRATE_D",
@@ -372,6 +432,8 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         10.0,
         "",
         "pitch rate damping on the rate's change between two attitude ticks (4 ms; PX4's is in seconds)",
+        px4_default=0.003,
+        px4_unit="s",
     ),
     P(
         "MC_YAWRATE_D",
@@ -381,16 +443,54 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         10.0,
         "",
         "yaw rate damping on the rate's change between two attitude ticks (4 ms; PX4's is in seconds)",
+        px4_default=0.0,
+        px4_unit="s",
     ),
     # The PID baseline (autopilot/control/pid_baseline.py).
     P("MPC_XY_VEL_P_ACC", REAL32, 1.8, 1.2, 5.0, "1/s", "PID baseline: horizontal velocity error -> acceleration"),
     P("MPC_XY_VEL_I_ACC", REAL32, 0.4, 0.0, 60.0, "1/s^2", "PID baseline: horizontal velocity integral gain"),
     P("MPC_Z_VEL_P_ACC", REAL32, 4.0, 2.0, 15.0, "1/s", "PID baseline: vertical velocity error -> acceleration"),
     P("MPC_Z_VEL_I_ACC", REAL32, 2.0, 0.2, 3.0, "1/s^2", "PID baseline: vertical velocity integral gain"),
-    P("MPC_TILTMAX_AIR", REAL32, 35.0, 20.0, 89.0, "deg", "PID baseline: the most a multicopter phase tilts"),
-    P("MPC_ACC_HOR_MAX", REAL32, 6.0, 2.0, 15.0, "m/s^2", "PID baseline: the largest horizontal acceleration"),
-    P("MPC_ACC_UP_MAX", REAL32, 6.0, 1.0, 15.0, "m/s^2", "PID baseline: the largest upward acceleration"),
-    P("MPC_ACC_DOWN_MAX", REAL32, 4.0, 1.0, 15.0, "m/s^2", "PID baseline: the largest downward acceleration"),
+    P(
+        "MPC_TILTMAX_AIR",
+        REAL32,
+        35.0,
+        20.0,
+        89.0,
+        "deg",
+        "PID baseline: the most a multicopter phase tilts",
+        px4_default=45.0,
+    ),
+    P(
+        "MPC_ACC_HOR_MAX",
+        REAL32,
+        6.0,
+        2.0,
+        15.0,
+        "m/s^2",
+        "PID baseline: the largest horizontal acceleration",
+        px4_default=5.0,
+    ),
+    P(
+        "MPC_ACC_UP_MAX",
+        REAL32,
+        6.0,
+        1.0,
+        15.0,
+        "m/s^2",
+        "PID baseline: the largest upward acceleration",
+        px4_default=4.0,
+    ),
+    P(
+        "MPC_ACC_DOWN_MAX",
+        REAL32,
+        4.0,
+        1.0,
+        15.0,
+        "m/s^2",
+        "PID baseline: the largest downward acceleration",
+        px4_default=3.0,
+    ),
     P(
         "MC_YAWRATE_MAX",
         REAL32,
@@ -398,7 +498,8 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         5.0,
         1800.0,
         "deg/s",
-        "PID baseline: the fastest a yaw reference turns the nose (PX4's default 200)",
+        "PID baseline: the fastest a yaw reference turns the nose",
+        px4_default=200.0,
     ),
     P(
         "VT_TILT_TRANS",
@@ -408,6 +509,7 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         1.0,
         "",
         "PID baseline: rotor tilt during the forward transition, 1 = 90 deg",
+        px4_default=0.4,
     ),
     P("VT_B_DEC_MSS", REAL32, 2.0, 0.5, 10.0, "m/s^2", "PID baseline: deceleration of the back transition"),
     P(
@@ -418,9 +520,10 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         40.0,
         "m/s",
         "PID baseline: a set-point slower than this ends fixed-wing flight (back transition)",
+        px4_default=10.0,
     ),
-    P("FW_R_LIM", REAL32, 35.0, 35.0, 70.0, "deg", "PID baseline: the largest fixed-wing bank"),
-    P("FW_P_LIM_MAX", REAL32, 20.0, 0.0, 60.0, "deg", "PID baseline: the largest fixed-wing pitch"),
+    P("FW_R_LIM", REAL32, 35.0, 35.0, 70.0, "deg", "PID baseline: the largest fixed-wing bank", px4_default=50.0),
+    P("FW_P_LIM_MAX", REAL32, 20.0, 0.0, 60.0, "deg", "PID baseline: the largest fixed-wing pitch", px4_default=30.0),
     P(
         "VT_FW_SPD_P",
         REAL32,
@@ -735,12 +838,3 @@ class ParameterStore:
                 raise ParameterFileError(f"{where}: {exc}") from None
         if self.values["VT_ARSP_BLEND"] >= self.values["VT_ARSP_TRANS"]:
             raise ParameterFileError(f"{where}: VT_ARSP_BLEND must be below VT_ARSP_TRANS")
-
-
-def describe(definitions: tuple[ParameterDefinition, ...] = DEFINITIONS) -> list[dict[str, Any]]:
-    """The table of parameters (for docs and --help-params)."""
-    return [
-        {"name": d.name, "type": d.kind, "default": d.default, "min": d.minimum, "max": d.maximum, "unit": d.unit,
-         "description": d.description, "px4": d.px4}
-        for d in definitions
-    ]  # fmt: skip

@@ -7,7 +7,7 @@ param1..4 (NaN allowed: "use the default" in MAVLink), x and y as int32 (degE7 i
 param5/param6 in MAV_FRAME_MISSION) and z (altitude in m, or param7). A legacy MISSION_ITEM (float degrees) is
 converted to the same form on arrival (`from_float_coordinates`).
 
-What is supported (docs/mavlink.md, "Missions"): per mission type, the commands below; positional commands in the
+What is supported (docs/missions.md): per mission type, the commands below; positional commands in the
 global frames (GLOBAL, GLOBAL_RELATIVE_ALT and their _INT forms), the others in MAV_FRAME_MISSION, as PX4 parses them
 (its mavlink_mission.cpp).
 """
@@ -43,7 +43,7 @@ NAVIGATION = frozenset({M.MAV_CMD_NAV_WAYPOINT, M.MAV_CMD_NAV_TAKEOFF, M.MAV_CMD
 LANDS = frozenset({M.MAV_CMD_NAV_LAND, M.MAV_CMD_NAV_VTOL_LAND})
 # Payload items: PX4 hands them to its camera, gimbal and actuator modules and goes on to the next item at once
 # (MissionBlock's "action commands that complete instantaneously"). This airframe carries no payload, so they are
-# stored, downloaded as sent and passed when flown (docs/mavlink.md, "Missions"); a plan with camera items
+# stored, downloaded as sent and passed when flown (docs/missions.md); a plan with camera items
 # (QGroundControl's surveys, a gimbal pointed down) flies as its waypoints say.
 PAYLOAD = frozenset({
     M.MAV_CMD_DO_TRIGGER_CONTROL, M.MAV_CMD_DO_DIGICAM_CONTROL, M.MAV_CMD_IMAGE_START_CAPTURE,

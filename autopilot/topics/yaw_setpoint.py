@@ -1,4 +1,4 @@
-"""Yaw set-points (docs/autopilot.md section 6): what a flight mode asks of the nose, and the reference the velocity
+"""Yaw set-points (docs/mavlink.md, Yaw): what a flight mode asks of the nose, and the reference the velocity
 controllers follow (navigator/yaw_shaping.py shapes the one into the other).
 
     YawSetpoint    heading (rad, NED) and/or rate (rad/s), as PX4's trajectory set-point carries yaw and yawspeed

@@ -1,7 +1,9 @@
 """Arm, take off to 10 m, fly north at 3 m/s for 5 s in OFFBOARD, land: a pymavlink ground station.
 
 Start the vehicle first (another terminal):  vtol up            (or: vtol up --speed 4, four times real time)
-Then:                                        python pymavlink_offboard.py
+Then:                                        python pymavlink_offboard.py [CONNECTION]
+
+CONNECTION: where to listen for the vehicle's GCS link, by default udpin:127.0.0.1:14550 (every instance sends there).
 """
 
 import math
@@ -10,11 +12,11 @@ import time
 
 from pymavlink import mavutil
 
-PORT = int(sys.argv[1]) if len(sys.argv) > 1 else 14550  # the GCS link sends here (14550 for every instance)
+CONNECTION = sys.argv[1] if len(sys.argv) > 1 else "udpin:127.0.0.1:14550"  # where the GCS link sends
 HOLD, OFFBOARD = (4 << 16) | (3 << 24), 6 << 16  # PX4 custom modes: AUTO.LOITER and OFFBOARD
 VELOCITY_ONLY = 0b0000_1001_1100_0111  # type_mask: ignore position, acceleration and yaw rate (as MAVSDK)
 
-vehicle = mavutil.mavlink_connection(f"udpin:127.0.0.1:{PORT}", source_system=255, source_component=190)
+vehicle = mavutil.mavlink_connection(CONNECTION, source_system=255, source_component=190)
 heartbeat = vehicle.wait_heartbeat()
 print(
     f"heartbeat from {heartbeat.get_srcSystem()}/{heartbeat.get_srcComponent()}: type {heartbeat.type} "
@@ -30,8 +32,7 @@ def pump(seconds=0.05):
     end = time.monotonic() + seconds
     while (message := vehicle.recv_match(blocking=True, timeout=max(0.001, end - time.monotonic()))) is not None:
         latest[message.get_type()] = message
-        if hasattr(message, "time_boot_ms"):
-            sim_ms = message.time_boot_ms
+        sim_ms = getattr(message, "time_boot_ms", sim_ms)
         if message.get_type() == "STATUSTEXT":
             print(f"  [{sim_ms / 1000:6.2f} s] vehicle says: {message.text}")
         if time.monotonic() >= end:
@@ -55,12 +56,12 @@ def wait_until(condition, every=None):
 
 
 latest = {}
-wait_until(lambda: "LOCAL_POSITION_NED" in latest and "HEARTBEAT" in latest)
+wait_until(lambda: {"LOCAL_POSITION_NED", "HEARTBEAT", "HOME_POSITION"} <= latest.keys())
 altitude = lambda: -latest["LOCAL_POSITION_NED"].z  # noqa: E731
 armed = lambda: latest["HEARTBEAT"].base_mode & mavutil.mavlink.MAV_MODE_FLAG_SAFETY_ARMED  # noqa: E731
 
 print("arm:", command(mavutil.mavlink.MAV_CMD_COMPONENT_ARM_DISARM, 1))
-home = latest["HOME_POSITION"].altitude / 1000 if "HOME_POSITION" in latest else 300.0
+home = latest["HOME_POSITION"].altitude / 1000  # m AMSL
 print("takeoff:", command(mavutil.mavlink.MAV_CMD_NAV_TAKEOFF, 0, 0, 0, math.nan, math.nan, math.nan, home + 10))
 wait_until(lambda: latest["HEARTBEAT"].custom_mode == HOLD and altitude() > 9.5)
 print(f"holding at {altitude():.2f} m, mode {vehicle.flightmode}")

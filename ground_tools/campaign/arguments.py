@@ -5,10 +5,21 @@ from __future__ import annotations
 
 import argparse
 
+from ground_tools.exit_status import epilog
 from transport.cli import bounded_int
+
+EPILOG = epilog(
+    ok="every flight flown (or, with --report, the report written)",
+    failed="some flight failed to fly (its reason in the store and the report)",
+)
+EPILOG += (
+    " A status of 2 also says the campaign extra is not installed (pip install 'tiltrotor-sitl[campaign]')."
+    " The campaign file is checked whole (its report table too) before anything flies."
+)
 
 
 def add_campaign_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.epilog = EPILOG
     parser.add_argument("file", metavar="FILE", help="the campaign (TOML, docs/campaigns.md)")
     parser.add_argument(
         "--out", metavar="DIR", help="campaign folder: store, flights, report (default ./runs/campaigns/NAME)"

@@ -1,6 +1,10 @@
-"""The distributed engine under a campaign: Dask (docs/campaigns.md says why Dask, with the measurement). A local
+"""The distributed engine under a campaign: Dask (docs/design/alternatives.md says why Dask, with the measurement). A local
 cluster of worker processes on 127.0.0.1, started and stopped here, or an existing cluster's scheduler given by
-its address. One flight per worker thread at a time; results come back as they finish."""
+its address. One flight per worker thread at a time; results come back as they finish.
+
+Nothing outlives the command: a local cluster's workers end at once when the command's process ends, however it
+ends (Dask's nanny holds a pipe to each worker, which exits when the pipe closes), and a flight's plant and
+autopilot are killed by the kernel when their worker ends (ground_tools/scenario_run.py)."""
 
 from __future__ import annotations
 

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from autopilot.storage.parameters import BY_NAME, ParameterRejected, ParameterStore
+from ground_tools.metrics import METRIC_KINDS
 from scenarios.variants import PARAMETERS, VariantError, checked_values
 from transport.plant_parameters import BY_NAME as PLANT_PARAMETERS
 from transport.plant_parameters import refusal
@@ -183,6 +184,10 @@ def parse_campaign(data: dict[str, Any], name: str, folder: Path) -> CampaignSpe
     for key in ("x", "y"):
         if key in report and report[key] not in (*grid, *random):
             raise CampaignError(f"report.{key} = {report[key]!r} is not an axis")
+    if "error" in report and METRIC_KINDS.get(report["error"]) not in (float, int):
+        numeric = ", ".join(name for name, kind in METRIC_KINDS.items() if kind in (float, int))
+        raise CampaignError(f"report.error = {report['error']!r} is not a metric the error map can show: one of "
+                            f"{numeric}")  # fmt: skip
     spec = CampaignSpec(
         name=str(data.get("name", name)), scenario=scenario, controllers=tuple(controllers),
         repetitions=_whole("repetitions", data.get("repetitions", 1), 1, 1000), fixed=dict(fixed), grid=grid,

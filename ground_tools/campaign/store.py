@@ -13,18 +13,12 @@ from typing import Any
 import duckdb
 import pandas
 
+from ground_tools.metrics import METRIC_KINDS
+
 STORE_FILE = "campaign.duckdb"
 TABLE = "flights"
-METRICS: dict[str, str] = {
-    **{key: "DOUBLE" for key in (
-        "vx_rmse", "vy_rmse", "vz_rmse", "vz_max_abs", "roll_max_abs_deg", "pitch_max_abs_deg",
-        "heading_error_max_deg", "alt_change_max_m", "alt_loss_max_m", "t_reach_s", "tilt_tv_ratio", "radial_rmse_m",
-        "radial_max_m", "bank_mean_deg", "final_speed", "failure_t_s", "vx_rmse_after_failure", "solve_ms_median",
-        "solve_ms_p99", "solve_ms_max")},
-    "mode_switches": "INTEGER",
-    "solves_failed": "INTEGER",
-    "survived": "BOOLEAN",
-}  # fmt: skip
+SQL_TYPES = {float: "DOUBLE", int: "INTEGER", bool: "BOOLEAN"}
+METRICS: dict[str, str] = {name: SQL_TYPES[kind] for name, kind in METRIC_KINDS.items()}
 """The metrics' columns (ground_tools/metrics.py's keys) and their types."""
 COLUMNS: dict[str, str] = {
     "key": "VARCHAR PRIMARY KEY", "campaign": "VARCHAR", "scenario": "VARCHAR", "controller": "VARCHAR",

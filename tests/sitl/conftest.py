@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import pytest
 
-from tiltrotor_sitl import Vehicle
+from tiltrotor_sitl import ProcessOptions, Vehicle
 from transport.plant_link import PlantLinkClient, PlantSample
 
 
@@ -58,8 +58,12 @@ def start_plant(tmp_path) -> Iterator:
     started: list[PlantProcess] = []
 
     def start(*args: str, zenoh: bool = False) -> PlantProcess:
-        vehicle = Vehicle(autopilot=False, speed=None, truth=zenoh, summary=True, plant_args=args,
-                          folder=tmp_path / f"plant-{len(started)}").start()  # fmt: skip
+        vehicle = Vehicle(
+            speed=None,
+            truth=zenoh,
+            folder=tmp_path / f"plant-{len(started)}",
+            processes=ProcessOptions(autopilot=False, summary=True, plant_args=args),
+        ).start()
         plant = PlantProcess(vehicle, PlantLinkClient(vehicle.ports.plant))
         started.append(plant)
         return plant

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from tests.sitl.ground_station import GroundStation
-from tiltrotor_sitl import Controller, Vehicle
+from tiltrotor_sitl import Controller, ProcessOptions, Vehicle
 
 
 @dataclass
@@ -56,9 +56,16 @@ def start_sitl(params_path: Path, *, spawn_alt: float = 0.0, speed: float | None
                autopilot_args: tuple[str, ...] = (), ground_station: bool = True, wait_ready: bool = True) -> Sitl:  # fmt: skip
     """A vehicle ready to arm, keeping `params_path` (its files beside it). speed: real time times `speed` (None:
     lockstep). The ground station listens where the GCS link sends."""
-    vehicle = Vehicle(controller=controller, spawn_alt=spawn_alt, speed=speed, truth=False, summary=True,
-                      folder=params_path.parent, params_file=params_path, autopilot_args=autopilot_args,
-                      wait_ready=wait_ready).start()  # fmt: skip
+    vehicle = Vehicle(
+        controller=controller,
+        spawn_alt=spawn_alt,
+        speed=speed,
+        truth=False,
+        folder=params_path.parent,
+        processes=ProcessOptions(
+            summary=True, params_file=params_path, autopilot_args=autopilot_args, wait_ready=wait_ready
+        ),
+    ).start()
     try:
         gs = GroundStation(vehicle.gcs_port, vehicle.sysid) if ground_station else None
     except BaseException:

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tiltrotor_sitl import Controller, Vehicle
+from tiltrotor_sitl import Controller, ProcessOptions, Vehicle
 from transport.flight_log import T, read_flight_log
 
 
@@ -47,10 +47,12 @@ def fly(
         spawn_alt=spawn_alt,
         speed=None,
         truth=False,
-        summary=True,
-        duration_s=duration,
-        wait_ready=False,
-        autopilot_args=("--profile", profile, "--log", str(log_path), "--quiet", *autopilot_args),
+        processes=ProcessOptions(
+            summary=True,
+            duration_s=duration,
+            wait_ready=False,
+            autopilot_args=("--profile", profile, "--log", str(log_path), "--quiet", *autopilot_args),
+        ),
     ) as vehicle:
         vehicle.wait_finished(timeout_s=900.0)
         autopilot, plant = vehicle.summary("vtol-autopilot"), vehicle.summary("vtol-sim")

@@ -1,9 +1,11 @@
 """The public API (tiltrotor_sitl) and its pytest plugin, as a user meets them: a user's own test folder outside
-the repository run with `pytest -n 2`, bad input, and children that do not outlive their parent."""
+the repository run with `pytest -n 2` (docs/testing.md's worked example among its tests), a failing test's report
+with the vehicle's logs, bad input, and children that do not outlive their parent."""
 
 from __future__ import annotations
 
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -15,11 +17,10 @@ from pathlib import Path
 import pytest
 
 from tests.unit.test_api import children_of
-from tiltrotor_sitl import Vehicle, VehicleError
+from tiltrotor_sitl import ProcessOptions, Vehicle, VehicleError
 from transport.ports import Ports
 
 USER_TEST = """
-import math
 import os
 import time
 
@@ -28,41 +29,13 @@ from mavsdk.plugins.action import Action
 from mavsdk.plugins.telemetry import Telemetry
 from pymavlink import mavutil
 
-M = mavutil.mavlink
-
 
 def note_pids(pids):
     with open(os.environ["PIDS_FILE"], "a") as out:
         out.write("".join(f"{pid}\\n" for pid in pids))
 
 
-def command(master, sysid, cmd, *params):
-    params = list(params) + [0.0] * (7 - len(params))
-    while master.recv_msg() is not None:  # what piled up while we were not reading
-        pass
-    master.mav.command_long_send(sysid, 1, cmd, 0, *params)
-    while True:
-        ack = master.recv_match(type="COMMAND_ACK", blocking=True, timeout=10)
-        assert ack is not None, f"no COMMAND_ACK for {cmd}"
-        if ack.command == cmd:
-            return ack.result
-
-
-def test_takeoff_and_land(vehicle_factory):
-    vehicle = vehicle_factory(params={"MIS_TAKEOFF_ALT": 8.0})
-    note_pids(vehicle.pids)
-    master = mavutil.mavlink_connection(vehicle.pymavlink, source_system=255, source_component=190)
-    assert master.wait_heartbeat(timeout=10).get_srcSystem() == vehicle.sysid
-    assert command(master, vehicle.sysid, M.MAV_CMD_COMPONENT_ARM_DISARM, 1) == M.MAV_RESULT_ACCEPTED
-    assert command(master, vehicle.sysid, M.MAV_CMD_NAV_TAKEOFF, *[math.nan] * 7) == M.MAV_RESULT_ACCEPTED
-    vehicle.truth.wait_until(lambda s: s.altitude > 7.0, timeout_sim_s=40, what="climb to 7 m")
-    assert command(master, vehicle.sysid, M.MAV_CMD_NAV_LAND) == M.MAV_RESULT_ACCEPTED
-    vehicle.truth.wait_until(lambda s: s.on_ground, timeout_sim_s=60, what="landing")
-    master.close()
-
-
 def test_mavsdk_flies_it_up_and_down(vehicle):
-    note_pids(vehicle.pids)
     drone = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
     try:
         drone.add_any_connection(vehicle.mavsdk)
@@ -118,6 +91,21 @@ class _Closing:
     def __exit__(self, *exc):
         self.s.close()
 """
+# Records the PIDs of the `vehicle` a test used (docs/testing.md's example does not know of this test).
+USER_CONFTEST = """
+import os
+
+import pytest
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_runtest_teardown(item):
+    vehicle = item.funcargs.get("vehicle")
+    if vehicle is not None:
+        with open(os.environ["PIDS_FILE"], "a") as out:
+            out.write("".join(f"{pid}\\n" for pid in vehicle.pids))
+"""
+EXAMPLE = Path(__file__).parents[2] / "docs" / "examples" / "test_takeoff_and_land.py"
 
 
 def alive(pid: int) -> bool:
@@ -133,6 +121,8 @@ def test_a_users_own_tests_pass_under_xdist_and_leave_nothing_running(tmp_path: 
     folder = tmp_path / "user_project"
     folder.mkdir()
     (folder / "test_my_ground_software.py").write_text(USER_TEST)
+    (folder / "test_takeoff_and_land.py").write_text(EXAMPLE.read_text())
+    (folder / "conftest.py").write_text(USER_CONFTEST)
     pids_file = tmp_path / "pids.txt"
     env = {**os.environ, "PIDS_FILE": str(pids_file)}
     env.pop("PYTEST_ADDOPTS", None)
@@ -150,6 +140,9 @@ def test_a_users_own_tests_pass_under_xdist_and_leave_nothing_running(tmp_path: 
             "pid",
             "--vtol-speed",
             "2",
+            "--vtol-keep-logs",
+            "--basetemp",
+            str(tmp_path / "base"),
         ],  # fmt: skip
         cwd=folder,
         env=env,
@@ -162,6 +155,77 @@ def test_a_users_own_tests_pass_under_xdist_and_leave_nothing_running(tmp_path: 
     pids = [int(line) for line in pids_file.read_text().split()]
     assert len(pids) == 2 + 2 + 6
     assert [pid for pid in pids if alive(pid)] == []
+    # --vtol-keep-logs: the passing tests' vehicle folders are kept under their tmp_path, with the .tlog
+    kept = sorted(path.relative_to(tmp_path / "base") for path in (tmp_path / "base").rglob("vtol-autopilot.stderr"))
+    assert len(kept) == 1 + 1 + 3, kept
+    (example,) = (tmp_path / "base").rglob("test_takeoff_and_land0")
+    assert (example / "vtol-0" / "gcs.tlog").stat().st_size > 10_000
+
+
+FAILING_TESTS = """
+def test_fails_on_purpose(vehicle):
+    gcs = vehicle.ground_station
+    gcs.arm()
+    gcs.takeoff(5.0)
+    vehicle.truth.wait_until(lambda s: s.altitude > 4.5, timeout_sim_s=40)
+    assert vehicle.truth.latest().altitude > 100, "on purpose"
+
+
+def test_fails_without_the_ground_station(vehicle):
+    assert not vehicle.truth.latest().on_ground, "on purpose"
+
+
+def test_passes(vehicle):
+    assert vehicle.ground_station.mode == "HOLD"
+"""
+
+
+def report_sections(output: str) -> dict[str, str]:
+    """pytest's report sections of the failing tests, by their header's name ("vtol vehicle 1 (call)" ...)."""
+    sections, name = {}, None
+    for line in output.splitlines():
+        header = re.fullmatch(r"-+ (.+?) -+", line)
+        if header:
+            name = header.group(1)
+            sections[name] = ""
+        elif re.fullmatch(r"_+ (test_\w+) _+", line):
+            name = None
+            sections[line.strip("_ ")] = ""
+        elif name is not None:
+            sections[name] += line + "\n"
+    return sections
+
+
+def test_a_failing_test_reports_its_vehicles_logs_and_status_and_keeps_them(tmp_path: Path) -> None:
+    folder, base = tmp_path / "user_project", tmp_path / "base"
+    folder.mkdir()
+    (folder / "test_fails.py").write_text(FAILING_TESTS)
+    env = {key: value for key, value in os.environ.items() if key != "PYTEST_ADDOPTS"}
+    result = subprocess.run([sys.executable, "-m", "pytest", "-p", "no:cacheprovider", "--vtol-speed", "2",
+                             "--basetemp", str(base)], cwd=folder, env=env, capture_output=True, text=True,
+                            timeout=400)  # fmt: skip
+    assert result.returncode == 1 and "2 failed, 1 passed" in result.stdout, result.stdout[-3000:] + result.stderr
+    output = result.stdout.split("= FAILURES =", 1)[1]
+    flew, idle = output.split("test_fails_without_the_ground_station", 1)
+    for report, status in ((flew, "mode (TAKEOFF|HOLD), armed, MAV_STATE ACTIVE, (takeoff|in air)"),
+                           (idle, "mode HOLD, disarmed, MAV_STATE STANDBY, on ground")):  # fmt: skip
+        assert "vtol vehicle 1 (call)" in report
+        assert re.search(f"status: {status}; failsafe: none announced", report), report
+        assert "--- vtol-autopilot (running), last 15 lines of stderr ---" in report
+        assert "--- vtol-sim (running), last 15 lines of stderr ---" in report
+        paths = [Path(line.strip()) for line in report.splitlines() if line.startswith("  /")]
+        assert {path.name for path in paths} >= {"vtol-autopilot.stderr", "vtol-sim.stderr"}
+        assert all(path.is_file() for path in paths), paths  # kept after the run
+        stderr = next(path for path in paths if path.name == "vtol-sim.stderr").read_text()
+        said = report.split("--- vtol-sim (running), last 15 lines of stderr ---\n", 1)[1].splitlines()[0]
+        assert said in stderr
+    tlog = Path(re.search(r"ground station's MAVLink log: (\S+)", flew).group(1))
+    assert tlog.stat().st_size > 1000
+    assert "ground station's MAVLink log" not in idle
+    ulog = Path(re.search(r"ULog: (\S+)", flew).group(1))  # armed: the flight's log (SDLOG_MODE 0)
+    assert ulog.suffix == ".ulg" and ulog.stat().st_size > 1000
+    assert "ULog:" not in idle  # never armed
+    assert not (base / "test_passes0" / "vtol-0").exists()  # a passing test's folder is removed
 
 
 def test_children_die_with_a_killed_parent(tmp_path: Path) -> None:
@@ -205,12 +269,14 @@ def test_a_process_dying_at_start_up_is_quoted(tmp_path: Path) -> None:
 
 def test_no_readiness_in_time_is_a_clear_error() -> None:
     with pytest.raises(VehicleError, match="not ready to arm within 0.05 s .*system id 1: no HEARTBEAT"):
-        Vehicle(controller="pid", truth=False, ready_timeout_s=0.05).start()
+        Vehicle(controller="pid", truth=False, processes=ProcessOptions(ready_timeout_s=0.05)).start()
     assert children_of(os.getpid()) == []
 
 
 def test_a_process_that_dies_before_its_duration_is_quoted() -> None:
-    with Vehicle(autopilot=False, speed=None, truth=False, duration_s=10.0) as plant:  # alone: nobody steps it
+    with Vehicle(
+        speed=None, truth=False, processes=ProcessOptions(autopilot=False, duration_s=10.0)
+    ) as plant:  # alone: nobody steps it
         assert plant.pids == [plant.process("vtol-sim").pid]
         plant.process("vtol-sim").kill()
         with pytest.raises(VehicleError, match="vtol-sim .* exited with code -9 before the end"):

@@ -10,7 +10,7 @@ import time
 import pytest
 
 from tests.unit.test_autopilot_robustness import NAN
-from tiltrotor_sitl import Vehicle
+from tiltrotor_sitl import ProcessOptions, Vehicle
 from tiltrotor_sitl._children import run_to_end
 from tiltrotor_sitl._commands import AutopilotCommand
 from transport.mavlink import Link
@@ -64,8 +64,12 @@ class FakePlant:
 def autopilot_with_fake_plant(tmp_path):
     """The autopilot alone (tiltrotor_sitl.Vehicle with plant_port) flying the fake plant, which the test steps."""
     plant = FakePlant()
-    autopilot = Vehicle(plant_port=plant.port, spawn_alt=100.0, summary=True, truth=False, wait_ready=False,
-                        folder=tmp_path / "autopilot").start()  # fmt: skip
+    autopilot = Vehicle(
+        spawn_alt=100.0,
+        truth=False,
+        folder=tmp_path / "autopilot",
+        processes=ProcessOptions(plant_port=plant.port, summary=True, wait_ready=False),
+    ).start()
     try:
         plant.wait_for_autopilot()
         yield plant, autopilot

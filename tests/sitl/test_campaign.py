@@ -105,3 +105,80 @@ def test_a_campaign_on_two_workers_is_killed_resumed_and_reported(tmp_path: Path
     assert survival.is_file() and "to fly" not in again.stderr
     with duckdb.connect(str(out / "campaign.duckdb"), read_only=True) as db:
         assert db.execute("SELECT count(*) FROM flights").fetchone()[0] == 8
+
+
+LONG = """
+scenario = "accel"
+controllers = ["mpc", "pid"]
+[fixed]
+duration_s = 30.0
+[axes]
+wind_n_mps = [0, 1, 2]
+"""
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return psutil.Process(pid).status() != psutil.STATUS_ZOMBIE
+    except psutil.NoSuchProcess:
+        return False
+
+
+def _mentioning(text: str) -> list[int]:
+    """The running processes whose command line mentions `text` (a flight's autopilot names its run folder)."""
+    found = []
+    for process in psutil.process_iter(["cmdline"]):
+        try:
+            if text in " ".join(process.info["cmdline"] or ()) and process.status() != psutil.STATUS_ZOMBIE:
+                found.append(process.pid)
+        except psutil.Error:
+            continue
+    return found
+
+
+def _family(pids: set[int]) -> set[int]:
+    """`pids` and the children of those still running (a worker may start a flight as the command dies)."""
+    found = set(pids)
+    for pid in pids:
+        try:
+            found |= {child.pid for child in psutil.Process(pid).children(recursive=True)}
+        except psutil.Error:
+            continue
+    return found
+
+
+def _cmdline(process: psutil.Process) -> str:
+    try:
+        return " ".join(process.cmdline())
+    except psutil.Error:
+        return ""
+
+
+def test_a_campaign_killed_by_sigkill_mid_flight_leaves_no_process_behind(tmp_path: Path) -> None:
+    """Only the command's process is killed (not its process group): its Dask workers and their flights' plants
+    and autopilots end by themselves, checked by PID."""
+    file, out = _campaign(tmp_path, LONG), tmp_path / "out"
+    command = subprocess.Popen([sys.executable, "-m", "ground_tools", "campaign", str(file), "--out", str(out),
+                                "--workers", "2", "--no-progress"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)  # fmt: skip
+    seen: set[int] = {command.pid}
+    try:
+        deadline = time.monotonic() + 300
+        flying: list[str] = []
+        while len(flying) < 4 and time.monotonic() < deadline and command.poll() is None:
+            family = psutil.Process(command.pid).children(recursive=True)
+            seen |= {process.pid for process in family}
+            flying = [line for line in map(_cmdline, family) if " -m sim_bridge " in line or " -m autopilot " in line]
+            time.sleep(0.1)
+        assert len(flying) == 4, f"not two flights (plant and autopilot each) flying: {flying}"
+    finally:
+        os.kill(command.pid, signal.SIGKILL)
+        command.wait()
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline:
+        seen = _family(seen)
+        if not any(_alive(pid) for pid in seen) and not _mentioning(str(out)):
+            break
+        time.sleep(0.1)
+    left = [(pid, _cmdline(psutil.Process(pid))) for pid in seen if _alive(pid)]
+    assert left == [] and _mentioning(str(out)) == []
+    assert len(seen) >= 1 + 2 + 4  # the command, its two workers and two flights' processes were checked

@@ -4,10 +4,10 @@ stream, and a link that drops everything triggers the Offboard-loss failsafe."""
 
 from __future__ import annotations
 
-from ground_tools.fault_proxy import FaultProxy, Faults
 from tests.sitl.ground_station import HOLD, OFFBOARD, GroundStation
 from tiltrotor_sitl import Vehicle
 from tiltrotor_sitl._free_ports import free_udp_port
+from tiltrotor_sitl.fault_proxy import FaultProxy, Faults
 from transport.mavlink import mavlink as M
 
 LOSSY = Faults(loss=0.3, duplicate=0.1, reorder=0.1, jitter_s=0.01)

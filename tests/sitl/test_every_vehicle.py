@@ -21,7 +21,7 @@ from pathlib import Path
 import pytest
 
 from tests.sitl.ground_station import OFFBOARD, GroundStation, MissionClient, said
-from tiltrotor_sitl import Fleet, TruthFeed, Vehicle, VehicleHandle
+from tiltrotor_sitl import Fleet, ProcessOptions, TruthFeed, Vehicle, VehicleHandle
 from transport.geodesy import LocalGeodetic
 from transport.mavlink import mavlink as M
 from transport.ports import MAX_SYSID, Ports
@@ -51,7 +51,7 @@ def ports_taken(ports: Ports) -> bool:
 
 
 @contextmanager
-def vehicle_under_test(case: str, tmp_path: Path) -> Iterator[VehicleHandle]:
+def vehicle_under_test(case: str, tmp_path: Path) -> Iterator[VehicleHandle | _SplitVehicle]:
     """The vehicle each case names, hovering at ALTITUDE in Hold, with failure injection enabled."""
     common = {"spawn_alt": ALTITUDE, "speed": 3.0, "folder": tmp_path}
     if case == "sysid-1":
@@ -73,27 +73,39 @@ def vehicle_under_test(case: str, tmp_path: Path) -> Iterator[VehicleHandle]:
             assert vehicle.sysid == 42
             yield vehicle
     else:  # "split-ids": the autopilot is 42 by its MAV_SYS_ID, its plant 7: commands are addressed by the handshake
-        with Vehicle(autopilot=False, truth=True, spawn_alt=ALTITUDE, speed=3.0, plant_args=("--sysid", "7"),
-                     folder=tmp_path / "plant") as plant:  # fmt: skip
-            with Vehicle(plant_port=plant.ports.plant, params={**PARAMS, "MAV_SYS_ID": 42}, truth=False,
-                         spawn_alt=ALTITUDE, speed=3.0, folder=tmp_path / "autopilot") as autopilot:  # fmt: skip
+        with Vehicle(
+            truth=True,
+            spawn_alt=ALTITUDE,
+            speed=3.0,
+            folder=tmp_path / "plant",
+            processes=ProcessOptions(autopilot=False, plant_args=("--sysid", "7")),
+        ) as plant:
+            with Vehicle(
+                params={**PARAMS, "MAV_SYS_ID": 42},
+                truth=False,
+                spawn_alt=ALTITUDE,
+                speed=3.0,
+                folder=tmp_path / "autopilot",
+                processes=ProcessOptions(plant_port=plant.ports.plant),
+            ) as autopilot:
                 assert autopilot.sysid == 42
                 yield _SplitVehicle(autopilot, TruthFeed(plant.ports.zenoh_plant, 7))
 
 
-class _SplitVehicle(VehicleHandle):
-    """An autopilot started alone, with the truth of the plant it flies (a plant of another system id)."""
+class _SplitVehicle:
+    """An autopilot started alone, with the truth of the plant it flies (a plant of another system id): what the
+    exercises read of a vehicle."""
 
     def __init__(self, autopilot: Vehicle, truth: TruthFeed) -> None:
-        super().__init__(autopilot._fleet._started[0])
-        self._truth = truth
+        self.autopilot = autopilot
+        self.truth = truth
+        self.sysid, self.home, self.ports = autopilot.sysid, autopilot.home, autopilot.ports
 
-    @property
-    def truth(self) -> TruthFeed:
-        return self._truth
+    def stderr(self, process: str = "vtol-autopilot") -> str:
+        return self.autopilot.stderr(process)
 
 
-def ground_station(vehicle: VehicleHandle) -> GroundStation:
+def ground_station(vehicle: VehicleHandle | _SplitVehicle) -> GroundStation:
     """A ground station that speaks first to the vehicle's own GCS port (a fleet's links share one remote port,
     where a listening ground station could not tell whose address to answer)."""
     gs = GroundStation(vehicle.ports.links.gcs_bind, vehicle.sysid, speaks_first=True)
@@ -145,7 +157,7 @@ def exercise_offboard(gs: GroundStation, truth: TruthFeed) -> None:
     assert gs.set_mode(HOLD).result == M.MAV_RESULT_ACCEPTED
 
 
-def exercise_mission(gs: GroundStation, vehicle: VehicleHandle) -> None:
+def exercise_mission(gs: GroundStation, vehicle: VehicleHandle | _SplitVehicle) -> None:
     """A one-waypoint mission 25 m north of where the vehicle holds, uploaded and started from the air."""
     here = vehicle.truth.latest()
     north = here.position_ned[0] + 25.0

@@ -1,4 +1,4 @@
-"""The seeded UDP fault proxy itself (ground_tools/fault_proxy.py): loss, duplication, reordering, delay, counted."""
+"""The seeded UDP fault proxy itself (tiltrotor_sitl/fault_proxy.py): loss, duplication, reordering, delay, counted."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import socket
 import threading
 import time
 
-from ground_tools.fault_proxy import DOWNSTREAM, UPSTREAM, FaultProxy, Faults
+from tiltrotor_sitl.fault_proxy import DOWNSTREAM, UPSTREAM, FaultProxy, Faults
 from transport.ports import LOOPBACK
 
 

@@ -4,7 +4,7 @@ datagrams at every port while hovering, a faulty client link with the offboard-l
 from __future__ import annotations
 
 from ground_tools.fault_campaign import fly_plant_link, junk_while_hovering
-from ground_tools.fault_proxy import DOWNSTREAM, UPSTREAM, Faults
+from tiltrotor_sitl.fault_proxy import DOWNSTREAM, UPSTREAM, Faults
 
 FLIGHT_S = 6.0  # the accel profile's first 6 s: v_sp = 2t up to 12 m/s
 

@@ -1,4 +1,4 @@
-"""Home (docs/mavlink.md#home): PX4 SITL's default, PX4_HOME_LAT/LON/ALT from the environment as PX4 reads them, or
+"""Home (docs/mavlink.md, "Commands" (DO_SET_HOME)): PX4 SITL's default, PX4_HOME_LAT/LON/ALT from the environment as PX4 reads them, or
 --home; one choice for plant and autopilot; a bad one refused."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Home as PX4's commander sets it and the rest of Return (issue 11 items 3, 4, 8; docs/mavlink.md "Home",
+"""Home as PX4's commander sets it and the rest of Return (issue 11 items 3, 4, 8; docs/mavlink.md, "Commands" (DO_SET_HOME),
 docs/failsafes.md "Return and rally points"), through MAVLink, lockstep, the default controller (the MPC):
 home moves to where the vehicle is disarmed on the ground and arms, not over a DO_SET_HOME home; a
 GLOBAL_RELATIVE_ALT target is above home, not the local origin, and terrain altitudes are refused; Return's

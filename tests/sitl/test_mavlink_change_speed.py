@@ -1,4 +1,4 @@
-"""MAV_CMD_DO_CHANGE_SPEED through MAVLink (docs/mavlink.md, section 5): a Go-to at the default speed slows to the
+"""MAV_CMD_DO_CHANGE_SPEED through MAVLink (docs/mavlink.md, "Commands"): a Go-to at the default speed slows to the
 commanded speed and goes back to the defaults on -1, as PX4's navigator; a non-finite speed is refused. Lockstep,
 the MPC."""
 

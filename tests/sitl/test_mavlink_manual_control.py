@@ -1,4 +1,4 @@
-"""MANUAL_CONTROL as a virtual RC (docs/mavlink.md "Manual control"): Position (POSCTL) from the ground with the
+"""MANUAL_CONTROL as a virtual RC (docs/mavlink.md, "Modes"): Position (POSCTL) from the ground with the
 MPC, the default controller: throttle up lifts off, centred sticks hold the altitude and the position, the pitch
 stick flies forward; Altitude (ALTCTL); the manual-control loss failsafe (NAV_RCL_ACT); COM_RC_IN_MODE. Lockstep."""
 

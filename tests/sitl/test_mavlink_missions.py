@@ -1,4 +1,4 @@
-"""The mission protocol (issue 11 item 1, docs/mavlink.md "Missions"): uploads and downloads of missions, fences and
+"""The mission protocol (issue 11 item 1, docs/missions.md): uploads and downloads of missions, fences and
 rally points through the real processes, clear, current item, persistence across a restart, bad input refused with
 PX4's MISSION_ACK results and the stored lists left intact, an abandoned upload."""
 

@@ -1,4 +1,4 @@
-"""Navigation through MAVLink (issue 11 items 2 and 3, docs/mavlink.md "Mission", "Return", "Go-to", "Orbit"):
+"""Navigation through MAVLink (issue 11 items 2 and 3, docs/missions.md, "Return", "Go-to", "Orbit"):
 a mission flown by the unified MPC with no DO_VTOL_TRANSITION (it transitions when the legs ask for cruise speed),
 Go-to (DO_REPOSITION) then Return, Orbit; the refusals with their reasons. Lockstep, the default controller."""
 

@@ -1,4 +1,4 @@
-"""Offboard attitude through MAVLink (SET_ATTITUDE_TARGET, docs/mavlink.md "Offboard attitude"), the MPC the
+"""Offboard attitude through MAVLink (SET_ATTITUDE_TARGET, docs/mavlink.md, "Offboard"), the MPC the
 default controller out of the loop while it lasts: a lift-off from the ground on thrust above hover, a roll that
 moves the vehicle sideways, body rates, the refusals and clamps, and back to Hold (the MPC flies again). Lockstep."""
 

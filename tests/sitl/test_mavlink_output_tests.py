@@ -1,4 +1,4 @@
-"""PX4's output tests through MAVLink (docs/mavlink.md section 5): MAV_CMD_DO_MOTOR_TEST and MAV_CMD_ACTUATOR_TEST
+"""PX4's output tests through MAVLink (docs/mavlink.md): MAV_CMD_DO_MOTOR_TEST and MAV_CMD_ACTUATOR_TEST
 (QGroundControl's Actuators page) drive one output of a disarmed vehicle for their time-out, then release it; the
 refusals PX4 gives (armed, COM_MOT_TEST_EN 0, several motors, another throttle type); the pure PWM rules."""
 

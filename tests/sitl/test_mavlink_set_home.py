@@ -1,4 +1,4 @@
-"""MAV_CMD_DO_SET_HOME through MAVLink (docs/mavlink.md "Home"): param1 = 1 sets home where the vehicle is, else
+"""MAV_CMD_DO_SET_HOME through MAVLink (docs/mavlink.md, "Commands" (DO_SET_HOME)): param1 = 1 sets home where the vehicle is, else
 at params 5-7; HOME_POSITION says the new home at once (with its x, y, z in the local frame, whose origin stays);
 GF_MAX_HOR_DIST is measured from it and Return lands there; bad coordinates are DENIED as PX4 denies them.
 Lockstep, the default controller."""

@@ -32,7 +32,7 @@ class MavProxy:
     def __init__(self, gcs_port: int, folder: Path) -> None:
         self.process = subprocess.Popen(
             [MAVPROXY, f"--master=udpin:127.0.0.1:{gcs_port}", "--target-system=1", f"--state-basedir={folder}",
-             "--default-modules=link,signing,param,cmdlong,mode,log"],  # no MAVLink FTP: PX4 SITL has it, we do not
+             "--default-modules=link,signing,param,cmdlong,mode,log"],  # no ftp: parameters by PARAM_REQUEST_LIST either way
             stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, cwd=folder,
         )  # fmt: skip
         self.lines: list[str] = []

@@ -69,7 +69,7 @@ def test_mpc_decelerates_back_to_hover_tilting_the_rotors_back(tmp_path):
     assert np.degrees(braking["tilt_est1"]).min() < 0.0  # rotors tilted back past 0 deg while braking
     assert np.abs(-flight.log["down"] - 100.0).max() < 5.0
     # The MPC flies it to the end: no failed solve, no PID back-up, pitch inside the soft 45 deg bound
-    # (docs/mpc.md 2.8; before it, 3 failed solves at 22.3 s and 47 deg).
+    # (docs/mpc.md, deviation 6; before it, 3 failed solves at 22.3 s and 47 deg).
     solver = flight.autopilot["controller"]
     assert solver["solves_failed"] == 0 and not solver["fell_back_to_pid"]
     assert set(flight.modes) == {"MPC"}
@@ -77,10 +77,10 @@ def test_mpc_decelerates_back_to_hover_tilting_the_rotors_back(tmp_path):
 
 
 def test_the_long_horizon_brakes_with_the_set_point(tmp_path):
-    """--mpc-horizon long (docs/mpc.md 2.9), through MAVLink as `vtol scenario` flies it: the first 5 s of the
+    """--mpc-horizon long (docs/design/alternatives.md, the long horizon), through MAVLink as `vtol scenario` flies it: the first 5 s of the
     braking, where the paper's 0.25 s horizon falls 7.5 m/s behind, tracked within a few m/s and without a failed
     solve. (From a hover spawn with the internal profile it splits the front and rear tilts in cruise and the PID
-    takes over in the braking: docs/mpc.md 2.9.)"""
+    takes over in the braking: docs/design/alternatives.md, the long horizon.)"""
     result = run_scenario(build_scenario("accel-decel", {"duration_s": 20.0}), "mpc", tmp_path, record=False,
                           mpc_horizon="long")  # fmt: skip
     log = read_flight_log(result.run_dir / "timeseries.csv").columns

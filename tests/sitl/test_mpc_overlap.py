@@ -8,16 +8,26 @@ from pathlib import Path
 
 import numpy as np
 
-from tiltrotor_sitl import Vehicle
+from tiltrotor_sitl import ProcessOptions, Vehicle
 from transport.flight_log import VN, VN_SP, read_flight_log
 
 
 def fly_accel(tmp_path: Path, name: str, overlap: int, duration_s: float = 3.0) -> tuple[bytes, dict]:
     """The MPC flying 3 s of the acceleration profile in lockstep; the 100 Hz log's bytes and the summary."""
     log = tmp_path / f"{name}.csv"
-    with Vehicle(controller="mpc", spawn_alt=100.0, speed=None, truth=False, summary=True, duration_s=duration_s,
-                 wait_ready=False, params={"VT_MPC_OVERLAP": overlap},
-                 autopilot_args=("--profile", "accel", "--log", str(log), "--quiet")) as vehicle:  # fmt: skip
+    with Vehicle(
+        controller="mpc",
+        spawn_alt=100.0,
+        speed=None,
+        truth=False,
+        params={"VT_MPC_OVERLAP": overlap},
+        processes=ProcessOptions(
+            summary=True,
+            duration_s=duration_s,
+            wait_ready=False,
+            autopilot_args=("--profile", "accel", "--log", str(log), "--quiet"),
+        ),
+    ) as vehicle:
         vehicle.wait_finished(timeout_s=300.0)
         summary = vehicle.summary("vtol-autopilot")
     return log.read_bytes(), summary

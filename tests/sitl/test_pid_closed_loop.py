@@ -47,7 +47,7 @@ def test_level_turn_at_26_mps_on_a_250_m_circle(tmp_path):
     # A full turn: the heading went all the way round.
     assert np.ptp(np.unwrap(turn["yaw"])) > math.radians(300)
     # Smooth commands in the steady turn: RMS row-to-row change of u1..u8 (3.4e-3 on the raw cm/s velocity,
-    # 2.3e-4 on the estimate; docs/autopilot.md 1.6).
+    # 2.3e-4 on the estimate; docs/autopilot.md).
     steady = flight.between(20.0, 40.0)
     commands = np.column_stack([steady[f"u{i}"] for i in range(1, 9)])
     assert np.sqrt(np.mean(np.diff(commands, axis=0) ** 2)) < 1e-3

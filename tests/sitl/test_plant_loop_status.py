@@ -13,11 +13,11 @@ from aircraft.airframe import load_airframe
 from aircraft.failures import FailureType, FailureUnit, parse_failure
 from autopilot.commander.commander import build_commander
 from autopilot.commander.failure_injection import FailureInjection
-from autopilot.control.flight_controller import PID
 from autopilot.controllers import build_flight_controller
 from autopilot.plant_loop import STATUS_MAX_AGE_USEC, PlantLoop
 from autopilot.storage.mission_store import MissionStore
 from autopilot.storage.parameters import ParameterStore
+from autopilot.topics.controller_kind import PID
 from autopilot.topics.vehicle_status import EventOutbox
 from transport.geodesy import Home
 from transport.mavlink import mavlink

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tiltrotor_sitl import Vehicle
+from tiltrotor_sitl import ProcessOptions, Vehicle
 from tiltrotor_sitl._free_ports import free_udp_port
 from transport.flight_log import DOWN, read_flight_log
 from transport.mavlink import mavlink
@@ -113,10 +113,19 @@ def hover(tmp_path: Path, name: str, strays_at: str | None = None) -> Hover:
     plant's port (`strays_at` "plant") or to the autopilot's end of the plant link ("autopilot")."""
     log, bind = tmp_path / f"{name}.csv", free_udp_port()
     strays, stop = Strays(), threading.Event()
-    with Vehicle(controller="pid", spawn_alt=50.0, speed=2.0, duration_s=DURATION_S, summary=True, truth=False,
-                 wait_ready=False, folder=tmp_path / name,
-                 autopilot_args=("--profile", "hover", "--quiet", "--log", str(log), "--sim-bind-port", str(bind)),
-                 ) as vehicle:  # fmt: skip
+    with Vehicle(
+        controller="pid",
+        spawn_alt=50.0,
+        speed=2.0,
+        truth=False,
+        folder=tmp_path / name,
+        processes=ProcessOptions(
+            duration_s=DURATION_S,
+            summary=True,
+            wait_ready=False,
+            autopilot_args=("--profile", "hover", "--quiet", "--log", str(log), "--sim-bind-port", str(bind)),
+        ),
+    ) as vehicle:
         target, forge = (
             (bind, forged_plant_states) if strays_at == "autopilot" else (vehicle.ports.plant, stray_datagrams)
         )
@@ -177,23 +186,24 @@ def test_a_named_autopilot_alone_gets_the_plant(tmp_path):
     """vtol-sim --autopilot-port P: a HELLO from any other port is never answered; the named one flies."""
     bind = free_udp_port()
     with Vehicle(
-        autopilot=False,
         spawn_alt=50.0,
         speed=None,
-        duration_s=1.0,
-        summary=True,
         truth=False,
-        plant_args=("--autopilot-port", str(bind)),
+        processes=ProcessOptions(
+            autopilot=False, duration_s=1.0, summary=True, plant_args=("--autopilot-port", str(bind))
+        ),
     ) as plant:  # started once it listens: the port is bound
         port = plant.ports.plant
         assert hellos_answered(port, 10) == 0
         with Vehicle(
-            plant_port=port,
             spawn_alt=50.0,
-            duration_s=1.0,
             truth=False,
-            wait_ready=False,
-            autopilot_args=("--sim-bind-port", str(bind), "--profile", "hover", "--quiet"),
+            processes=ProcessOptions(
+                plant_port=port,
+                duration_s=1.0,
+                wait_ready=False,
+                autopilot_args=("--sim-bind-port", str(bind), "--profile", "hover", "--quiet"),
+            ),
         ) as autopilot:
             autopilot.wait_finished(timeout_s=300)  # exit code 0, or VehicleError with its stderr
         plant.wait_finished(timeout_s=60)

@@ -19,7 +19,7 @@ import pytest
 from ground_tools.scenario_report import write_report
 from ground_tools.scenario_run import WALL_CLOCK_KEYS
 from ground_tools.telemetry_record import decode_samples, read_recording
-from tiltrotor_sitl import Vehicle
+from tiltrotor_sitl import ProcessOptions, Vehicle
 from tiltrotor_sitl._children import run_to_end
 from tiltrotor_sitl._commands import AutopilotCommand
 from tiltrotor_sitl._free_ports import bindable
@@ -37,9 +37,15 @@ def vtol(*args: str, timeout: float = 500) -> subprocess.CompletedProcess:
 
 # ---- the autopilot's --offboard-lockstep, through the real processes ---------------------------------------------
 def test_offboard_lockstep_holds_the_simulation_until_stamped_setpoints_cover_it() -> None:
-    vehicle = Vehicle(controller="pid", spawn_alt=100.0, speed=None, truth=False, wait_ready=False,
-                      plant_args=("--lockstep-timeout", "30"),
-                      autopilot_args=("--offboard-lockstep", "--quiet")).start()  # fmt: skip
+    vehicle = Vehicle(
+        controller="pid",
+        spawn_alt=100.0,
+        speed=None,
+        truth=False,
+        processes=ProcessOptions(
+            wait_ready=False, plant_args=("--lockstep-timeout", "30"), autopilot_args=("--offboard-lockstep", "--quiet")
+        ),
+    ).start()
     gcs = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     link = Link(255, 190)
 
@@ -108,7 +114,7 @@ def test_runs_flown_two_at_a_time_equal_the_runs_flown_one_after_the_other(tmp_p
     """--jobs 2 flies both controllers at once in worker processes: each run is its own lockstep pair, so the time
     series and metrics are those of the runs flown one by one. (servo-failure: a scenario with a failure trigger.)
     Compared to 1e-6, not byte for byte: proxsuite's last bits follow the alignment of its buffers, which the
-    processes' environment can move (docs/performance.md, "The whole SITL"), and a worker's is not the command's
+    processes' environment can move (docs/design/solver.md), and a worker's is not the command's
     (4e-9 seen in full runs)."""
     for jobs in ("1", "2"):
         result = vtol("scenario", "servo-failure", "--controller", "both", "--duration", "3", "--jobs", jobs,

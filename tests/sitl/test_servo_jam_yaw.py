@@ -1,5 +1,5 @@
 """A tilt servo jammed far forward at low speed, flown by the MPC through the processes and MAVLink: differential tilt
-of the working rotors holds the yaw moment of the jammed rotor (docs/mpc.md 3.5), so the MPC keeps flying, with no
+of the working rotors holds the yaw moment of the jammed rotor (docs/mpc.md, the solver, failures), so the MPC keeps flying, with no
 failed solve and no fall-back to the PID (before, the aircraft spun up and fell: the servo-jam campaign's 60 deg
 jam at 1 m/s)."""
 

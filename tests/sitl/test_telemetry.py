@@ -9,7 +9,7 @@ import numpy as np
 import zenoh
 
 from ground_tools.telemetry_record import decode_samples
-from tiltrotor_sitl import Controller, Vehicle
+from tiltrotor_sitl import Controller, ProcessOptions, Vehicle
 from transport.telemetry import control_key, mpc_key, plant_state_key
 from transport.zenoh_bus import session_config
 
@@ -35,9 +35,7 @@ def fly_with_subscriber(controller: Controller, duration: str, *keys: str) -> di
         controller=controller,
         spawn_alt=100.0,
         speed=None,
-        duration_s=float(duration),
-        wait_ready=False,
-        autopilot_args=("--profile", "accel"),
+        processes=ProcessOptions(duration_s=float(duration), wait_ready=False, autopilot_args=("--profile", "accel")),
     ) as vehicle:
         endpoints = [vehicle.ports.zenoh_plant, vehicle.ports.zenoh_autopilot]
         session = zenoh.open(session_config(listen=[], connect=endpoints))

@@ -17,7 +17,7 @@ from ground_tools.telemetry_record import (
     read_recording,
 )
 from tests.unit.test_zenoh_tools import control_payload, plant_payload
-from tiltrotor_sitl import Vehicle
+from tiltrotor_sitl import ProcessOptions, Vehicle
 from tiltrotor_sitl._free_ports import free_zenoh_endpoint
 from transport.telemetry import (
     PLANT_STATE_FIELDS,
@@ -79,7 +79,9 @@ def vehicle():
     yields its plant's and autopilot's endpoints. Real time x1: on a loaded 2-core machine an autopilot that cannot
     keep up with a faster real-time plant (x5 PID, x2 MPC were seen) lets the vehicle fall, and the tests check
     ~100 m."""
-    with Vehicle(controller="pid", spawn_alt=100.0, speed=1.0, autopilot_args=("--quiet",)) as started:
+    with Vehicle(
+        controller="pid", spawn_alt=100.0, speed=1.0, processes=ProcessOptions(autopilot_args=("--quiet",))
+    ) as started:
         yield [started.ports.zenoh_plant, started.ports.zenoh_autopilot]
 
 
@@ -144,9 +146,18 @@ def test_vtol_watch_prints_status_lines_and_writes_a_snapshot(tmp_path, vehicle)
     assert re.search(r"vtol: \d+ samples received", result.stderr) and "Traceback" not in result.stderr
 
 
-def test_vtol_watch_without_a_vehicle_says_so(tmp_path):
+def test_vtol_watch_without_a_vehicle_says_so_and_exits_1(tmp_path):
     command = [*VTOL, "watch", "--text", "--duration", "1.2", "--connect", free_zenoh_endpoint()]
     result = subprocess.run(command, capture_output=True, text=True, timeout=60)
-    assert result.returncode == 0, result.stderr
+    assert result.returncode == 1, result.stderr
     assert result.stdout.splitlines() == ["t=- (no plant state yet)  mode=-  mpc=-  (no new samples)"]
     assert "vtol: 0 samples received" in result.stderr
+
+
+def test_vtol_record_without_a_vehicle_says_so_and_exits_1(tmp_path):
+    command = [*VTOL, "record", "--out", str(tmp_path / "r.jsonl"), "--duration", "1.2", "--no-progress",
+               "--connect", free_zenoh_endpoint()]  # fmt: skip
+    result = subprocess.run(command, capture_output=True, text=True, timeout=60)
+    assert result.returncode == 1, result.stderr
+    assert "vtol: error: nothing received: is a vehicle publishing on" in result.stderr
+    assert (tmp_path / "r.jsonl").read_text() == ""

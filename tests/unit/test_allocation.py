@@ -1,4 +1,4 @@
-"""Control allocation (docs/autopilot.md 3): hand-checkable hover cases, saturation, failures, cruise
+"""Control allocation (docs/autopilot.md): hand-checkable hover cases, saturation, failures, cruise
 redistribution, NaN safety.
 
 Hand derivation used below (docs/model.md, body FRD, zero tilt): rotor i pushes F_i = T_i (0, 0, -1), so its

@@ -4,6 +4,7 @@ store, and a small campaign flown on a local Dask cluster of 2 workers, killed h
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import duckdb
@@ -65,6 +66,9 @@ failure_yaw_deg = { uniform = [30, 300] }
     ('scenario = "circle"\n[fixed]\nplant_airframe = "nowhere.toml"', "plant_airframe 'nowhere.toml': no such file"),
     ('scenario = "circle"\n[fixed]\nwind_n_mps = 90', "wind_n_mps = 90 is outside"),
     ('scenario = [', "is not TOML"),
+    ('scenario = "circle"\n[report]\nerror = "radial_mean_m"',
+     "report.error = 'radial_mean_m' is not a metric the error map can show: one of vx_rmse,"),
+    ('scenario = "circle"\n[report]\nerror = "survived"', "report.error = 'survived' is not a metric"),
 ])  # fmt: skip
 def test_bad_campaign_files_are_refused_in_one_line(tmp_path: Path, capsys, text: str, message: str) -> None:
     with pytest.raises(CampaignError, match=None):
@@ -157,3 +161,17 @@ def test_a_store_written_before_a_metric_existed_gets_its_column(tmp_path: Path)
     store.close()
     assert frame.loc["k1", "heading_error_max_deg"] == 2.5 and np.isnan(frame.loc["k0", "heading_error_max_deg"])
     assert frame.loc["k0", "vx_rmse"] == 0.3
+
+
+def test_without_the_campaign_extra_the_command_names_it_in_one_line(tmp_path: Path, capsys, monkeypatch) -> None:
+    """A Python without Dask (the extra not installed): sys.modules holds None for it, so importing it fails as a
+    missing package does; the campaign's own modules are imported afresh."""
+    for module in [name for name in sys.modules if name.startswith("ground_tools.campaign.")]:
+        monkeypatch.delitem(sys.modules, module)
+    for missing in ("dask", "dask.distributed", "distributed"):
+        monkeypatch.setitem(sys.modules, missing, None)
+    with pytest.raises(SystemExit) as exit_:
+        main(["campaign", str(_campaign(tmp_path, 'scenario = "accel"'))])
+    error = capsys.readouterr().err
+    assert exit_.value.code == 2 and error.count("\n") == 1, error
+    assert "vtol campaign: error: needs dask" in error and "pip install 'tiltrotor-sitl[campaign]'" in error

@@ -1,10 +1,10 @@
-"""The seeded UDP fault proxy itself (ground_tools/fault_proxy.py): loss, duplication, reordering, delay, counted."""
+"""The seeded UDP fault proxy itself (tiltrotor_sitl/fault_proxy.py): loss, duplication, reordering, delay, counted."""
 
 from __future__ import annotations
 
 import pytest
 
-from ground_tools.fault_proxy import Faults
+from tiltrotor_sitl.fault_proxy import Faults
 
 
 def test_bad_faults_are_refused():

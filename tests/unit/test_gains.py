@@ -5,7 +5,6 @@ running flight controller when they change, and a campaign axis."""
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,12 +18,9 @@ from autopilot.mpc.horizon import LONG
 from autopilot.mpc.model import P_ATTITUDE_BOUND, P_GAINS, P_WEIGHTS, MpcLimits, MpcWeights
 from autopilot.mpc.rti import RtiSolver
 from autopilot.mpc.tuning import mpc_limits, mpc_weights
-from autopilot.storage.parameter_reference import markdown_table
-from autopilot.storage.parameters import DEFINITIONS, ParameterRejected, ParameterStore
+from autopilot.storage.parameters import ParameterRejected, ParameterStore
 from ground_tools.campaign.points import campaign_points
 from ground_tools.campaign.spec import CampaignError, load_campaign
-
-DOCS = Path(__file__).resolve().parents[2] / "docs"
 
 
 @pytest.fixture(scope="module")
@@ -117,10 +113,3 @@ def test_an_autopilot_parameter_is_a_campaign_axis(tmp_path):
     path.write_text('scenario = "accel"\n[axes]\nVT_MPC_Q_VN = [5, 1e9]\n')
     with pytest.raises(CampaignError, match="VT_MPC_Q_VN: 1e\\+09 outside 0..10000"):
         load_campaign(path)
-
-
-def test_the_docs_hold_the_generated_parameter_reference():
-    """`python -m autopilot.storage.parameter_reference` prints it; some page of docs/ holds it as printed."""
-    table = markdown_table()
-    assert len(table.splitlines()) == len(DEFINITIONS) + 2
-    assert any(table in page.read_text() for page in DOCS.glob("*.md"))

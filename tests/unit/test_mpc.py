@@ -13,7 +13,7 @@ from autopilot.mpc.reference import solve_reference_nlp
 from autopilot.mpc.rti import RtiSolver
 
 # Paper Table 3, (mean tilt deg, forward speed m/s) -> J_soft. Two cells disagree with every constant set,
-# including the paper's own (its table is inconsistent, docs/mpc.md 1.6): (45, 15) and (90, 10); left out.
+# including the paper's own (its table is inconsistent, docs/mpc.md, the cost): (45, 15) and (90, 10); left out.
 PAPER_TABLE = {
     (0, 0): 0.10, (0, 5): 0.0092, (0, 10): 8.40e-4, (0, 15): 3.12e-4,
     (45, 0): 1.50e34, (45, 5): 20.1, (45, 10): 6.67e-33,
@@ -104,7 +104,7 @@ def test_a_stuck_motor_and_a_slow_servo_enter_the_plan_too(solver):
     solver.set_actuator_limits(np.full(4, 23.0), np.full(4, np.nan))
 
 
-# ---- the set-point trajectory, the coordinated-turn roll, continuous yaw, stuck servos (docs/mpc.md 2.5-2.7) ----
+# ---- the set-point trajectory, the coordinated-turn roll, continuous yaw, stuck servos (docs/mpc.md, deviations 7-9) ----
 
 from autopilot.control.actuator_health import ServoEstimate  # noqa: E402
 from autopilot.control.allocation import ControlAllocator  # noqa: E402
@@ -258,7 +258,7 @@ def test_the_controller_keeps_yaw_continuous_across_180_degrees(airframe):
 
 
 def test_a_servo_stuck_near_its_estimate_leaves_the_qp_feasible(solver):
-    # Servo 1 jammed at 60 deg while its estimate, x_0's tilt, is still 0.07 deg past it (docs/mpc.md 2.7).
+    # Servo 1 jammed at 60 deg while its estimate, x_0's tilt, is still 0.07 deg past it (docs/mpc.md, deviation 9).
     x0 = np.zeros(NX)
     x0[0] = 12.0
     x0[CHI] = (math.radians(60.07), math.radians(60), math.radians(60), math.radians(60))
@@ -276,7 +276,7 @@ def test_a_servo_stuck_near_its_estimate_leaves_the_qp_feasible(solver):
     solver.set_actuator_limits(np.full(4, 23.0), np.full(4, np.nan))
 
 
-# ---- the soft roll and pitch bound (docs/mpc.md 2.8) ----
+# ---- the soft roll and pitch bound (docs/mpc.md, deviation 6) ----
 
 from autopilot.mpc.model import MpcLimits, MpcWeights, attitude_bound_residual, yaw_bound_residual  # noqa: E402
 
@@ -330,7 +330,7 @@ def test_soft_yaw_bound_acts_on_the_wrapped_error_from_the_reference():
 
 
 def pitching_through_the_bound() -> tuple[np.ndarray, np.ndarray]:
-    """accel-decel at 22.30 s before the change (docs/mpc.md 2.8): braking from 15.9 m/s, pitch 44.4 deg and still
+    """accel-decel at 22.30 s before the change (docs/mpc.md, deviation 6): braking from 15.9 m/s, pitch 44.4 deg and still
     rising at 1.67 rad/s. To stop that inside 45 deg (0.6 deg = 0.0105 rad away) takes 1.67^2 / (2 0.0105) =
     133 rad/s^2; the attitude law gives at most K_p (pi + 1.67) = 96 rad/s^2 (its rate set-point saturates at
     -pi): no plan keeps |theta| <= 45 deg. (The first QP, linearised at the cold guess where the law's tanh is

@@ -1,5 +1,5 @@
 """The MPC's horizon: the stage grid, the warm start moved one tick along it, the set-point laid along it, and the
-choice of horizon (docs/mpc.md 2.9)."""
+choice of horizon (docs/design/alternatives.md, the long horizon)."""
 
 from __future__ import annotations
 

@@ -10,11 +10,12 @@ import pytest
 from aircraft.actuators import ALLOCATED_ROTORS
 from aircraft.failures import FailureType, FailureUnit, parse_failure
 from autopilot.control.attitude import euler_rates
-from autopilot.control.flight_controller import MPC, VELOCITY_PERIOD_USEC
+from autopilot.control.flight_controller import VELOCITY_PERIOD_USEC
 from autopilot.controllers import build_flight_controller
 from autopilot.mpc.horizon import HORIZONS
 from autopilot.mpc.model import P_SOLVER, THRUST
 from autopilot.mpc.overlap import OverlappedMpc, body_rates
+from autopilot.topics.controller_kind import MPC
 from autopilot.topics.vehicle_state import VehicleState
 
 

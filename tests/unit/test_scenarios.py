@@ -3,6 +3,7 @@ determinism, recordings, and the pure pieces (triggers, grid, acceptance) checke
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -10,7 +11,9 @@ import pytest
 
 from autopilot.navigator.stamped_setpoints import StampedSetpoints
 from autopilot.topics.yaw_setpoint import YawSetpoint
+from ground_tools.exit_status import CHECK_FAILED, FAILED, OK
 from ground_tools.lockstep_client import PERIOD_MS, START_MS, grid_stamp, setpoint_for, tilt_commands_deg, yaw_turns
+from ground_tools.scenario_command import checked, exit_status
 from ground_tools.scenario_report import acceptance, velocity_rmse
 from scenarios.experiments import BANK_THEORY_DEG, SCENARIOS, Telemetry, servo_reaches, yaw_reaches
 from scenarios.profiles import PROFILES, accel_decel_braking_at
@@ -90,6 +93,20 @@ def test_acceptance_checks_by_hand() -> None:
     # the nose across the course (a skid), and a run that never moved (no course: nothing to check)
     assert [passed for _, passed in acceptance("accel", {**base, "heading_error_max_deg": 20.1}, None)] == [True, False]
     assert acceptance("accel", {**base, "heading_error_max_deg": None}, None)[1][1]
+
+
+def test_a_failed_acceptance_check_is_exit_status_3_and_a_failed_run_1(tmp_path, capsys) -> None:
+    base = {"survived": True, "vx_rmse": 0.3, "vy_rmse": 0.4, "vz_rmse": 0.0, "heading_error_max_deg": 20.1}
+    (tmp_path / "accel" / "mpc").mkdir(parents=True)
+    (tmp_path / "accel" / "mpc" / "metrics.json").write_text(json.dumps(base))
+    failed = checked(tmp_path, "accel")
+    assert failed == ["accel: nose on the course (heading off it <= 20 deg)"]
+    assert "vtol: accel: MPC nose on the course (heading off it <= 20 deg): FAIL" in capsys.readouterr().out
+    assert exit_status([], failed) == CHECK_FAILED == 3
+    assert "vtol: error: 1 acceptance check(s) failed: accel: nose on the course" in capsys.readouterr().err
+    assert exit_status(["accel/pid"], failed) == FAILED == 1
+    assert exit_status([], []) == OK == 0
+    assert checked(tmp_path, "circle") == []  # not flown: nothing to check
 
 
 def test_course_rate_of_the_circle_setpoint_is_its_angular_rate() -> None:

@@ -1,4 +1,4 @@
-"""The survey missions of issue 11 through `vtol mission` (docs/scenarios.md, "Missions"): takeoff, 6 waypoints
+"""The survey missions of issue 11 through `vtol mission` (docs/missions.md): takeoff, 6 waypoints
 400 m apart at 25 m/s (DO_CHANGE_SPEED), back over home, land. The unified MPC flies missions/survey.plan (no
 DO_VTOL_TRANSITION: it transitions when the legs ask for cruise speed); the PID flies
 missions/survey_transitions.plan, whose DO_VTOL_TRANSITION items drive its phases. Lockstep, uploaded through

@@ -12,13 +12,14 @@ import pytest
 
 from aircraft.airframe import Airframe, load_airframe
 from aircraft.frames import quaternion_from_euler
-from autopilot.control.flight_controller import MPC, VELOCITY_PERIOD_USEC
+from autopilot.control.flight_controller import VELOCITY_PERIOD_USEC
 from autopilot.control.pid_baseline import PidVelocityController
 from autopilot.control.velocity_command import VelocityCommand
 from autopilot.control.velocity_controller import VelocityController
 from autopilot.controllers import KINDS, build_flight_controller
 from autopilot.mpc.controller import MpcVelocityController
 from autopilot.mpc.overlap import OverlappedMpc
+from autopilot.topics.controller_kind import MPC
 from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.yaw_setpoint import YawReference
 

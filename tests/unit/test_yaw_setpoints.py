@@ -1,4 +1,4 @@
-"""Yaw set-points end to end (docs/autopilot.md section 6, docs/mavlink.md "Yaw"): Offboard yaw and yaw rate, a mission
+"""Yaw set-points end to end (docs/mavlink.md, Yaw, docs/mavlink.md, "Yaw"): Offboard yaw and yaw rate, a mission
 waypoint's param4, DO_REPOSITION's param4, DO_ORBIT's yaw behaviour, the yaw stick, through MAVLink in lockstep,
 flown by the default controller (the MPC) and once by the PID; the shaping and the rule of where a yaw is honoured as
 pure functions."""

@@ -10,6 +10,8 @@ ALTITUDE = "Altitude"
 
 
 class AltitudeMode(StickMode):
+    """ALTCTL: the sticks as velocity set-points; a centred throttle holds the altitude, no position hold."""
+
     id = ModeId(ALTITUDE, PX4_MAIN_ALTCTL)
     needs_position = False
     holds_position = False

@@ -18,9 +18,10 @@ ORBIT = "Orbit"
 
 
 class OrbitMode(FlightMode):
-    """Orbit (PX4's POSCTL.ORBIT navigation state): circle a centre for ever; the nose as the orbit's yaw behaviour
-    asks, RC_CONTROLLED: turned by the yaw stick and locked where it stops, as in Position mode (`stick_yaw_rate`:
-    rad/s at a simulation time, None without fresh sticks)."""
+    """POSCTL.ORBIT (PX4's Orbit navigation state): circle a centre for ever, the nose as the orbit's yaw behaviour asks.
+
+    With RC_CONTROLLED the yaw stick turns the nose and it stays where the stick leaves it, as in Position mode
+    (`stick_yaw_rate`: rad/s at a simulation time, None without fresh sticks)."""
 
     id = ModeId(ORBIT, PX4_MAIN_POSCTL, PX4_POSCTL_ORBIT)
 

@@ -10,4 +10,6 @@ POSITION = "Position"
 
 
 class PositionMode(StickMode):
+    """POSCTL: the sticks as velocity set-points; centred, the vehicle brakes and holds its position and altitude."""
+
     id = ModeId(POSITION, PX4_MAIN_POSCTL)

@@ -29,7 +29,8 @@ RETURN = "Return"
 
 
 class ReturnMode(FlightMode):
-    """Return: the route as the module's docstring says, announced with PX4's texts as it goes."""
+    """AUTO.RTL: climb to the return altitude, fly to home (or a rally point, or the mission's landing) and land,
+    announced with PX4's texts as it goes."""
 
     id = ModeId(RETURN, PX4_MAIN_AUTO, PX4_AUTO_RTL)
 

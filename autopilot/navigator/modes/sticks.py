@@ -5,7 +5,7 @@
     z  throttle, 0.5 centre: climb above centre up to MPC_Z_VEL_MAX_UP, descend below it down to MPC_Z_VEL_MAX_DN;
        centred: hold the altitude
     r  yaw stick: yaw rate up to MPC_MAN_Y_MAX from the nose; centred, the turn is stopped and the heading where it
-       stopped is held, as PX4's heading lock (docs/autopilot.md section 6); the sticks' frame is that heading
+       stopped is held, as PX4's heading lock (docs/mavlink.md, Yaw); the sticks' frame is that heading
 
 Horizontal velocity up to MPC_VEL_MANUAL; centred horizontal sticks brake, then (Position only) hold the position.
 Sticks within MPC_HOLD_DZ of centre are centred; beyond it they are rescaled.
