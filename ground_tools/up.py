@@ -53,23 +53,24 @@ def add_up_arguments(parser: argparse.ArgumentParser) -> None:
                         "default: the vehicle's root, microsd-I beside its parameter file)")  # fmt: skip
     parser.add_argument("--plant-signing-key", metavar="FILE",
                         help="sign each vehicle's plant link with this key (64 hex digits; docs/plant-link.md)")  # fmt: skip
-    parser.add_argument("--wind", type=wind_speed_and_direction, default=(0.0, 0.0), metavar="SPEED,FROM_DEG",
-                        help="mean wind: its speed (m/s) and where it blows from (deg, 90 = from the east); "
-                             "SIM_WIND_SPD, SIM_WIND_DIR")  # fmt: skip
-    parser.add_argument("--turbulence", type=nonnegative_float, default=0.0, metavar="SIGMA",
-                        help="Dryden turbulence, the vertical gusts' standard deviation (m/s); SIM_WIND_TURB")  # fmt: skip
+    parser.add_argument("--wind", type=wind_from, default=(0.0, 0.0), metavar="N,E",
+                        help="the mean wind, m/s from the north and from the east as PX4's SIH_WIND_N, SIH_WIND_E "
+                        "(5,0: 5 m/s from the north; default none)")  # fmt: skip
+    parser.add_argument("--wind-turbulence", type=nonnegative_float, default=0.0, metavar="SIGMA",
+                        help="Dryden turbulence, the vertical gusts' standard deviation, m/s (SIM_WIND_TURB; "
+                        "default 0: none)")  # fmt: skip
     parser.add_argument("--wind-seed", type=bounded_int(0, SEED_MAX), default=0, metavar="N",
-                        help="the turbulence's seed (SIM_WIND_SEED)")  # fmt: skip
+                        help="the turbulence's seed (SIM_WIND_SEED; default 0)")  # fmt: skip
     parser.add_argument("--no-zenoh", action="store_true", help="no zenoh telemetry")
 
 
-def wind_speed_and_direction(text: str) -> tuple[float, float]:
-    """'SPEED,FROM_DEG' -> two finite numbers (their ranges are checked with the rest of the wind)."""
+def wind_from(text: str) -> tuple[float, float]:
+    """'N,E' -> two finite numbers (their ranges are checked with the rest of the wind)."""
     parts = text.split(",")
     if len(parts) != 2:
-        raise argparse.ArgumentTypeError(f"expected SPEED,FROM_DEG: {text!r}")
-    speed, direction = (finite_float(part) for part in parts)
-    return speed, direction
+        raise argparse.ArgumentTypeError(f"expected N,E (m/s from the north and from the east): {text!r}")
+    north, east = (finite_float(part) for part in parts)
+    return north, east
 
 
 def commands(args: argparse.Namespace, index: int, sysid: int) -> tuple[list[str], list[str]]:
@@ -106,10 +107,10 @@ def commands(args: argparse.Namespace, index: int, sysid: int) -> tuple[list[str
 
 
 def wind(args: argparse.Namespace) -> Wind | None:
-    """--wind, --turbulence, --wind-seed as the plant's wind (None: none given); refused in one line when out of
+    """--wind, --wind-turbulence, --wind-seed as the plant's wind (None: none given); refused in one line when out of
     range."""
-    speed, direction = args.wind
-    given = Wind(speed, direction, args.turbulence, args.wind_seed)
+    from_north, from_east = args.wind
+    given = Wind(from_north, from_east, args.wind_turbulence, args.wind_seed)
     try:
         given.check()
     except ValueError as exc:

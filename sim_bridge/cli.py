@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import socket
 import sys
@@ -118,7 +117,8 @@ def build_parser() -> OneLineArgumentParser:
         type=float_triple,
         default=(0.0, 0.0, 0.0),
         metavar="N,E,D",
-        help="constant wind in NED, m/s (default 0,0,0)",
+        help="the mean wind's velocity in NED, the way the air moves, m/s (default 0,0,0; the horizontal part is the "
+        "SIH_WIND_N, SIH_WIND_E parameters, negated: PX4's SIH gives where the wind comes from)",
     )
     parser.add_argument(
         "--wind-turbulence",
@@ -226,8 +226,9 @@ def main(argv: list[str] | None = None) -> int:
         signing_key=key_file_option(PROG, "--plant-signing-key", args.plant_signing_key),
         fast=PLANT_STEP_FORMATS,
     )
-    if (why := refusal(PLANT_PARAMETER["SIM_WIND_SPD"], math.hypot(args.wind[0], args.wind[1]))) is not None:
-        fail(PROG, f"--wind: the horizontal speed {why}")
+    for name, velocity in (("SIH_WIND_N", args.wind[0]), ("SIH_WIND_E", args.wind[1])):
+        if (why := refusal(PLANT_PARAMETER[name], -velocity)) is not None:
+            fail(PROG, f"--wind: {why}")
     parameters = PlantParameterService.for_command_line(args.wind, args.wind_turbulence, args.wind_seed, link)
     plant = Plant(airframe, spawn, wind=parameters.wind_model)
     sensors = SensorSuite(plant, link, LocalGeodetic(home), noise_seed=args.sensor_noise_seed)

@@ -17,7 +17,6 @@ from sim_bridge.dynamics import (
     QUATERNION,
     ROTOR_SPEED,
     STATE_SIZE,
-    VELOCITY,
     WIND,
     build_output_function,
     build_step_function,
@@ -67,17 +66,16 @@ class Plant:
         self,
         airframe: Airframe,
         spawn: Spawn,
-        wind_ned: tuple[float, float, float] = (0.0, 0.0, 0.0),
         compile_model: bool = True,
         wind: WindModel | None = None,
     ) -> None:
-        """`wind`: the wind model (mean and turbulence, sim_bridge/wind.py); None: the constant `wind_ned`."""
+        """`wind`: the wind model (mean and turbulence, sim_bridge/wind.py); None: still air."""
         self.airframe = airframe
         self.step_count = 0
         self.state = initial_state(airframe, spawn)
         hovering = spawn.altitude is not None and spawn.rotors_spinning
         self.command = hover_command(airframe) if hovering else np.zeros(COMMAND_SIZE)
-        self.wind = wind if wind is not None else WindModel(wind_ned)
+        self.wind = wind if wind is not None else WindModel()
         self.failures = ActuatorFailures(parameters=healthy_parameters(tuple(self.wind.mean_ned)))
         self.failed_sensors: set[FailureUnit] = set()  # OFF: the sensor suite stops sending what it measures
         self.specific_force = np.zeros(3)
@@ -116,7 +114,7 @@ class Plant:
 
     def step(self) -> None:
         """Advance one RK4 step of DT with the held command, in the wind of this step."""
-        self.failures.parameters[WIND] = self.wind.step(-float(self.state[POSITION][2]), self.state[VELOCITY], DT)
+        self.failures.parameters[WIND] = self.wind.step(DT)
         self._evaluate()
         self.state[:] = self._next_state
         self.step_count += 1

@@ -11,7 +11,7 @@ from typing import Any
 from sim_bridge.wind import WindModel
 from transport.mavlink import Link
 from transport.plant_parameters import BY_NAME, MAV_PARAM_TYPE, PLANT_PARAMETERS, decode, encode, refusal
-from transport.wind import Wind, speed_and_direction
+from transport.wind import Wind, from_velocity
 
 
 @dataclass
@@ -34,13 +34,11 @@ class PlantParameterService:
     @classmethod
     def for_command_line(cls, wind_ned: tuple[float, float, float], turbulence: float, seed: int,
                          link: Link) -> PlantParameterService:  # fmt: skip
-        speed, direction = speed_and_direction(wind_ned[0], wind_ned[1])
-        return cls(WindModel(wind_ned, turbulence, seed), Wind(speed, direction, turbulence, seed), link)
+        return cls(WindModel(wind_ned, turbulence, seed), from_velocity(wind_ned[0], wind_ned[1], turbulence, seed),
+                   link)  # fmt: skip
 
     def values(self) -> dict[str, float]:
-        w = self.wind
-        return {"SIM_WIND_SPD": w.speed_mps, "SIM_WIND_DIR": w.from_deg, "SIM_WIND_TURB": w.turbulence_mps,
-                "SIM_WIND_SEED": float(w.seed)}  # fmt: skip
+        return {name: float(value) for name, value in self.wind.parameters().items()}
 
     def for_plant(self, message: Any) -> bool:
         system, component = self.link.mav.srcSystem, self.link.mav.srcComponent
@@ -80,8 +78,8 @@ class PlantParameterService:
             self.wind_model.set(self.wind)
             self.changes += 1
             w = self.wind
-            said.append((f"wind {w.speed_mps:g} m/s from {w.from_deg:g} deg, turbulence {w.turbulence_mps:g} m/s "
-                         f"(seed {w.seed})", False))  # fmt: skip
+            # within a STATUSTEXT's 50 characters after the plant's "plant: "
+            said.append((f"wind from N {w.from_north:g} E {w.from_east:g}, gusts {w.turbulence:g} m/s", False))
         return Answer([self._value(index)], said)
 
     def _value(self, index: int) -> Any:
@@ -92,10 +90,10 @@ class PlantParameterService:
 
 
 def _with(wind: Wind, name: str, value: float) -> Wind:
-    if name == "SIM_WIND_SPD":
-        return replace(wind, speed_mps=value)
-    if name == "SIM_WIND_DIR":
-        return replace(wind, from_deg=value)
+    if name == "SIH_WIND_N":
+        return replace(wind, from_north=value)
+    if name == "SIH_WIND_E":
+        return replace(wind, from_east=value)
     if name == "SIM_WIND_TURB":
-        return replace(wind, turbulence_mps=value)
+        return replace(wind, turbulence=value)
     return replace(wind, seed=int(value))

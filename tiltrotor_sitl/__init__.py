@@ -400,8 +400,9 @@ class Vehicle(VehicleHandle):
     alt)). airframe: an airframe TOML for both processes (default: the paper's vehicle). link_faults: Faults(loss=,
     duplicate=, reorder=, delay_s=, jitter_s=) on its ground-station links (GCS and API), both ways, through a seeded
     fault proxy (tiltrotor_sitl/fault_proxy.py; change them in flight with set_link_faults()). wind: the plant's
-    wind, Wind(speed_mps, from_deg, turbulence_mps, seed) (mean and Dryden turbulence; docs/plant-link.md "Wind"; a
-    ground station or test changes it in flight through the SIM_WIND_* parameters).
+    wind, Wind(from_north=, from_east=, turbulence=, seed=) (m/s where the mean wind comes from, as PX4's SIH_WIND_N
+    and SIH_WIND_E; Dryden turbulence; docs/plant-link.md "Wind"); a ground station or a test changes it in flight
+    with those parameters and SIM_WIND_TURB, SIM_WIND_SEED.
 
     Where it lives: instance: None (default) for free ports, or I for instance I's ports (docs/plant-link.md: plant
     4560+I, API 14540+I, GCS to 14550, system id I+1). sysid: the system id (default: params' MAV_SYS_ID, else I+1,

@@ -59,8 +59,8 @@ def plant_wind(wind: Wind | None) -> dict[str, Any]:
     """SimCommand's wind fields for `wind` (None: the plant's default, no wind)."""
     if wind is None:
         return {}
-    north, east = wind.north_east
-    return {"wind_ned": (north, east, 0.0), "wind_turbulence": wind.turbulence_mps, "wind_seed": wind.seed}
+    north, east = wind.velocity_ne
+    return {"wind_ned": (north, east, 0.0), "wind_turbulence": wind.turbulence, "wind_seed": wind.seed}
 
 
 def fleet_home(index: int, home: Home | None = None, spacing_m: float = FLEET_SPACING_M) -> Home:

@@ -28,17 +28,21 @@ class PlantParameter:
     maximum: float
     unit: str
     description: str
+    px4: bool  # PX4 has the parameter (its SIH simulator's), with this meaning
 
 
+WIND_MAX = 40.0  # m/s, either component of the mean wind
 PLANT_PARAMETERS: tuple[PlantParameter, ...] = (
-    PlantParameter("SIM_WIND_SPD", REAL32, 0.0, 0.0, 60.0, "m/s", "simulated wind: mean horizontal speed"),
-    PlantParameter("SIM_WIND_DIR", REAL32, 0.0, 0.0, 360.0, "deg",
-                   "simulated wind: the direction the mean wind blows from (0 north, 90 east)"),
+    PlantParameter("SIH_WIND_N", REAL32, 0.0, -WIND_MAX, WIND_MAX, "m/s",
+                   "simulated wind: the mean wind's speed from the north (5: a 5 m/s wind from the north, blowing "
+                   "south; PX4's SIH convention)", px4=True),
+    PlantParameter("SIH_WIND_E", REAL32, 0.0, -WIND_MAX, WIND_MAX, "m/s",
+                   "simulated wind: the mean wind's speed from the east (PX4's SIH convention)", px4=True),
     PlantParameter("SIM_WIND_TURB", REAL32, 0.0, 0.0, 10.0, "m/s",
-                   "simulated wind: turbulence intensity, the vertical gusts' standard deviation (Dryden, "
-                   "MIL-HDBK-1797 low altitude; the horizontal ones larger by the model's ratio)"),
+                   "simulated wind: Dryden turbulence intensity, the vertical gusts' standard deviation (the "
+                   "horizontal ones larger by the low-altitude model's ratio; 0: none)", px4=False),
     PlantParameter("SIM_WIND_SEED", INT32, 0, 0, SEED_MAX, "",
-                   "simulated wind: the turbulence's random seed (the same seed, the same gusts)"),
+                   "simulated wind: the turbulence's random seed (the same seed, the same gusts)", px4=False),
 )  # fmt: skip
 BY_NAME = {parameter.name: parameter for parameter in PLANT_PARAMETERS}
 

@@ -650,7 +650,7 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
     ),
     # The plant's (transport/plant_parameters.py): read from the plant, set on it, not kept in the file.
     *(
-        P(p.name, p.kind, p.default, p.minimum, p.maximum, p.unit, p.description, px4=False, plant=True)
+        P(p.name, p.kind, p.default, p.minimum, p.maximum, p.unit, p.description, px4=p.px4, plant=True)
         for p in PLANT_PARAMETERS
     ),
 )

@@ -16,8 +16,9 @@ from transport.plant_parameters import refusal
 from transport.wind import Wind
 
 CONTROLLERS = ("mpc", "pid")
-WIND = ("wind_n_mps", "wind_e_mps", "wind_d_mps")  # the plant's constant wind, NED
+UPDRAFT = "wind_d_mps"  # the mean wind's vertical velocity (down), m/s: the plant's alone, no parameter
 WIND_LIMIT = 40.0  # m/s
+RENAMED = {"wind_n_mps": "SIH_WIND_N", "wind_e_mps": "SIH_WIND_E"}  # the mean wind is the plant's parameters
 PLANT_AIRFRAME = "plant_airframe"  # an airframe file for the plant only: model mismatch
 TOP_LEVEL = ("name", "scenario", "controllers", "repetitions", "seed", "samples", "fixed", "axes", "report")
 MAX_FLIGHTS = 1_000_000
@@ -98,18 +99,16 @@ def autopilot_parameters(values: dict[str, Any]) -> dict[str, float]:
 def scenario_parameters(values: dict[str, Any]) -> dict[str, Any]:
     """The values that are the scenario's own (not the plant's nor the autopilot's)."""
     return {key: value for key, value in values.items()
-            if key not in WIND and key != PLANT_AIRFRAME and key not in BY_NAME and key not in PLANT_PARAMETERS}  # fmt: skip
+            if key != UPDRAFT and key != PLANT_AIRFRAME and key not in BY_NAME and key not in PLANT_PARAMETERS}  # fmt: skip
 
 
 def plant_wind(values: dict[str, Any]) -> tuple[tuple[float, float, float], float, int]:
-    """The plant's wind of a flight: its mean (NED, m/s: wind_n/e/d_mps, or SIM_WIND_SPD and SIM_WIND_DIR with
-    wind_d_mps), the turbulence (SIM_WIND_TURB) and its seed (SIM_WIND_SEED)."""
-    given = Wind(float(values.get("SIM_WIND_SPD", 0.0)), float(values.get("SIM_WIND_DIR", 0.0)),
+    """The plant's wind of a flight: its mean velocity (NED, m/s: SIH_WIND_N and SIH_WIND_E, where it comes from,
+    negated; wind_d_mps), the turbulence (SIM_WIND_TURB) and its seed (SIM_WIND_SEED)."""
+    given = Wind(float(values.get("SIH_WIND_N", 0.0)), float(values.get("SIH_WIND_E", 0.0)),
                  float(values.get("SIM_WIND_TURB", 0.0)), int(values.get("SIM_WIND_SEED", 0)))  # fmt: skip
-    north, east, down = (float(values.get(name, 0.0)) for name in WIND)
-    if "SIM_WIND_SPD" in values or "SIM_WIND_DIR" in values:
-        north, east = given.north_east
-    return (north, east, down), given.turbulence_mps, given.seed
+    north, east = given.velocity_ne
+    return (north, east, float(values.get(UPDRAFT, 0.0))), given.turbulence, given.seed
 
 
 def check_parameters(scenario: str, values: dict[str, Any], folder: Path) -> None:
@@ -121,6 +120,8 @@ def check_parameters(scenario: str, values: dict[str, Any], folder: Path) -> Non
             store.check(key, _number(key, value))
         except ParameterRejected as exc:
             raise CampaignError(str(exc)) from None
+    for key in set(values) & set(RENAMED):
+        raise CampaignError(f"{key}: the mean wind is {RENAMED[key]}, m/s where the wind comes from (PX4's SIH)")
     for key in set(values) & set(PLANT_PARAMETERS):
         if (why := refusal(PLANT_PARAMETERS[key], _number(key, values[key]))) is not None:
             raise CampaignError(why)
@@ -129,9 +130,8 @@ def check_parameters(scenario: str, values: dict[str, Any], folder: Path) -> Non
         checked_values(scenario, own)
     except VariantError as exc:
         raise CampaignError(str(exc)) from None
-    for key in WIND:
-        if key in values and not -WIND_LIMIT <= _number(key, values[key]) <= WIND_LIMIT:
-            raise CampaignError(f"{key} = {values[key]!r} is outside -{WIND_LIMIT:g} .. {WIND_LIMIT:g} m/s")
+    if UPDRAFT in values and not -WIND_LIMIT <= _number(UPDRAFT, values[UPDRAFT]) <= WIND_LIMIT:
+        raise CampaignError(f"{UPDRAFT} = {values[UPDRAFT]!r} is outside -{WIND_LIMIT:g} .. {WIND_LIMIT:g} m/s")
     if PLANT_AIRFRAME in values:
         airframe = values[PLANT_AIRFRAME]
         if not isinstance(airframe, str) or not (folder / airframe).is_file():
@@ -165,9 +165,6 @@ def parse_campaign(data: dict[str, Any], name: str, folder: Path) -> CampaignSpe
         else:
             grid[axis] = parsed
     check_parameters(scenario, fixed, folder)
-    given = set(fixed) | set(grid) | set(random)
-    if given & {"SIM_WIND_SPD", "SIM_WIND_DIR"} and given & {"wind_n_mps", "wind_e_mps"}:
-        raise CampaignError("the mean wind is SIM_WIND_SPD and SIM_WIND_DIR, or wind_n_mps and wind_e_mps: not both")
     for axis, values in grid.items():
         for value in values:
             check_parameters(scenario, {axis: value}, folder)
