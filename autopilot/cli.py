@@ -17,7 +17,6 @@ from autopilot.commander.flight_stack import FlightStack
 from autopilot.commander.guided_requests import GuidedRequests
 from autopilot.commander.output_requests import OutputRequests
 from autopilot.control.flight_controller import FlightController
-from autopilot.control.pid_baseline import TransitionAirspeeds
 from autopilot.controllers import build_flight_controller, controller_kind, mpc_horizon
 from autopilot.logger.control_telemetry import ControlTelemetry
 from autopilot.logger.flight_log import FlightLogger
@@ -292,7 +291,7 @@ def main(argv: list[str] | None = None) -> int:
         return build_flight_controller(
             airframe,
             controller_kind(args.controller, params.get_int("VT_CTRL")),
-            TransitionAirspeeds(params["VT_ARSP_BLEND"], params["VT_ARSP_TRANS"]),
+            params,
             mpc_horizon=mpc_horizon(args.mpc_horizon, params.get_int("VT_MPC_HRZN")),
             mpc_overlap=params.get_int("VT_MPC_OVERLAP") == 1,
         )

@@ -15,10 +15,11 @@ from aircraft.airframe import Airframe
 from autopilot.control.actuator_health import ServoEstimate
 from autopilot.control.allocation import ControlAllocator
 from autopilot.control.flight_controller import VELOCITY_PERIOD_USEC, FlightController
-from autopilot.control.pid_baseline import PidVelocityController, TransitionAirspeeds
+from autopilot.control.pid_baseline import PidVelocityController
 from autopilot.mpc.controller import DEFAULT_HORIZON, MpcVelocityController
 from autopilot.mpc.horizon import HORIZONS, LONG, PAPER, MpcHorizon
 from autopilot.mpc.overlap import OverlappedMpc
+from autopilot.storage.parameters import ParameterStore
 from autopilot.topics.controller_kind import MPC, PID, ControllerKind
 
 KINDS: tuple[ControllerKind, ...] = (MPC, PID)
@@ -49,13 +50,13 @@ def mpc_horizon(forced: str | None, vt_mpc_hrzn: int) -> MpcHorizon:
 def build_flight_controller(
     airframe: Airframe,
     kind: ControllerKind,
-    transition_airspeeds: TransitionAirspeeds | None = None,
+    params: ParameterStore | None = None,
     *,
     mpc_horizon: MpcHorizon = DEFAULT_HORIZON,
     mpc_overlap: bool = False,
 ) -> FlightController:
-    """A fresh flight controller of `kind` ("mpc" or "pid"); transition_airspeeds: VT_ARSP_BLEND / VT_ARSP_TRANS
-    for the PID (None: PidParameters' defaults); mpc_horizon: the MPC's horizon (autopilot/mpc/horizon.py);
+    """A fresh flight controller of `kind` ("mpc" or "pid"); params: its gains, weights and limits (None: the
+    defaults; FlightController.retune applies later changes); mpc_horizon: the MPC's horizon (autopilot/mpc/horizon.py);
     mpc_overlap: solve one tick ahead on the solver's worker thread (autopilot/mpc/overlap.py, VT_MPC_OVERLAP)
     instead of the paper's synchronous solve. Raises ValueError for another kind."""
     if kind not in KINDS:
@@ -65,10 +66,12 @@ def build_flight_controller(
     allocator = ControlAllocator(airframe, u_initial=u_initial)
     servos = ServoEstimate(airframe)
     pid = PidVelocityController(airframe, dt=VELOCITY_PERIOD_USEC / 1e6)
-    if transition_airspeeds is not None:
-        pid.set_transition_airspeeds(*transition_airspeeds)
     if kind != MPC:
-        return FlightController(airframe, allocator, servos, pid)
-    mpc = MpcVelocityController(airframe, allocator, servos, horizon=mpc_horizon)
-    flying = OverlappedMpc(mpc, VELOCITY_PERIOD_USEC) if mpc_overlap else mpc
-    return FlightController(airframe, allocator, servos, pid, flying)
+        controller = FlightController(airframe, allocator, servos, pid)
+    else:
+        mpc = MpcVelocityController(airframe, allocator, servos, horizon=mpc_horizon)
+        flying = OverlappedMpc(mpc, VELOCITY_PERIOD_USEC) if mpc_overlap else mpc
+        controller = FlightController(airframe, allocator, servos, pid, flying)
+    if params is not None:
+        controller.retune(params)
+    return controller

@@ -39,6 +39,7 @@ from aircraft.failures import Failure
 from autopilot.commander.calibration import Calibration, Reading
 from autopilot.commander.commander import Commander
 from autopilot.commander.failure_injection import FailureInjection
+from autopilot.commander.plant_parameter_sync import PlantParameterSync
 from autopilot.control.flight_controller import FlightController
 from autopilot.logger.control_telemetry import ControlTelemetry
 from autopilot.logger.flight_log import FlightLogger
@@ -122,6 +123,7 @@ class PlantLoop:
         self.missions = missions if missions is not None else MissionStore()
         self.calibration = calibration
         self.boot_usec: int | None = None  # the plant's time at this process's first step
+        self.plant_parameters = PlantParameterSync(params, client)
         self.state = VehicleState()
         self.counters = LoopCounters()
         self.controllers_started = 1
@@ -153,6 +155,8 @@ class PlantLoop:
                     self._learn(failure)
             elif kind == "STATUSTEXT":
                 self.events.say(message.severity, message.text)
+            elif kind == "PARAM_VALUE" and (why := self.plant_parameters.answered(message)) is not None:
+                self.note(why)
         self.client.received_other.clear()
         dropped = sum(self.client.link.dropped.values())
         if dropped > self._dropped_reported:
@@ -172,6 +176,7 @@ class PlantLoop:
         if self.outputs.ulog is not None:
             self.outputs.ulog.restart()
         self.injection.restart()
+        self.plant_parameters.restart()
         self.commander.restart(self.state)
         if self.services is not None:
             self.services.restart(t_usec)
@@ -190,9 +195,9 @@ class PlantLoop:
         self.commander.failure_known(failure)
 
     def _parameters_changed(self) -> None:
-        """Parameters the running controller uses (VT_ARSP_*) handed on after a change."""
+        """The running controller's gains and limits (MC_*, MPC_*, FW_*, VT_*) handed on after a change."""
         self._params_seen = self.params.version
-        self.controller.set_transition_airspeeds(self.params["VT_ARSP_BLEND"], self.params["VT_ARSP_TRANS"])
+        self.controller.retune(self.params)
 
     def _control(self, t_usec: int, t: float) -> list[int] | None:
         """The commander's 100 Hz tick and the controller's step; the PWM to send (None: the controller's)."""
@@ -250,6 +255,7 @@ class PlantLoop:
             failures=tuple(self.injection.known), events=self.events.drain(),
             injections=self.injection.drain_outcomes(), missions=self.missions.snapshot, terminated=report.terminated,
             sensors=self._calibrated_sensors(t_usec),
+            battery=report.battery,
         )  # fmt: skip
 
     def _sensors(self, t_usec: int) -> SensorSample | None:
@@ -317,6 +323,7 @@ class PlantLoop:
                 self._learn(failure)
             if self.params.version != self._params_seen:
                 self._parameters_changed()
+            self.plant_parameters.step(t_usec)  # before this step's answer: the plant applies it to this step
             fixed = self._control(t_usec, t)
             if fixed is None:
                 stepped = self.controller.step(self.state)

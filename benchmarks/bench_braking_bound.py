@@ -29,7 +29,7 @@ from bench_horizon import BRAKING_S, velocity_ticks
 from aircraft.airframe import load_airframe
 from autopilot.control.attitude import DEFAULT_GAINS
 from autopilot.mpc.horizon import HORIZONS
-from autopilot.mpc.model import CHI, CHI_DOT, NU, NX, PSI, PSI_D, THRUST, MpcLimits, discrete_dynamics
+from autopilot.mpc.model import CHI, CHI_DOT, NU, NX, PSI, PSI_D, THRUST, MpcLimits, discrete_dynamics, step_parameters
 from scenarios.profiles import PROFILES, accel_decel_braking_at
 
 GOALS = {"braking error": 1.5, "|v_z|": 0.5, "|pitch|": 25.0}  # m/s, m/s, deg
@@ -60,12 +60,13 @@ def best_braking(
     (deg) all along. Raises RuntimeError (with IPOPT's status) when IPOPT does not converge."""
     airframe, limits = load_airframe(), MpcLimits()
     stages = int(round(seconds / stage_s))
-    step = discrete_dynamics(airframe, DEFAULT_GAINS, substeps=max(1, int(round(stage_s / SUBSTEP_S))))
+    step = discrete_dynamics(airframe, substeps=max(1, int(round(stage_s / SUBSTEP_S))))
     opti = ca.Opti()
     x, u, worst = opti.variable(NX, stages + 1), opti.variable(NU, stages), opti.variable()
     profile = accel_decel_braking_at(deceleration)
     ramp = np.array([profile(BRAKING_S[0] + k * stage_s)[0] for k in range(stages + 1)])
-    grid = ca.DM([stage_s, 0.0])  # the delayed rate in continuous time, as on the long horizon's stages
+    # the delayed rate in continuous time, as on the long horizon's stages
+    grid = ca.DM(step_parameters(stage_s, False, DEFAULT_GAINS.vector()))
     opti.subject_to(x[:, 0] == x0)
     for k in range(stages):
         opti.subject_to(x[:, k + 1] == step(x[:, k], u[:, k], grid))

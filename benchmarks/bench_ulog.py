@@ -21,7 +21,6 @@ from pathlib import Path
 from aircraft.airframe import load_airframe
 from autopilot.commander.commander import build_commander
 from autopilot.commander.failure_injection import FailureInjection
-from autopilot.control.pid_baseline import TransitionAirspeeds
 from autopilot.controllers import build_flight_controller
 from autopilot.logger.logger import Logger, VehicleIdentity
 from autopilot.storage.mission_store import MissionStore
@@ -55,8 +54,7 @@ def logger_alone_us(steps: int) -> float:
     commander = build_commander(params, airframe.hover_thrust_per_rotor / airframe.thrust_max, armed=True,
                                 in_air=True, say=events.say, profile=None, stamped_setpoints=False, missions=missions,
                                 home=home)  # fmt: skip
-    controller = build_flight_controller(airframe, "pid", TransitionAirspeeds(13.5, 23.0), mpc_horizon=None,
-                                         mpc_overlap=False)  # fmt: skip
+    controller = build_flight_controller(airframe, "pid", params)
     injection = FailureInjection(send=lambda failure: None, note=print, scheduled=[])
     with tempfile.TemporaryDirectory(prefix="bench-ulog-") as scratch:
         identity = VehicleIdentity(1, home, commander.navigator.ids, airframe.gravity,

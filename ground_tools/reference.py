@@ -85,7 +85,8 @@ def px4_column(definition: ParameterDefinition) -> str:
         return "ours"
     if definition.px4_default is None:
         return "same default"
-    return f"default {number(definition.px4_default, definition.kind)}"
+    default = f"default {number(definition.px4_default, definition.kind)}"
+    return default if definition.px4_unit is None else f"{default}, in {definition.px4_unit}"
 
 
 @dataclass(frozen=True)

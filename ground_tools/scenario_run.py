@@ -25,12 +25,13 @@ import shutil
 import signal
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from aircraft.airframe import load_airframe
+from autopilot.storage.parameters import ParameterStore
 from ground_tools.lockstep_client import START_MS, LockstepClient
 from ground_tools.lockstep_flight import FlightFailed
 from ground_tools.metrics import flight_metrics
@@ -81,6 +82,17 @@ def write_timeseries(autopilot_log: Path, table: Path, start_s: float) -> None:
     write_flight_log(table, read_flight_log(autopilot_log).since(start_s))
 
 
+def write_parameters(path: Path, values: Mapping[str, float]) -> None:
+    """The autopilot's parameter file holding `values` (ValueError naming a refused one; FlightFailed when it cannot
+    be written)."""
+    store = ParameterStore(path)
+    for name, value in values.items():
+        store.set(name, float(value))
+    error = store.flush()
+    if error:
+        raise FlightFailed(f"cannot write the parameter file {path}: {error}")
+
+
 def run_scenario(
     scenario: Scenario,
     controller: Controller,
@@ -93,11 +105,16 @@ def run_scenario(
     record: bool = True,
     on_progress: Callable[[float], None] = lambda sim_s: None,
     mpc_horizon: str | None = None,
+    autopilot_params: Mapping[str, float] | None = None,
+    wind_turbulence: float = 0.0,
+    wind_seed: int = 0,
 ) -> RunResult:
     """Fly `scenario` with `controller` ("mpc" | "pid"); raises FlightFailed (or ScenarioError). The processes use
-    `block`'s ports (it is closed when the run ends), else instance `instance`'s, else free ones. `wind_ned` and
-    `plant_airframe` (model mismatch: the autopilot keeps the paper's airframe) go to the plant; `mpc_horizon`
-    ("paper" | "long", default the autopilot's VT_MPC_HRZN) to the autopilot."""
+    `block`'s ports (it is closed when the run ends), else instance `instance`'s, else free ones. `wind_ned`,
+    `wind_turbulence` and `wind_seed` (the plant's mean wind and its Dryden turbulence) and `plant_airframe` (model
+    mismatch: the autopilot keeps the paper's airframe) go to the plant; `mpc_horizon`
+    ("paper" | "long", default the autopilot's VT_MPC_HRZN) and `autopilot_params` (parameters by name: gains,
+    the MPC's weights; checked, ValueError) to the autopilot, in its parameter file."""
     run_dir = out / scenario.name / controller
     run_dir.mkdir(parents=True, exist_ok=True)
     for old in (
@@ -111,6 +128,7 @@ def run_scenario(
     ):
         (run_dir / old).unlink(missing_ok=True)
     shutil.rmtree(run_dir / VEHICLE_ROOT, ignore_errors=True)
+    write_parameters(run_dir / "params.json", autopilot_params or {})
     if block is None:
         ports = run_ports(instance)
         try:
@@ -130,6 +148,7 @@ def run_scenario(
             port=ports.plant, spawn_alt=SPAWN_ALT_M, duration_s=duration_s, lockstep_timeout_s=PLANT_LOCKSTEP_TIMEOUT_S,
             summary=True, zenoh=Zenoh.listening(ports.zenoh_plant) if record else Zenoh.off(),
             wind_ned=None if wind_ned == (0.0, 0.0, 0.0) else wind_ned, airframe=plant_airframe, sysid=sysid,
+            wind_turbulence=wind_turbulence, wind_seed=wind_seed,
         )  # fmt: skip
         plant = start("vtol-sim", plant_command.argv(), stdout=Stream.CAPTURE, stderr=run_dir / "plant.log",
                       deterministic=True, own_group=True, parent_death=signal.SIGKILL)  # fmt: skip
@@ -210,7 +229,13 @@ def run_scenario(
         "sim_s": summaries["plant"]["sim_time_s"],
         "wall_s": round(wall_s, 2),
         "failure": None if scenario.failure is None else {"trigger": scenario.failure.trigger, "t_s": failure_s},
-        "plant": {"wind_ned": list(wind_ned), "airframe": None if plant_airframe is None else str(plant_airframe)},
+        "plant": {
+            "wind_ned": list(wind_ned),
+            "wind_turbulence": wind_turbulence,
+            "wind_seed": wind_seed,
+            "airframe": None if plant_airframe is None else str(plant_airframe),
+        },
+        "autopilot_params": dict(autopilot_params or {}),
         "lockstep_intact": summaries["plant"].get("missed_commands", 0) == 0,
         "holds_answered": events.holds_answered,
         "statustexts": [[ms / 1000.0 - start_s, text] for ms, text in events.statustexts],

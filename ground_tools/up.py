@@ -22,9 +22,11 @@ from pathlib import Path
 from autopilot.storage.parameters import ParameterFileError, ParameterStore, default_parameter_path, vehicle_system_id
 from ground_tools.exit_status import FAILED, OK, epilog
 from tiltrotor_sitl._children import Child, Stream, start, stop
-from tiltrotor_sitl._commands import AutopilotCommand, SimCommand, Zenoh, fleet_home
-from transport.cli import bounded_int, fail, ipv4_address, nonnegative_float, stop_on_signals
+from tiltrotor_sitl._commands import AutopilotCommand, SimCommand, Zenoh, fleet_home, plant_wind
+from transport.cli import bounded_int, fail, finite_float, ipv4_address, nonnegative_float, stop_on_signals
+from transport.plant_parameters import SEED_MAX
 from transport.ports import LOOPBACK, Ports
+from transport.wind import Wind
 
 PROG = "vtol"
 STOP_TIMEOUT_S = 10.0
@@ -57,7 +59,24 @@ def add_up_arguments(parser: argparse.ArgumentParser) -> None:
                         "default: the vehicle's root, microsd-I beside its parameter file)")  # fmt: skip
     parser.add_argument("--plant-signing-key", metavar="FILE",
                         help="sign each vehicle's plant link with this key (64 hex digits; docs/plant-link.md)")  # fmt: skip
+    parser.add_argument("--wind", type=wind_from, default=(0.0, 0.0), metavar="N,E",
+                        help="the mean wind, m/s from the north and from the east as PX4's SIH_WIND_N, SIH_WIND_E "
+                        "(5,0: 5 m/s from the north; default none)")  # fmt: skip
+    parser.add_argument("--wind-turbulence", type=nonnegative_float, default=0.0, metavar="SIGMA",
+                        help="Dryden turbulence, the vertical gusts' standard deviation, m/s (SIM_WIND_TURB; "
+                        "default 0: none)")  # fmt: skip
+    parser.add_argument("--wind-seed", type=bounded_int(0, SEED_MAX), default=0, metavar="N",
+                        help="the turbulence's seed (SIM_WIND_SEED; default 0)")  # fmt: skip
     parser.add_argument("--no-zenoh", action="store_true", help="no zenoh telemetry")
+
+
+def wind_from(text: str) -> tuple[float, float]:
+    """'N,E' -> two finite numbers (their ranges are checked with the rest of the wind)."""
+    parts = text.split(",")
+    if len(parts) != 2:
+        raise argparse.ArgumentTypeError(f"expected N,E (m/s from the north and from the east): {text!r}")
+    north, east = (finite_float(part) for part in parts)
+    return north, east
 
 
 def commands(args: argparse.Namespace, index: int, sysid: int) -> tuple[list[str], list[str]]:
@@ -78,6 +97,7 @@ def commands(args: argparse.Namespace, index: int, sysid: int) -> tuple[list[str
         home=home,
         plant_signing_key=key,
         sysid=sysid,
+        **plant_wind(wind(args)),
     )
     autopilot = AutopilotCommand(
         instance=instance,
@@ -91,6 +111,18 @@ def commands(args: argparse.Namespace, index: int, sysid: int) -> tuple[list[str
         log_dir=log_dir,
     )
     return plant.argv(), autopilot.argv()
+
+
+def wind(args: argparse.Namespace) -> Wind | None:
+    """--wind, --wind-turbulence, --wind-seed as the plant's wind (None: none given); refused in one line when out of
+    range."""
+    from_north, from_east = args.wind
+    given = Wind(from_north, from_east, args.wind_turbulence, args.wind_seed)
+    try:
+        given.check()
+    except ValueError as exc:
+        fail(PROG, str(exc))
+    return None if given == Wind() else given
 
 
 def system_id(args: argparse.Namespace, instance: int) -> int:

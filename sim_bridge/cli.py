@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import socket
@@ -9,6 +10,7 @@ import sys
 
 from aircraft.airframe import AirframeError, load_airframe
 from sim_bridge.plant import Plant, Spawn
+from sim_bridge.plant_parameters import PlantParameterService
 from sim_bridge.sensors import SensorSuite
 from sim_bridge.server import Pacing, PlantServer
 from transport.cli import (
@@ -25,10 +27,25 @@ from transport.cli import (
 from transport.geodesy import HomeRefused, LocalGeodetic, home_from
 from transport.mavlink import Link
 from transport.mavlink_frames import PLANT_STEP_FORMATS
+from transport.plant_parameters import BY_NAME as PLANT_PARAMETER
+from transport.plant_parameters import INT32, refusal
 from transport.ports import LOOPBACK, Ports
 from transport.zenoh_bus import open_session
 
 PROG = "vtol-sim"
+
+
+def plant_parameter(name: str):
+    """An argparse type for the plant parameter `name`'s values (transport/plant_parameters.py)."""
+    parameter = PLANT_PARAMETER[name]
+
+    def parse(text: str) -> float | int:
+        value = finite_float(text)
+        if (why := refusal(parameter, value)) is not None:
+            raise argparse.ArgumentTypeError(why)
+        return int(value) if parameter.kind == INT32 else value
+
+    return parse
 
 
 def build_parser() -> OneLineArgumentParser:
@@ -100,7 +117,22 @@ def build_parser() -> OneLineArgumentParser:
         type=float_triple,
         default=(0.0, 0.0, 0.0),
         metavar="N,E,D",
-        help="constant wind in NED, m/s (default 0,0,0)",
+        help="the mean wind's velocity in NED, the way the air moves, m/s (default 0,0,0; the horizontal part is the "
+        "SIH_WIND_N, SIH_WIND_E parameters, negated: PX4's SIH gives where the wind comes from)",
+    )
+    parser.add_argument(
+        "--wind-turbulence",
+        type=plant_parameter("SIM_WIND_TURB"),
+        default=0.0,
+        metavar="SIGMA",
+        help="Dryden turbulence: the vertical gusts' standard deviation, m/s (default 0: none; SIM_WIND_TURB)",
+    )
+    parser.add_argument(
+        "--wind-seed",
+        type=plant_parameter("SIM_WIND_SEED"),
+        default=0,
+        metavar="N",
+        help="the turbulence's random seed (default 0; SIM_WIND_SEED)",
     )
     parser.add_argument(
         "--lockstep-timeout",
@@ -188,13 +220,17 @@ def main(argv: list[str] | None = None) -> int:
         rotors_spinning=args.spawn_rotors == "spinning",
         yaw_deg=args.spawn_yaw,
     )
-    plant = Plant(airframe, spawn, wind_ned=args.wind)
     link = Link(
         args.sysid if args.sysid is not None else ports.system_id,
         args.compid,
         signing_key=key_file_option(PROG, "--plant-signing-key", args.plant_signing_key),
         fast=PLANT_STEP_FORMATS,
     )
+    for name, velocity in (("SIH_WIND_N", args.wind[0]), ("SIH_WIND_E", args.wind[1])):
+        if (why := refusal(PLANT_PARAMETER[name], -velocity)) is not None:
+            fail(PROG, f"--wind: {why}")
+    parameters = PlantParameterService.for_command_line(args.wind, args.wind_turbulence, args.wind_seed, link)
+    plant = Plant(airframe, spawn, wind=parameters.wind_model)
     sensors = SensorSuite(plant, link, LocalGeodetic(home), noise_seed=args.sensor_noise_seed)
     session = None
     if not args.no_zenoh:
@@ -206,7 +242,7 @@ def main(argv: list[str] | None = None) -> int:
         pacing=pacing, speed=args.speed, lockstep_timeout_s=args.lockstep_timeout,
         peer_lost_after=args.peer_lost_after,
         duration_s=args.duration, zenoh_session=session, should_stop=stop_requested,
-        autopilot=None if args.autopilot_port is None else (LOOPBACK, args.autopilot_port),
+        autopilot=None if args.autopilot_port is None else (LOOPBACK, args.autopilot_port), parameters=parameters,
     )  # fmt: skip
     mode = f"{pacing.value} x{args.speed:g}" if args.realtime else "lockstep"
     print(f"{PROG}: {airframe.name}, {mode}, listening on udp {LOOPBACK}:{port}", file=sys.stderr, flush=True)

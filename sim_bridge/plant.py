@@ -17,11 +17,13 @@ from sim_bridge.dynamics import (
     QUATERNION,
     ROTOR_SPEED,
     STATE_SIZE,
+    WIND,
     build_output_function,
     build_step_function,
 )
 from sim_bridge.failures import ActuatorFailures, apply_failure, healthy_parameters
 from sim_bridge.ground import resting_height
+from sim_bridge.wind import WindModel
 
 DT = 1.0 / 400.0  # s, the plant link's step (docs/plant-link.md)
 DT_USEC = 2500
@@ -58,21 +60,23 @@ def initial_state(airframe: Airframe, spawn: Spawn) -> np.ndarray:
 
 
 class Plant:
-    """One vehicle in simulation: `step()` advances it by DT with the current command and failures."""
+    """One vehicle in simulation: `step()` advances it by DT with the current command, failures and wind."""
 
     def __init__(
         self,
         airframe: Airframe,
         spawn: Spawn,
-        wind_ned: tuple[float, float, float] = (0.0, 0.0, 0.0),
         compile_model: bool = True,
+        wind: WindModel | None = None,
     ) -> None:
+        """`wind`: the wind model (mean and turbulence, sim_bridge/wind.py); None: still air."""
         self.airframe = airframe
         self.step_count = 0
         self.state = initial_state(airframe, spawn)
         hovering = spawn.altitude is not None and spawn.rotors_spinning
         self.command = hover_command(airframe) if hovering else np.zeros(COMMAND_SIZE)
-        self.failures = ActuatorFailures(parameters=healthy_parameters(wind_ned))
+        self.wind = wind if wind is not None else WindModel()
+        self.failures = ActuatorFailures(parameters=healthy_parameters(tuple(self.wind.mean_ned)))
         self.failed_sensors: set[FailureUnit] = set()  # OFF: the sensor suite stops sending what it measures
         self.specific_force = np.zeros(3)
         self.airspeed = np.zeros(1)
@@ -109,7 +113,8 @@ class Plant:
         self.command[:] = command
 
     def step(self) -> None:
-        """Advance one RK4 step of DT with the held command."""
+        """Advance one RK4 step of DT with the held command, in the wind of this step."""
+        self.failures.parameters[WIND] = self.wind.step(DT)
         self._evaluate()
         self.state[:] = self._next_state
         self.step_count += 1

@@ -30,6 +30,7 @@ from aircraft.actuators import pwm_to_command
 from aircraft.failures import FailureRejected
 from sim_bridge.peer import Address, PeerGate
 from sim_bridge.plant import DT, Plant
+from sim_bridge.plant_parameters import PlantParameterService
 from sim_bridge.sensors import SensorSuite
 from transport.mavlink import (
     MAV_RESULT_ACCEPTED,
@@ -91,10 +92,13 @@ class PlantServer:
         zenoh_session: Any | None = None,
         should_stop: Callable[[], bool] = lambda: False,
         autopilot: Address | None = None,
+        parameters: PlantParameterService | None = None,
     ) -> None:
         """`autopilot`: the only address that may become the peer (`--autopilot-port`); None: the first autopilot
-        to complete the handshake."""
+        to complete the handshake. `parameters`: the plant's parameters (the wind), which the peer may read and set
+        (None: the plant's wind as it is, and no parameters)."""
         self.plant = plant
+        self.parameters = parameters
         self.sock = sock
         self.link = link
         self.sensors = sensors
@@ -141,6 +145,8 @@ class PlantServer:
                 self._handle_servo_output(message)
             elif kind == "COMMAND_LONG":
                 self._handle_command(message, sender)
+            elif kind in ("PARAM_SET", "PARAM_REQUEST_LIST", "PARAM_REQUEST_READ") and self.parameters is not None:
+                self._answer_parameters(message, sender)
             elif kind in ("HEARTBEAT", "PING"):  # the peer's liveness and handshake: nothing to do
                 pass
             else:
@@ -191,6 +197,16 @@ class PlantServer:
         self._acknowledge(message, MAV_RESULT_ACCEPTED, sender)
         for line in lines:
             self._announce(f"plant: {line}", mavlink.MAV_SEVERITY_WARNING, sender)
+
+    def _answer_parameters(self, message: Any, sender: tuple[str, int]) -> None:
+        assert self.parameters is not None
+        answer = self.parameters.answer(message)
+        for value in answer.values:
+            self._send(self.link.pack(value), sender)
+        for text, refused in answer.said:
+            print(f"vtol-sim: {text}", file=sys.stderr, flush=True)
+            severity = mavlink.MAV_SEVERITY_WARNING if refused else mavlink.MAV_SEVERITY_INFO
+            self._announce(f"plant: {text}", severity, sender, event="refusal" if refused else "parameter")
 
     def _acknowledge(self, message: Any, result: int, sender: tuple[str, int]) -> None:
         ack = self.link.mav.command_ack_encode(

@@ -67,12 +67,13 @@ from tiltrotor_sitl.mission_items import landing, waypoint
 from tiltrotor_sitl.truth import PlantTruth, Trajectory, TruthFeed, TruthHistory, TruthTimeout
 from transport.geodesy import Home
 from transport.ports import LOOPBACK
+from transport.wind import Wind
 
 __version__ = importlib.metadata.version("tiltrotor-sitl")
 __all__ = ["CommandError", "CommandRefused", "CommandTimeout", "Controller", "Faults", "Fleet", "FlightMode",
            "GroundStation", "Home", "MissionItem", "PlantTruth", "ProcessOptions", "StatusReport", "Trajectory",
            "TruthFeed", "TruthHistory", "TruthTimeout", "Vehicle", "VehicleError", "VehicleHandle", "VehicleOptions",
-           "VehiclePorts", "__version__", "landing", "waypoint"]  # fmt: skip
+           "VehiclePorts", "Wind", "__version__", "landing", "waypoint"]  # fmt: skip
 TLOG_FILE = "gcs.tlog"  # the ground station's MAVLink log, in the folder of the Vehicle or Fleet
 
 
@@ -408,7 +409,10 @@ class Vehicle(VehicleHandle):
     (checked: an unknown name or a value out of range is a ValueError). home: its geodetic origin (Home(lat, lon,
     alt)). airframe: an airframe TOML for both processes (default: the paper's vehicle). link_faults: Faults(loss=,
     duplicate=, reorder=, delay_s=, jitter_s=) on its ground-station links (GCS and API), both ways, through a seeded
-    fault proxy (tiltrotor_sitl/fault_proxy.py; change them in flight with set_link_faults()).
+    fault proxy (tiltrotor_sitl/fault_proxy.py; change them in flight with set_link_faults()). wind: the plant's
+    wind, Wind(from_north=, from_east=, turbulence=, seed=) (m/s where the mean wind comes from, as PX4's SIH_WIND_N
+    and SIH_WIND_E; Dryden turbulence; docs/plant-link.md "Wind"); a ground station or a test changes it in flight
+    with those parameters and SIM_WIND_TURB, SIM_WIND_SEED.
 
     Where it lives: instance: None (default) for free ports, or I for instance I's ports (docs/plant-link.md: plant
     4560+I, API 14540+I, GCS to 14550, system id I+1). sysid: the system id (default: params' MAV_SYS_ID, else I+1,

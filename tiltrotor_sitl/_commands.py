@@ -18,11 +18,13 @@ import subprocess
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from autopilot.topics.controller_kind import ControllerKind
 from tiltrotor_sitl._free_ports import lease_ports
 from transport.geodesy import Home, LocalGeodetic, home_from
 from transport.ports import Ports, zenoh_endpoint
+from transport.wind import Wind
 
 FLEET_SPACING_M = 5.0  # vehicles of a fleet stand this far apart, in a row to the east
 SIM_MODULE = "sim_bridge"
@@ -51,6 +53,14 @@ def _home(home: Home | None) -> list[str]:
 
 def _wind(wind_ned: tuple[float, float, float] | None) -> list[str]:
     return [] if wind_ned is None else ["--wind=" + ",".join(repr(float(v)) for v in wind_ned)]  # (as _home)
+
+
+def plant_wind(wind: Wind | None) -> dict[str, Any]:
+    """SimCommand's wind fields for `wind` (None: the plant's default, no wind)."""
+    if wind is None:
+        return {}
+    north, east = wind.velocity_ne
+    return {"wind_ned": (north, east, 0.0), "wind_turbulence": wind.turbulence, "wind_seed": wind.seed}
 
 
 def fleet_home(index: int, home: Home | None = None, spacing_m: float = FLEET_SPACING_M) -> Home:
@@ -171,6 +181,8 @@ class SimCommand:
     zenoh: Zenoh = field(default_factory=Zenoh)
     airframe: Path | None = None
     wind_ned: tuple[float, float, float] | None = None  # m/s (vtol-sim's default: no wind)
+    wind_turbulence: float = 0.0  # m/s, the Dryden gusts' vertical standard deviation (vtol-sim's default: none)
+    wind_seed: int = 0  # the turbulence's seed
     sysid: int | None = None  # the vehicle's system id (vtol-sim's default: instance + 1)
     home: Home | None = None  # geodetic origin (default: PX4's, or PX4_HOME_LAT/LON/ALT)
     plant_signing_key: Path | None = None  # a key file: the plant link signed (docs/plant-link.md#signing)
@@ -184,6 +196,7 @@ class SimCommand:
             *_option("--spawn-alt", self.spawn_alt or None), *pacing, *_option("--duration", self.duration_s),
             *_option("--lockstep-timeout", self.lockstep_timeout_s), *_flag("--summary", self.summary),
             *self.zenoh.argv(), *_option("--airframe", self.airframe), *_wind(self.wind_ned),
+            *_option("--wind-turbulence", self.wind_turbulence or None), *_option("--wind-seed", self.wind_seed or None),
             *_option("--sysid", self.sysid), *_home(self.home), *_option("--plant-signing-key", self.plant_signing_key),
             *self.extra,
         ])  # fmt: skip

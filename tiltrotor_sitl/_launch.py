@@ -26,7 +26,8 @@ from tiltrotor_sitl._commands import (
     SimCommand,
     VehiclePorts,
     Zenoh,
-    fleet_home,  # fmt: skip
+    fleet_home,
+    plant_wind,  # fmt: skip
 )
 from tiltrotor_sitl._free_ports import bind_error, free_udp_port, protocol
 from tiltrotor_sitl._readiness import ReadinessWatch
@@ -35,6 +36,7 @@ from tiltrotor_sitl.truth import TruthFeed
 from transport.cli import ipv4_address
 from transport.geodesy import Home, home_from
 from transport.ports import LOOPBACK, Ports, endpoint_port
+from transport.wind import Wind
 
 PLANT_LISTENING = "listening on udp"  # what vtol-sim says on stderr once its port is bound (sim_bridge/cli.py)
 
@@ -111,6 +113,7 @@ class VehicleOptions(TypedDict, total=False):
     home: Home | None
     airframe: str | Path | None
     link_faults: Faults | None
+    wind: Wind | None
     instance: int | None
     sysid: int | None
     gcs_port: int | None
@@ -132,6 +135,7 @@ class Options:
     home: Home | None = None
     airframe: Path | None = None
     link_faults: Faults | None = None
+    wind: Wind | None = None
     instance: int | None = None
     sysid: int | None = None
     gcs_port: int | None = None
@@ -197,9 +201,17 @@ class Options:
         store = ParameterStore(None)
         for name, value in self.params.items():
             try:
-                store.check(name, float(value))
+                definition = store.check(name, float(value))
             except ParameterRejected as refusal:
                 raise ValueError(f"params: {refusal}") from None
+            if definition.plant:
+                raise ValueError(f"params: {name} is the plant's (the wind): give wind=Wind(...)")
+        if self.wind is not None:
+            if not isinstance(self.wind, Wind):
+                raise ValueError(f"wind must be a tiltrotor_sitl.Wind, not {self.wind!r}")
+            self.wind.check()
+            if not self.starts_plant:
+                raise ValueError("wind with plant_port: no plant is started (the wind is the plant's)")
 
     @property
     def starts_plant(self) -> bool:
@@ -327,7 +339,7 @@ def _start_processes(options: Options, started: Started) -> None:
         plant = SimCommand(port=ports.plant, spawn_alt=options.spawn_alt, realtime_speed=options.speed,
                            duration_s=processes.duration_s, zenoh=plant_zenoh, airframe=options.airframe,
                            sysid=started.sysid, home=started.home, summary=processes.summary,
-                           extra=tuple(processes.plant_args))  # fmt: skip
+                           extra=tuple(processes.plant_args), **plant_wind(options.wind))  # fmt: skip
         started.children.append(_start_child("vtol-sim", plant.argv(), started.folder))
     if processes.autopilot:
         autopilot = AutopilotCommand(sim_port=ports.plant, links=_autopilot_links(ports.links, started.proxies),

@@ -152,6 +152,21 @@ class PlantLinkClient:
         p = list(params) + [0.0] * (7 - len(params))
         self.send(self.link.mav.command_long_encode(target[0], target[1], command, 0, *p))
 
+    def request_plant_parameters(self) -> bool:
+        """PARAM_REQUEST_LIST to the plant this client shook hands with (its parameters, the wind:
+        transport/plant_parameters.py); False (nothing sent) before any handshake."""
+        if self.plant_ids is None:
+            return False
+        self.send(self.link.mav.param_request_list_encode(*self.plant_ids))
+        return True
+
+    def set_plant_parameter(self, name: str, param_value: float, param_type: int) -> bool:
+        """PARAM_SET to the plant (the value in its wire encoding); False (nothing sent) before any handshake."""
+        if self.plant_ids is None:
+            return False
+        self.send(self.link.mav.param_set_encode(*self.plant_ids, name.encode(), param_value, param_type))
+        return True
+
     def command_plant(self, command: int, params: tuple[float, ...]) -> bool:
         """COMMAND_LONG to the plant this client shook hands with, addressed by the ids it challenged us with;
         False (nothing sent) before any handshake."""

@@ -23,6 +23,7 @@ from collections.abc import Callable
 import numpy as np
 
 from aircraft.failures import Failure
+from autopilot.commander.battery_simulator import BatterySimulator
 from autopilot.commander.failsafe import Decision, Failsafe, FailsafeInputs
 from autopilot.commander.failsafe_reaction import reaction
 from autopilot.commander.ground_state import GroundState, landed_state
@@ -68,9 +69,10 @@ class Commander:
     built by build_commander."""
 
     def __init__(self, params: ParameterStore, navigator: Navigator, failsafe: Failsafe, homes: HomeKeeper,
-                 ground: GroundState, land_detector: LandDetector, *, armed: bool, say: Callable[..., None],
-                 profile: Callable[[float], np.ndarray] | None = None) -> None:  # fmt: skip
+                 ground: GroundState, land_detector: LandDetector, battery: BatterySimulator, *, armed: bool,
+                 say: Callable[..., None], profile: Callable[[float], np.ndarray] | None = None) -> None:  # fmt: skip
         self.params = params
+        self.battery = battery
         self.navigator = navigator
         self.modes = navigator.modes
         self.failsafe = failsafe
@@ -122,7 +124,7 @@ class Commander:
     def report(self) -> CommanderReport:
         self._reported_version = self.state_version
         return CommanderReport(self.started, self.armed, self.active.id, self.landed_state, self.flying,
-                               self.state_version, self.terminated)  # fmt: skip
+                               self.state_version, self.terminated, self.battery.status)  # fmt: skip
 
     def observe(self, state: VehicleState) -> None:
         """The state estimate of the current plant step (requests are judged against it)."""
@@ -261,6 +263,7 @@ class Commander:
         self.offboard.restart()
         self.manual.restart()
         self.failsafe.restart()
+        self.battery.restart()
         self.ground.restarted(state.time_usec, self.armed)
         if self.profile is None and self.flying:
             self.navigator.hold.activate(state)
@@ -382,13 +385,15 @@ class Commander:
     def _mode_tick(self, state: VehicleState, time_usec: int, mean_thrust_fraction: float) -> np.ndarray | None:
         self.now_usec = time_usec
         self.offboard.take_due(time_usec)
+        battery = self.battery.update(time_usec, self.armed)
         if self.profile is not None:
             return self.profile((time_usec - self._start_usec) / 1e6) if self.flying else None
         manual_lost = self.mode in (POSITION, ALTITUDE) and not self.manual.fresh(time_usec)
         decision = self.failsafe.check(FailsafeInputs(time_usec, self.flying, self.mode, state.position_ned,
                                                       self.mode == OFFBOARD and not self._offboard_fresh(),
                                                       manual_lost, self.mode == OFFBOARD
-                                                      and self.manual.refusal(POSITION, time_usec) is None))  # fmt: skip
+                                                      and self.manual.refusal(POSITION, time_usec) is None,
+                                                      self.armed, battery.warning))  # fmt: skip
         if decision is not None:
             self._failsafe(decision, state)
         if not self.armed:
@@ -457,5 +462,5 @@ def build_commander(params: ParameterStore, hover_fraction: float, *, armed: boo
     failsafe = Failsafe(params, missions, homes, say)
     navigator = build_navigator(params, missions, homes, hover_fraction, failsafe.outside_fence,
                                 landed=lambda: ground.on_ground, say=say, stamped_setpoints=stamped_setpoints)  # fmt: skip
-    return Commander(params, navigator, failsafe, homes, ground, LandDetector(hover_fraction), armed=armed, say=say,
-                     profile=profile)  # fmt: skip
+    return Commander(params, navigator, failsafe, homes, ground, LandDetector(hover_fraction),
+                     BatterySimulator(params), armed=armed, say=say, profile=profile)  # fmt: skip

@@ -7,6 +7,7 @@ checked from the vehicle's status, and when one starts to hold, the action PX4's
     geofence breach    GF_MAX_HOR_DIST, GF_MAX_VER_DIST, the fence items    GF_ACTION
     manual control     Position/Altitude with no MANUAL_CONTROL for          NAV_RCL_ACT
     loss               COM_RC_LOSS_T
+    low battery        the battery's warning level rises (BAT_*_THR)         COM_LOW_BAT_ACT (critical, emergency)
 
 A condition acts when it starts (PX4: the action is cleared by a mode change, so a user can fly out of it); its
 cause is said as a STATUSTEXT, and the commander switches modes and says "Failsafe activated" (failsafe_reaction.py).
@@ -32,6 +33,7 @@ from autopilot.navigator.modes.position import POSITION
 from autopilot.navigator.modes.rtl import RETURN
 from autopilot.storage.mission_store import MissionStore
 from autopilot.storage.parameters import ParameterStore
+from autopilot.topics.battery import BatteryWarning
 from transport.mavlink import mavlink
 
 NONE, WARN, TERMINATE, DISARM = "None", "Warn", "Terminate", "Disarm"  # the actions that are not modes
@@ -41,6 +43,23 @@ NEEDS_MANUAL_CONTROL = (POSITION, ALTITUDE)  # without it PX4 falls back along A
 DATALINK_LOSS_ACTIONS = {0: NONE, 1: HOLD, 2: RETURN, 3: LAND}  # NAV_DLL_ACT
 GEOFENCE_ACTIONS = {0: NONE, 1: WARN, 2: HOLD, 3: RETURN, 4: TERMINATE, 5: LAND}  # GF_ACTION
 MANUAL_LOSS_ACTIONS = {0: NONE, 1: HOLD, 2: RETURN, 3: LAND, 4: HOLD, 5: TERMINATE, 6: DISARM}  # NAV_RCL_ACT
+LOW_BATTERY_ACTIONS = {0: (WARN, WARN), 1: (RETURN, RETURN), 2: (LAND, LAND), 3: (RETURN, LAND)}  # COM_LOW_BAT_ACT:
+# the actions at the critical and at the emergency level (the low level only warns)
+_CRITICAL, _EMERGENCY = mavlink.MAV_SEVERITY_CRITICAL, mavlink.MAV_SEVERITY_EMERGENCY
+BATTERY_REPORTS = {  # PX4's battery check, when the level rises
+    BatteryWarning.LOW: (_CRITICAL, "Low battery"),
+    BatteryWarning.CRITICAL: (_CRITICAL, "Critical battery"),
+    BatteryWarning.EMERGENCY: (_EMERGENCY, "Emergency battery level"),
+}
+BATTERY_WARNINGS = {  # PX4's failsafe notice when the level's action is a warning
+    BatteryWarning.LOW: (mavlink.MAV_SEVERITY_WARNING, "Low battery level, return advised"),
+    BatteryWarning.CRITICAL: (_CRITICAL, "Critical battery level, land now"),
+    BatteryWarning.EMERGENCY: (_EMERGENCY, "Emergency battery level, land immediately"),
+}
+BATTERY_CAUSES = {
+    BatteryWarning.CRITICAL: "Critical battery level",
+    BatteryWarning.EMERGENCY: "Emergency battery level",
+}
 
 
 @dataclass(frozen=True)
@@ -62,6 +81,8 @@ class FailsafeInputs:
     offboard_lost: bool  # in Offboard with no set-point for COM_OF_LOSS_T
     manual_lost: bool = False  # in Position or Altitude with no MANUAL_CONTROL for COM_RC_LOSS_T
     manual_fresh: bool = False  # MANUAL_CONTROL heard in the last COM_RC_LOSS_T (the manual modes can run)
+    armed: bool = False
+    battery: BatteryWarning = BatteryWarning.NONE  # the battery's warning level now
 
 
 class Failsafe:
@@ -80,6 +101,7 @@ class Failsafe:
         self._failures: list[Failure] = []
         self._fence = Fence((), ())
         self._fence_items: tuple = ()
+        self.battery_warning = BatteryWarning.NONE  # as PX4 reports it: while armed it only rises
 
     # ---- what the links tell ----------------------------------------------------------------------------------
     def gcs_heartbeat(self, now_usec: int) -> None:
@@ -117,7 +139,29 @@ class Failsafe:
             action = MANUAL_LOSS_ACTIONS[self.params.get_int("NAV_RCL_ACT")] if status.flying else HOLD
             cause = f"Manual control lost: no MANUAL_CONTROL for {self.params['COM_RC_LOSS_T']:g} s"
             return Decision(HOLD if action == NONE else action, cause)
-        return self._position(status) or self._geofence(status) or self._datalink(status)
+        battery = self._battery(status)
+        return self._position(status) or self._geofence(status) or battery or self._datalink(status)
+
+    def _battery(self, status: FailsafeInputs) -> Decision | None:
+        """PX4's battery check and failsafe: armed, each rise of the warning level is said, and at the critical and
+        emergency levels COM_LOW_BAT_ACT acts (on the ground it only warns). Disarmed, the level follows the battery
+        silently."""
+        level = status.battery
+        rose = level > self.battery_warning
+        if status.armed and not rose:
+            return None
+        self.battery_warning = level
+        if not status.armed or not rose:
+            return None
+        self.say(*BATTERY_REPORTS[level])
+        action = WARN
+        if level != BatteryWarning.LOW:
+            critical, emergency = LOW_BATTERY_ACTIONS[self.params.get_int("COM_LOW_BAT_ACT")]
+            action = critical if level == BatteryWarning.CRITICAL else emergency
+        if action == WARN or not status.flying:
+            self.say(*BATTERY_WARNINGS[level])
+            return None
+        return Decision(action, BATTERY_CAUSES[level])
 
     def _position(self, status: FailsafeInputs) -> Decision | None:
         if not self.position_lost:

@@ -11,22 +11,26 @@ from __future__ import annotations
 
 import numpy as np
 
-from autopilot.control.attitude import DEFAULT_GAINS, euler_rates
+from autopilot.control.attitude import AttitudeGains, euler_rates
 from autopilot.control.velocity_command import VelocityCommand
 from autopilot.topics.attitude_target import AttitudeTarget
 
 ATTITUDE_MODE = "offboard attitude"
 
 
-def attitude_euler_sp(target: AttitudeTarget, euler: np.ndarray, body_rates_sp: np.ndarray | None) -> np.ndarray:
-    """The Euler set-point (rad) for the attitude loop: the target's attitude, or the one its body rates ask for."""
+def attitude_euler_sp(target: AttitudeTarget, euler: np.ndarray, body_rates_sp: np.ndarray | None,
+                      gains: AttitudeGains) -> np.ndarray:  # fmt: skip
+    """The Euler set-point (rad) for the attitude loop flying with `gains`: the target's attitude, or the one its
+    body rates ask for."""
     if target.euler is not None or body_rates_sp is None:
         return euler.copy() if target.euler is None else target.euler.copy()
-    return euler + euler_rates(euler, body_rates_sp) / np.array(DEFAULT_GAINS.attitude)
+    return euler + euler_rates(euler, body_rates_sp) / np.array(gains.attitude)
 
 
-def attitude_command(target: AttitudeTarget, euler: np.ndarray, collective_max: float) -> VelocityCommand:
-    """What the attitude loop and the allocator fly for `target`; `collective_max` is the rotors' full thrust (N)."""
-    return VelocityCommand(euler_sp=attitude_euler_sp(target, euler, target.body_rates),
+def attitude_command(target: AttitudeTarget, euler: np.ndarray, collective_max: float,
+                     gains: AttitudeGains) -> VelocityCommand:  # fmt: skip
+    """What the attitude loop (with `gains`) and the allocator fly for `target`; `collective_max` is the rotors'
+    full thrust (N)."""
+    return VelocityCommand(euler_sp=attitude_euler_sp(target, euler, target.body_rates, gains),
                            tilt_sp=np.zeros(4), force_sp_body=np.array([0.0, 0.0, -target.thrust * collective_max]),
                            yaw_by_tilt=True, mode=ATTITUDE_MODE)  # fmt: skip

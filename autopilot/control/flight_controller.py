@@ -26,12 +26,14 @@ from aircraft.failures import Failure
 from aircraft.rotors import rotor_wrench
 from autopilot.control.actuator_health import ActuatorHealth, ServoEstimate
 from autopilot.control.allocation import ControlAllocator
-from autopilot.control.attitude import AttitudeController
+from autopilot.control.attitude import AttitudeController, AttitudeGains
 from autopilot.control.attitude_setpoint import attitude_command
 from autopilot.control.pid_baseline import PidVelocityController
+from autopilot.control.tuning import attitude_gains, pid_parameters
 from autopilot.control.velocity_command import VelocityCommand
 from autopilot.control.velocity_controller import PrimaryVelocityController, VelocityController
 from autopilot.control.velocity_estimate import VelocityEstimate
+from autopilot.storage.parameters import ParameterStore
 from autopilot.topics.attitude_target import AttitudeTarget
 from autopilot.topics.controller_kind import MPC, PID, ControllerKind
 from autopilot.topics.vehicle_state import VehicleState
@@ -140,6 +142,11 @@ class FlightController:
         """The flying velocity controller's phase changes."""
         return self.velocity_controller.mode_switches
 
+    @property
+    def attitude_gains(self) -> AttitudeGains:
+        """The attitude loop's gains flown now."""
+        return self.attitude.gains
+
     def set_velocity_setpoint(self, velocity_ned: np.ndarray) -> bool:
         """Accept a NED velocity set-point (m/s); a non-finite one is refused (False) and the last one kept."""
         if not np.all(np.isfinite(velocity_ned)):
@@ -160,9 +167,13 @@ class FlightController:
         """Offboard attitude: fly `target` with the attitude loop alone (None: the velocity controller flies)."""
         self.attitude_setpoint = target
 
-    def set_transition_airspeeds(self, blend: float, trans: float) -> None:
-        """VT_ARSP_BLEND and VT_ARSP_TRANS (m/s) for the PID baseline (flying, or the MPC's back-up)."""
-        self.pid.set_transition_airspeeds(blend, trans)
+    def retune(self, params: ParameterStore) -> None:
+        """The parameters' gains and limits from the next tick on, in flight too: the attitude loop's (MC_*), the PID
+        baseline's (flying, or the MPC's back-up), the MPC's (VT_MPC_*, and its model of the attitude loop)."""
+        self.attitude.set_gains(attitude_gains(params))
+        self.pid.set_parameters(pid_parameters(params))
+        if self.mpc is not None:
+            self.mpc.retune(params)
 
     def apply_failure(self, failure: Failure) -> None:
         """Tell the allocator and the servo estimate about a failure the plant accepted."""
@@ -209,7 +220,10 @@ class FlightController:
             else:  # the velocity controller tracks the vehicle's own velocity, warm for when it flies again
                 self.velocity_controller.update(state, state.velocity_ned, tilts)
                 self.velocity_command = attitude_command(
-                    self.attitude_setpoint, state.euler, self.airframe.thrust_max * len(self.airframe.rotor_positions)
+                    self.attitude_setpoint,
+                    state.euler,
+                    self.airframe.thrust_max * len(self.airframe.rotor_positions),
+                    self.attitude.gains,
                 )
             if self.mpc is not None and self.mpc.fallback_requested and not self.fell_back_to_pid:
                 self._fall_back_to_pid(state, self.mpc)

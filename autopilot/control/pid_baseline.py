@@ -11,45 +11,36 @@ switches between them):
                  course error and the set-point's turn rate, yaw along the track).
   TRANSITION_MC  back transition when the set-point drops below FW_AIRSPD_MIN: rotors back to 0, multicopter
                  control with the deceleration limited to VT_B_DEC_MSS; MC again below MPC_XY_VEL_MAX.
-Parameter names follow PX4 where PX4 has them.
+Parameter names follow PX4 where PX4 has them; each gain and limit is a parameter (autopilot/control/tuning.py),
+applied at the next tick when it changes.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
-from typing import NamedTuple
+from dataclasses import dataclass
 
 import numpy as np
 
 from aircraft.airframe import Airframe
 from aircraft.frames import wrap
-from autopilot.control.attitude import DEFAULT_GAINS
 from autopilot.control.velocity_command import SetpointTrajectory, VelocityCommand, course_rate, setpoint_course
 from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.yaw_setpoint import YawReference
 
 MC, TRANSITION_FW, FW, TRANSITION_MC = "MC", "TRANSITION_FW", "FW", "TRANSITION_MC"
-YAW_ATTITUDE_GAIN = DEFAULT_GAINS.attitude[2]
-
-
-class TransitionAirspeeds(NamedTuple):
-    """VT_ARSP_BLEND and VT_ARSP_TRANS (m/s): where the transition starts blending in the fixed-wing commands, and
-    where it is complete."""
-
-    blend: float
-    trans: float
 
 
 @dataclass(frozen=True)
 class PidParameters:
-    """Gains and limits, declared once. PX4 parameter names in the comments."""
+    """Gains and limits, declared once: their defaults here, the parameter of each in the comment (ours where PX4
+    has no such gain)."""
 
     mc_vel_p_xy: float = 1.8  # MPC_XY_VEL_P_ACC (1/s)
     mc_vel_i_xy: float = 0.4  # MPC_XY_VEL_I_ACC (1/s^2)
     mc_vel_p_z: float = 4.0  # MPC_Z_VEL_P_ACC
     mc_vel_i_z: float = 2.0  # MPC_Z_VEL_I_ACC
-    mc_vel_int_z_max: float = 4.0  # m/s^2 the vertical integrator may supply at most
+    mc_vel_int_z_max: float = 4.0  # m/s^2 the vertical integrator may supply at most (not a parameter)
     mc_tilt_max_deg: float = 35.0  # MPC_TILTMAX_AIR
     mc_acc_hor_max: float = 6.0  # MPC_ACC_HOR_MAX (m/s^2)
     mc_acc_up_max: float = 6.0  # MPC_ACC_UP_MAX (m/s^2)
@@ -59,23 +50,24 @@ class PidParameters:
     arsp_blend: float = 13.5  # VT_ARSP_BLEND (m/s)
     arsp_trans: float = 23.0  # VT_ARSP_TRANS (m/s)
     tilt_trans_deg: float = 30.0  # VT_TILT_TRANS x 90 deg
-    tilt_fw_deg: float = 90.0  # VT_TILT_FW x 90 deg
+    tilt_fw_deg: float = 90.0  # PX4's VT_TILT_FW x 90 deg (not a parameter)
     tilt_fw_margin_deg: float = 2.0  # the forward transition is complete with the mean tilt this close to tilt_fw
     tilt_mc_deg: float = 5.0  # the back transition is complete with the mean tilt below this
     trans_pitch_deg: float = 0.0  # pitch held while the rotors pull the aircraft through the transition
     back_trans_decel: float = 2.0  # VT_B_DEC_MSS (m/s^2)
     fw_airspd_min: float = 20.0  # FW_AIRSPD_MIN (m/s): slower set-points bring the rotors back up
-    fw_speed_p: float = 1.0  # airspeed error -> along-track acceleration (1/s)
-    fw_speed_i: float = 0.3
-    fw_speed_int_max: float = 10.0  # m: airspeed integrator bound
-    fw_acc_max: float = 4.0  # m/s^2: along-track acceleration limit
-    fw_climb_p: float = 0.08  # sink-rate error -> pitch (rad per m/s)
-    fw_climb_i: float = 0.05
-    fw_climb_int_max: float = 5.0  # m: sink integrator bound
-    fw_pitch_max_deg: float = 20.0
+    fw_speed_p: float = 1.0  # VT_FW_SPD_P: airspeed error -> along-track acceleration (1/s)
+    fw_speed_i: float = 0.3  # VT_FW_SPD_I (1/s^2)
+    fw_speed_int_max: float = 10.0  # m: airspeed integrator bound (not a parameter)
+    fw_acc_max: float = 4.0  # m/s^2: along-track acceleration limit (not a parameter)
+    fw_climb_p: float = 0.08  # VT_FW_CLMB_P: sink-rate error -> pitch (rad per m/s)
+    fw_climb_i: float = 0.05  # VT_FW_CLMB_I (rad per m)
+    fw_climb_int_max: float = 5.0  # m: sink integrator bound (not a parameter)
+    fw_pitch_max_deg: float = 20.0  # FW_P_LIM_MAX
     fw_roll_max_deg: float = 35.0  # FW_R_LIM
-    fw_course_p: float = 0.8  # course error -> turn rate (1/s)
+    fw_course_p: float = 0.8  # VT_FW_CRS_P: course error -> turn rate (1/s)
     course_airspeed_min: float = 5.0  # m/s: slower, the nose follows the yaw set-point instead of the track
+    yaw_attitude_gain: float = 3.0  # MC_YAW_P (1/s): the attitude loop's, by which a turning yaw set-point leads
 
 
 def clamp(value: float, low: float, high: float) -> float:
@@ -100,9 +92,9 @@ class PidVelocityController:
         self.setpoint_rate = np.zeros(3)
         self._gravity = np.array([0.0, 0.0, airframe.gravity])
 
-    def set_transition_airspeeds(self, blend: float, trans: float) -> None:
-        """VT_ARSP_BLEND and VT_ARSP_TRANS (m/s), from the next tick on."""
-        self.p = replace(self.p, arsp_blend=blend, arsp_trans=trans)
+    def set_parameters(self, parameters: PidParameters) -> None:
+        """Gains and limits from the next tick on (integrators and phase kept, as PX4 applies its gains in flight)."""
+        self.p = parameters
 
     # ---- the controller ----------------------------------------------------------------------------------
     def update(self, state: VehicleState, v_sp: np.ndarray, tilts: np.ndarray,
@@ -211,7 +203,7 @@ class PidVelocityController:
             # Coordinated turn: the nose leads the track by the attitude loop's yaw lag (turn rate / K_att,yaw),
             # so the sideslip, and the side force that would fight the turn, stay near zero.
             turn_rate = a.gravity * math.tan(state.euler[0]) / max(state.airspeed, 1.0)
-            yaw = course + turn_rate / YAW_ATTITUDE_GAIN
+            yaw = course + turn_rate / p.yaw_attitude_gain
         return self._command(state, force_ned, (roll, pitch, yaw), tilt, (blend, 0.0, 1.0 - blend))
 
     # ---- laws shared by the phases -----------------------------------------------------------------------
@@ -235,7 +227,7 @@ class PidVelocityController:
         if reference is not None:  # leads by the attitude loop's lag, so the yaw turns at the reference's rate
             self.yaw_hold = None
             limit = math.radians(self.p.mc_yawrate_max_deg)
-            return reference.yaw + clamp(reference.rate, -limit, limit) / YAW_ATTITUDE_GAIN
+            return reference.yaw + clamp(reference.rate, -limit, limit) / self.p.yaw_attitude_gain
         course = setpoint_course(v_sp[0], v_sp[1])
         if course is not None:
             self.yaw_hold = None

@@ -17,6 +17,7 @@ import numpy as np
 from autopilot.control.actuator_health import ServoEstimate
 from autopilot.control.allocation import ControlAllocator
 from autopilot.control.velocity_command import VelocityCommand
+from autopilot.storage.parameters import ParameterStore
 from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.yaw_setpoint import YawReference
 
@@ -57,6 +58,10 @@ class PrimaryVelocityController(VelocityController, Protocol):
 
     def solution_summary(self) -> dict:
         """The latest solve's telemetry payload (docs/telemetry.md, `vtol/<sysid>/autopilot/mpc`)."""
+        ...
+
+    def retune(self, params: ParameterStore) -> None:
+        """The parameters' gains, weights and limits from the next solve on."""
         ...
 
     def health_changed(self, allocator: ControlAllocator, servos: ServoEstimate) -> None:

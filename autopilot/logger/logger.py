@@ -316,7 +316,7 @@ class Logger:
             )
         if due(VEHICLE_RATES_SETPOINT, t):
             thrust_body = thrust_body or samples.normalised_thrust(command.force_sp_body, self.vehicle.thrust_max_total)
-            rates = self._rates_sp(state.euler, command.euler_sp)
+            rates = self._rates_sp(state.euler, command.euler_sp, controller.attitude_gains)
             self._write(VEHICLE_RATES_SETPOINT, samples.vehicle_rates_setpoint(t, rates, thrust_body))
         if due(VEHICLE_LOCAL_POSITION, t):
             acceleration = samples.acceleration_ned(state, self.vehicle.gravity)

@@ -17,7 +17,7 @@ import numpy as np
 from aircraft.actuators import PWM_MAX, PWM_MIN, ROTOR_COUNT, ROTORS, SERVO_CHANNELS
 from aircraft.failures import Failure, FailureType, FailureUnit
 from aircraft.frames import quaternion_from_euler
-from autopilot.control.attitude import euler_rate_matrix, euler_rate_setpoint
+from autopilot.control.attitude import GAIN_COUNT, AttitudeGains, euler_rate_matrix, euler_rate_setpoint
 from autopilot.mpc.hpipm import HPIPM_STATUS
 from autopilot.topics.flight_mode import (
     PX4_AUTO_LAND,
@@ -76,21 +76,26 @@ def nav_states_mask(modes: tuple[ModeId, ...]) -> int:
 
 
 class BodyRateSetpoint:
-    """The body rates (rad/s) the attitude loop's P law asks for, E(Psi) Psi_dot_sp, evaluated in place (a CasADi
-    call with numpy arguments costs ten times as much)."""
+    """The body rates (rad/s) the attitude loop's P law asks for, E(Psi) Psi_dot_sp with the loop's gains,
+    evaluated in place (a CasADi call with numpy arguments costs ten times as much)."""
 
     def __init__(self) -> None:
         euler, euler_sp = ca.SX.sym("euler", 3), ca.SX.sym("euler_sp", 3)
-        rates = euler_rate_matrix(euler) @ euler_rate_setpoint(euler, euler_sp)
-        self._buffer, self._evaluate = ca.Function("body_rate_setpoint", [euler, euler_sp], [rates]).buffer()
+        gains = ca.SX.sym("gains", GAIN_COUNT)
+        rates = euler_rate_matrix(euler) @ euler_rate_setpoint(euler, euler_sp, gains)
+        function = ca.Function("body_rate_setpoint", [euler, euler_sp, gains], [rates])
+        self._buffer, self._evaluate = function.buffer()
         self.euler, self.euler_sp, self.rates = np.zeros(3), np.zeros(3), np.zeros(3)
+        self.gains = np.zeros(GAIN_COUNT)
         self._buffer.set_arg(0, memoryview(self.euler))
         self._buffer.set_arg(1, memoryview(self.euler_sp))
+        self._buffer.set_arg(2, memoryview(self.gains))
         self._buffer.set_res(0, memoryview(self.rates))
 
-    def __call__(self, euler: np.ndarray, euler_sp: np.ndarray) -> tuple[float, float, float]:
+    def __call__(self, euler: np.ndarray, euler_sp: np.ndarray, gains: AttitudeGains) -> tuple[float, float, float]:
         self.euler[:] = euler
         self.euler_sp[:] = euler_sp
+        self.gains[:] = gains.vector()
         self._evaluate()
         roll, pitch, yaw = self.rates.tolist()
         return roll, pitch, yaw

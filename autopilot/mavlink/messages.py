@@ -10,6 +10,7 @@ from typing import Any
 
 from aircraft.failures import FailureUnit, failed_sensors
 from autopilot.mavlink.component_metadata import MAVLINK_MSG_ID_COMPONENT_METADATA, component_metadata
+from autopilot.topics.battery import BatteryStatus, BatteryWarning
 from autopilot.topics.flight_mode import PX4_AUTO_MISSION, PX4_MAIN_AUTO
 from autopilot.topics.home_position import HomePosition
 from autopilot.topics.software_version import CUSTOM_VERSION as CUSTOM_VERSION_TAG
@@ -45,6 +46,10 @@ CAPABILITIES = (
 # The PX4 protocol level this vehicle behaves like (QGroundControl checks it); ours is in flight_custom_version.
 PX4_VERSION = PX4_RELEASE  # 1.15.0 release
 CUSTOM_VERSION = list(CUSTOM_VERSION_TAG)
+CHARGE_STATES = {BatteryWarning.NONE: M.MAV_BATTERY_CHARGE_STATE_OK, BatteryWarning.LOW: M.MAV_BATTERY_CHARGE_STATE_LOW,
+                 BatteryWarning.CRITICAL: M.MAV_BATTERY_CHARGE_STATE_CRITICAL,
+                 BatteryWarning.EMERGENCY: M.MAV_BATTERY_CHARGE_STATE_EMERGENCY}  # fmt: skip
+NO_CELL = 0xFFFF  # BATTERY_STATUS: a cell voltage not sent
 BASE_MODE = (M.MAV_MODE_FLAG_CUSTOM_MODE_ENABLED | M.MAV_MODE_FLAG_STABILIZE_ENABLED | M.MAV_MODE_FLAG_GUIDED_ENABLED
              | M.MAV_MODE_FLAG_AUTO_ENABLED)  # fmt: skip
 
@@ -67,7 +72,9 @@ def sys_status(mav: Any, status: VehicleStatus) -> Any:
     health = SENSORS if status.started else SENSORS & ~M.MAV_SYS_STATUS_PREARM_CHECK
     for unit in failed_sensors(status.failures):
         health &= ~SENSOR_BITS[unit]
-    return mav.sys_status_encode(SENSORS, SENSORS, health, 0, 16800, -1, 100, 0, 0, 0, 0, 0, 0)
+    battery = status.battery
+    return mav.sys_status_encode(SENSORS, SENSORS, health, 0, int(round(battery.voltage_v * 1000)), -1,
+                                 percent(battery), 0, 0, 0, 0, 0, 0)  # fmt: skip
 
 
 def extended_sys_state(mav: Any, status: VehicleStatus) -> Any:
@@ -125,9 +132,18 @@ def servo_output(mav: Any, status: VehicleStatus) -> Any:
     return mav.servo_output_raw_encode(status.time_usec & 0xFFFFFFFF, 0, *status.pwm)
 
 
+def percent(battery: BatteryStatus) -> int:
+    """The state of charge in whole percent, as SYS_STATUS and BATTERY_STATUS carry it."""
+    return int(round(battery.remaining * 100))
+
+
 def battery(mav: Any, status: VehicleStatus) -> Any:
-    return mav.battery_status_encode(0, M.MAV_BATTERY_FUNCTION_ALL, M.MAV_BATTERY_TYPE_LIPO, 32767,
-                                     [4200] * 4 + [65535] * 6, -1, -1, -1, 100)  # fmt: skip
+    """BATTERY_STATUS as PX4 sends its simulated battery's: each cell's voltage, no current (-1), the charge, the
+    charge state from the warning level."""
+    b = status.battery
+    cells = [int(round(b.cell_voltage_v * 1000))] * b.cell_count + [NO_CELL] * (10 - b.cell_count)
+    return mav.battery_status_encode(0, M.MAV_BATTERY_FUNCTION_ALL, M.MAV_BATTERY_TYPE_LIPO, 32767, cells, -1, -1, -1,
+                                     percent(b), 0, CHARGE_STATES[b.warning])  # fmt: skip
 
 
 def home_position(mav: Any, home: HomePosition, time_usec: int) -> Any:

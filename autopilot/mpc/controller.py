@@ -21,7 +21,8 @@ from aircraft.codegen import BufferedFunction
 from aircraft.frames import wrap
 from autopilot.control.actuator_health import ServoEstimate
 from autopilot.control.allocation import ControlAllocator
-from autopilot.control.attitude import euler_rates
+from autopilot.control.attitude import AttitudeGains, euler_rates
+from autopilot.control.tuning import attitude_gains
 from autopilot.control.velocity_command import SetpointTrajectory, VelocityCommand, course_rates
 from autopilot.mpc.horizon import PAPER, MpcHorizon, extrapolate_setpoint
 from autopilot.mpc.model import (
@@ -38,12 +39,15 @@ from autopilot.mpc.model import (
     PSI_INDEX,
     THRUST,
     MpcLimits,
+    MpcWeights,
     V,
     angle_chain,
     yaw_references,
 )
 from autopilot.mpc.rti import MpcSolution, RtiSolver, planned_force_function
 from autopilot.mpc.solve_times import SolveTimes
+from autopilot.mpc.tuning import mpc_limits, mpc_weights
+from autopilot.storage.parameters import ParameterStore
 from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.yaw_setpoint import YawReference
 
@@ -100,6 +104,21 @@ class MpcVelocityController:
     def health_changed(self, allocator: ControlAllocator, servos: ServoEstimate) -> None:
         """A failure became known. Nothing to copy: this controller shares the allocator and the servo estimate and
         reads its bounds from them at every tick."""
+
+    def set_tuning(self, gains: AttitudeGains, weights: MpcWeights, limits: MpcLimits) -> None:
+        """The attitude loop's gains (its model of the loop), the Table 2 weights and the limits from the next solve."""
+        self.solver.set_tuning(gains, weights, limits)
+        self.limits = limits
+
+    def retune(self, params: ParameterStore) -> None:
+        """The parameters' gains, weights and limits (MC_*, VT_MPC_*) from the next solve on."""
+        self.set_tuning(
+            attitude_gains(params), mpc_weights(params, self.horizon.weights), mpc_limits(params, self.limits)
+        )
+
+    def predict_tick(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """The model's state one controller tick after x under the input u."""
+        return self.solver.predict_tick(x, u)
 
     def _bounds_from_health(self) -> None:
         """What the allocator and the servo estimate know of failures, as the MPC's bounds (docs/mpc.md, the solver, failures)."""

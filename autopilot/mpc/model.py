@@ -34,7 +34,7 @@ faster than the attitude loop can stop it made every QP infeasible (accel-decel,
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import casadi as ca
 import numpy as np
@@ -43,7 +43,7 @@ from aircraft.aerodynamics import aero_effectiveness
 from aircraft.airframe import Airframe
 from aircraft.frames import rotation_from_euler, wrap_angle
 from aircraft.wrench import body_wrench
-from autopilot.control.attitude import DEFAULT_GAINS, AttitudeGains, attitude_law
+from autopilot.control.attitude import GAIN_COUNT, RATE_D_GAINS, attitude_law
 from autopilot.control.velocity_command import has_course
 
 NX, NU = 16, 11
@@ -55,13 +55,25 @@ ROLL_PITCH_D, PSI_D_INDEX = slice(8, 10), 10  # within PSI_D
 # layout, not the actuators'), and the rest of the set-point trajectory's coordinated-turn attitude: phi_ref,
 # psi_rate_ref, psi_d_ref (docs/mpc.md, deviation 7); and the stage's place on the time grid (docs/design/alternatives.md, the long horizon): its length dt
 # (s) and rate_held (1: Psi_dot_prev is the previous stage's rate, held over this one, as in the paper's 10 ms
-# stages; 0: a long stage, on which the delayed rate is taken in its continuous-time form); the roll and pitch
-# set-point flown at the previous tick and the weight (0 or 1) of the move from it (the first stage only). The
-# solver writes P_SOLVER itself (RtiSolver.stage_parameters).
-NP = 16
+# stages; 0: a long stage, on which the delayed rate is taken in its continuous-time form); the attitude loop's gains
+# (autopilot/control/attitude.py, its GAIN_COUNT-vector); the roll and pitch set-point flown at the previous tick and
+# the weight (0 or 1) of the move from it (the first stage only); the paper's Table 2 weights (MpcWeights, in the
+# order of MpcWeights.table_2_rows) and the roll and pitch bound (rad). The gains, weights and bound are parameters of the
+# compiled functions, not constants in them, so that a changed parameter (MC_*, VT_MPC_*) applies at the next solve.
+# The solver writes P_SOLVER itself (RtiSolver.stage_parameters); the dynamics take P_STEP (the grid and the gains).
 P_V_SP, P_PSI_REF, P_FREE_TILT, P_PHI_REF, P_PSI_RATE_REF, P_PSI_D_REF = slice(0, 3), 3, slice(4, 8), 8, 9, 10
-P_DT, P_RATE_HELD, P_ATTITUDE_SP_PREV, P_MOVE = 11, 12, slice(13, 15), 15
-P_GRID, P_SOLVER = slice(11, 13), slice(11, 16)
+P_GRID, P_GAINS = slice(11, 13), slice(13, 13 + GAIN_COUNT)
+P_DT, P_RATE_HELD = P_GRID.start, P_GRID.start + 1
+P_STEP = slice(P_GRID.start, P_GAINS.stop)
+P_ATTITUDE_SP_PREV, P_MOVE = slice(P_GAINS.stop, P_GAINS.stop + 2), P_GAINS.stop + 2
+P_Q_REF = slice(P_MOVE + 1, P_MOVE + 4)
+P_Q_FINAL, P_Q_PSI, P_Q_PSI_DOT = (slice(P_Q_REF.start + 3 * k, P_Q_REF.stop + 3 * k) for k in (1, 2, 3))
+P_R_THRUST, P_R_ROTOR_LIFT, P_R_TILT_RATE = P_Q_PSI_DOT.stop, P_Q_PSI_DOT.stop + 1, P_Q_PSI_DOT.stop + 2
+P_R_PSI_D = slice(P_R_TILT_RATE + 1, P_R_TILT_RATE + 4)
+P_WEIGHTS = slice(P_Q_REF.start, P_R_PSI_D.stop)
+P_ATTITUDE_BOUND = slice(P_R_PSI_D.stop, P_R_PSI_D.stop + 2)
+NP = P_ATTITUDE_BOUND.stop
+P_SOLVER = slice(P_GRID.start, NP)
 # The stage the paper's weights are given for (Table 2: 25 stages of 10 ms); a stage of length dt weighs dt / this,
 # so the cost stays the same integral on any grid. Also the delay of Psi_dot_prev in the continuous-time form.
 REFERENCE_STAGE_S = 0.01
@@ -69,7 +81,8 @@ REFERENCE_STAGE_S = 0.01
 
 @dataclass(frozen=True)
 class MpcWeights:
-    """Paper Table 2 (docs/mpc.md, the cost)."""
+    """Paper Table 2 (docs/mpc.md, the cost), q_ref ... r_psi_d: stage parameters (VT_MPC_*); the others shape the problem
+    (a weight of 0 removes its term) and are built in."""
 
     q_ref: tuple[float, float, float] = (20.0, 10.0, 50.0)
     q_final: tuple[float, float, float] = (20.0, 10.0, 50.0)
@@ -97,6 +110,18 @@ class MpcWeights:
     # Each stage's cost weighed by its length over REFERENCE_STAGE_S (the same integral on any grid), or each stage
     # alike (as the paper's uniform stages are).
     weigh_by_length: bool = True
+
+    def table_2_rows(self) -> np.ndarray:
+        """The Table 2 weights as the stage parameters P_WEIGHTS carry them."""
+        return np.array((*self.q_ref, *self.q_final, *self.q_psi, *self.q_psi_dot, self.r_thrust, self.r_rotor_lift,
+                         self.r_tilt_rate, *self.r_psi_d), dtype=float)  # fmt: skip
+
+    def built_in(self) -> MpcWeights:
+        """These weights with the Table 2 ones at their defaults: what a built problem depends on."""
+        return replace(self, q_ref=MpcWeights.q_ref, q_final=MpcWeights.q_final, q_psi=MpcWeights.q_psi,
+                       q_psi_dot=MpcWeights.q_psi_dot, r_thrust=MpcWeights.r_thrust,
+                       r_rotor_lift=MpcWeights.r_rotor_lift, r_tilt_rate=MpcWeights.r_tilt_rate,
+                       r_psi_d=MpcWeights.r_psi_d)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -134,31 +159,32 @@ class MpcLimits:
     # The thrust bound per rotor (the paper's 23 N) is the airframe's thrust_planned_max; the tilt range its own.
 
 
-def continuous_dynamics(airframe: Airframe, gains: AttitudeGains, x: ca.SX, u: ca.SX, rate_held: ca.SX = 1) -> ca.SX:
-    """d/dt of (v, chi, Psi, Psi_dot). rate_held 1: Psi_dot_prev is held over the interval (the paper's 10 ms
-    stages); 0: the delayed rate in continuous time, Psi_dot_prev = Psi_dot(t - tau) ~ Psi_dot - tau Psi_ddot with
-    tau = REFERENCE_STAGE_S, so that K_d (Psi_dot_prev - Psi_dot) = -K_d tau Psi_ddot: on a stage many ticks long a
-    held rate would be that many ticks old (docs/design/alternatives.md, the long horizon)."""
+def continuous_dynamics(airframe: Airframe, gains: ca.SX, x: ca.SX, u: ca.SX, rate_held: ca.SX = 1) -> ca.SX:
+    """d/dt of (v, chi, Psi, Psi_dot) with the attitude loop's `gains` (AttitudeGains.vector, symbols or numbers).
+    rate_held 1: Psi_dot_prev is held over the interval (the paper's 10 ms stages); 0: the delayed rate in continuous
+    time, Psi_dot_prev = Psi_dot(t - tau) ~ Psi_dot - tau Psi_ddot with tau = REFERENCE_STAGE_S, so that
+    K_d (Psi_dot_prev - Psi_dot) = -K_d tau Psi_ddot: on a stage many ticks long a held rate would be that many ticks
+    old (docs/design/alternatives.md, the long horizon)."""
     euler = x[PSI]
     rotation = rotation_from_euler(euler)
     v_air_body = rotation.T @ x[V]
     force, _ = body_wrench(airframe, u[THRUST], x[CHI], ca.SX.zeros(4), v_air_body, ca.SX.zeros(3))
     v_dot = rotation @ force / airframe.mass + ca.vertcat(0, 0, airframe.gravity)
     held = attitude_law(euler, x[PSI_DOT], x[PSI_DOT_PREV], u[PSI_D], gains)
-    k_d = ca.DM(gains.rate_d)
+    k_d = gains[RATE_D_GAINS]
     continuous = (held - k_d * (x[PSI_DOT_PREV] - x[PSI_DOT])) / (1 + k_d * REFERENCE_STAGE_S)
     psi_ddot = rate_held * held + (1 - rate_held) * continuous
     return ca.vertcat(v_dot, u[CHI_DOT], x[PSI_DOT], psi_ddot)
 
 
-def discrete_dynamics(airframe: Airframe, gains: AttitudeGains, substeps: int = 1) -> ca.Function:
-    """F(x, u, grid) -> x_next: `substeps` RK4 steps over the stage, grid = (dt, rate_held) (the stage parameters
-    P_GRID); Psi_dot_prev(k+1) = Psi_dot(k)."""
+def discrete_dynamics(airframe: Airframe, substeps: int = 1) -> ca.Function:
+    """F(x, u, step) -> x_next: `substeps` RK4 steps over the stage, step = (dt, rate_held, the attitude gains) (the
+    stage parameters P_STEP, step_parameters); Psi_dot_prev(k+1) = Psi_dot(k)."""
     x = ca.SX.sym("x", NX)
     u = ca.SX.sym("u", NU)
-    grid = ca.SX.sym("grid", 2)
-    rate_held = grid[1]
-    dt = grid[0] if substeps == 1 else grid[0] / substeps
+    step = ca.SX.sym("step", P_STEP.stop - P_STEP.start)
+    rate_held, gains = step[1], step[2:]
+    dt = step[0] if substeps == 1 else step[0] / substeps
 
     def f(z: ca.SX) -> ca.SX:
         return continuous_dynamics(airframe, gains, ca.vertcat(z, x[PSI_DOT_PREV]), u, rate_held)
@@ -170,7 +196,12 @@ def discrete_dynamics(airframe: Airframe, gains: AttitudeGains, substeps: int = 
         k3 = f(z + dt / 2 * k2)
         k4 = f(z + dt * k3)
         z = z + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-    return ca.Function("mpc_step", [x, u, grid], [ca.vertcat(z, x[PSI_DOT])], ["x", "u", "grid"], ["x_next"])
+    return ca.Function("mpc_step", [x, u, step], [ca.vertcat(z, x[PSI_DOT])], ["x", "u", "step"], ["x_next"])
+
+
+def step_parameters(dt: float, rate_held: bool, gains: np.ndarray) -> np.ndarray:
+    """The dynamics' stage parameters P_STEP: a stage of `dt` seconds with the attitude gains (GAIN_COUNT)."""
+    return np.concatenate(((dt, 1.0 if rate_held else 0.0), gains))
 
 
 def soft_bound(q: float, width: float, excess: ca.SX) -> ca.SX:
@@ -181,12 +212,12 @@ def soft_bound(q: float, width: float, excess: ca.SX) -> ca.SX:
     return math.sqrt(q) * width * softplus
 
 
-def attitude_bound_residual(weights: MpcWeights, limits: MpcLimits, x: ca.SX) -> ca.SX:
-    """The soft roll and pitch bound |angle| <= limits.attitude (docs/mpc.md, deviation 6)."""
+def attitude_bound_residual(weights: MpcWeights, x: ca.SX, bound: ca.SX) -> ca.SX:
+    """The soft roll and pitch bound |angle| <= bound (rad, the stage parameters P_ATTITUDE_BOUND; docs/mpc.md,
+    deviation 6)."""
     if weights.q_attitude_bound <= 0:
         return ca.SX.zeros(0)
     angles = x[ROLL_PITCH]
-    bound = ca.DM(limits.attitude)
     return soft_bound(weights.q_attitude_bound, weights.attitude_bound_width,
                       ca.vertcat(angles - bound, -angles - bound))  # fmt: skip
 
@@ -218,17 +249,9 @@ def attitude_sp_move_residual(weights: MpcWeights, u: ca.SX, p: ca.SX) -> ca.SX:
     return p[P_MOVE] * math.sqrt(weights.q_attitude_sp_move) * (u[ROLL_PITCH_D] - p[P_ATTITUDE_SP_PREV])
 
 
-def stage_residual(
-    airframe: Airframe,
-    weights: MpcWeights,
-    soft: SoftTiltCost,
-    x: ca.SX,
-    u: ca.SX,
-    p: ca.SX,
-    limits: MpcLimits | None = None,
-) -> ca.SX:
+def stage_residual(airframe: Airframe, weights: MpcWeights, soft: SoftTiltCost, x: ca.SX, u: ca.SX, p: ca.SX) -> ca.SX:
     """Residual r with |r|^2 = the stage cost (Gauss-Newton form), weighted by the stage's length over
-    REFERENCE_STAGE_S."""
+    REFERENCE_STAGE_S; the Table 2 weights are the stage's parameters, the other terms `weights`'."""
     v_sp, psi_ref, free_tilt = p[P_V_SP], p[P_PSI_REF], p[P_FREE_TILT]
     phi_ref, psi_rate_ref, psi_d_ref = p[P_PHI_REF], p[P_PSI_RATE_REF], p[P_PSI_D_REF]
     euler = x[PSI]
@@ -243,25 +266,24 @@ def stage_residual(
     sq = ca.sqrt
     scale = sq(p[P_DT] / REFERENCE_STAGE_S) if weights.weigh_by_length else 1
     return scale * ca.vertcat(
-        sq(ca.DM(weights.q_ref)) * (x[V] - v_sp),
-        sq(ca.DM(weights.q_psi)) * ca.vertcat(euler[0] - phi_ref, euler[1], wrap_angle(euler[2] - psi_ref)),
-        sq(ca.DM(weights.q_psi_dot)) * (x[PSI_DOT] - ca.vertcat(0, 0, psi_rate_ref)),
-        math.sqrt(weights.r_tilt_rate) * u[CHI_DOT],
-        math.sqrt(weights.r_thrust) * u[THRUST],
-        math.sqrt(weights.r_rotor_lift) * (u[THRUST] * ca.cos(x[CHI]) - thrust_ref),
-        sq(ca.DM(weights.r_psi_d))
-        * ca.vertcat(u[PSI_D][0] - phi_ref, u[PSI_D][1], wrap_angle(u[PSI_D][2] - psi_d_ref)),
+        sq(p[P_Q_REF]) * (x[V] - v_sp),
+        sq(p[P_Q_PSI]) * ca.vertcat(euler[0] - phi_ref, euler[1], wrap_angle(euler[2] - psi_ref)),
+        sq(p[P_Q_PSI_DOT]) * (x[PSI_DOT] - ca.vertcat(0, 0, psi_rate_ref)),
+        sq(p[P_R_TILT_RATE]) * u[CHI_DOT],
+        sq(p[P_R_THRUST]) * u[THRUST],
+        sq(p[P_R_ROTOR_LIFT]) * (u[THRUST] * ca.cos(x[CHI]) - thrust_ref),
+        sq(p[P_R_PSI_D]) * ca.vertcat(u[PSI_D][0] - phi_ref, u[PSI_D][1], wrap_angle(u[PSI_D][2] - psi_d_ref)),
         ca.exp(soft.exponent(forward_speed, mean_tilt_deg) / 2),
-        attitude_bound_residual(weights, limits or MpcLimits(), x),
+        attitude_bound_residual(weights, x, p[P_ATTITUDE_BOUND]),
         yaw_bound_residual(weights, x, psi_ref),
         tilt_spread_residual(weights, x, free_tilt),
         attitude_sp_move_residual(weights, u, p),
     )
 
 
-def terminal_residual(weights: MpcWeights, x: ca.SX, p: ca.SX, limits: MpcLimits | None = None) -> ca.SX:
+def terminal_residual(weights: MpcWeights, x: ca.SX, p: ca.SX) -> ca.SX:
     return ca.vertcat(
-        ca.sqrt(ca.DM(weights.q_final)) * (x[V] - p[P_V_SP]), attitude_bound_residual(weights, limits or MpcLimits(), x)
+        ca.sqrt(p[P_Q_FINAL]) * (x[V] - p[P_V_SP]), attitude_bound_residual(weights, x, p[P_ATTITUDE_BOUND])
     )
 
 
@@ -278,6 +300,3 @@ def yaw_references(v_sp: np.ndarray, yaw_now: float) -> np.ndarray:
     (autopilot.control.velocity_command.setpoint_course), else the stage before's, the current yaw before the first
     (docs/mpc.md, the yaw reference)."""
     return angle_chain(yaw_now, np.arctan2(v_sp[1], v_sp[0]), has_course(v_sp[0], v_sp[1]))
-
-
-DEFAULTS = (DEFAULT_GAINS, MpcWeights(), SoftTiltCost(), MpcLimits())

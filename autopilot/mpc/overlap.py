@@ -22,15 +22,15 @@ import math
 
 import numpy as np
 
-from aircraft.codegen import BufferedFunction
 from aircraft.frames import quaternion_from_euler, wrap
 from autopilot.control.actuator_health import ServoEstimate
 from autopilot.control.allocation import ControlAllocator
 from autopilot.control.attitude import euler_rates
 from autopilot.control.velocity_command import SetpointTrajectory, VelocityCommand
 from autopilot.mpc.controller import MpcVelocityController
-from autopilot.mpc.model import CHI, PSI, PSI_DOT, PSI_INDEX, V, discrete_dynamics
+from autopilot.mpc.model import CHI, PSI, PSI_DOT, PSI_INDEX, MpcLimits, V
 from autopilot.mpc.rti import MpcSolution
+from autopilot.storage.parameters import ParameterStore
 from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.yaw_setpoint import YawReference
 
@@ -69,15 +69,21 @@ class OverlappedMpc:
     def __init__(self, mpc: MpcVelocityController, period_usec: int) -> None:
         self.mpc = mpc
         self.airframe = mpc.airframe
-        self.limits = mpc.limits  # what its plans keep to
         self.period_usec = period_usec
-        self._predict = BufferedFunction(discrete_dynamics(mpc.airframe, mpc.solver.gains))
-        self._tick_grid = np.array([period_usec / 1e6, 1.0])  # one control tick, the previous rate held over it
         self._in_flight = False
         self._held: VelocityCommand | None = None  # a solve's command taken early (statistics), for its tick
         self._trajectory = SetpointTrajectory()
         self._previous_rates: np.ndarray | None = None
         self.mode_switches = 0  # the MPC has no modes
+
+    @property
+    def limits(self) -> MpcLimits:
+        """What its plans keep to."""
+        return self.mpc.limits
+
+    def retune(self, params: ParameterStore) -> None:
+        """The parameters' gains, weights and limits from the next solve started on."""
+        self.mpc.retune(params)
 
     @property
     def last_solution(self) -> MpcSolution | None:
@@ -110,7 +116,7 @@ class OverlappedMpc:
         plan_yaw = float(solution.x[0][PSI_INDEX])  # the plan's yaw is unwrapped, the measurement is not
         euler = np.array([state.euler[0], state.euler[1], plan_yaw + wrap(float(state.euler[2]) - plan_yaw)])
         x_now = np.concatenate((state.velocity_ned, tilts, euler, rates, previous))
-        x_next = self._predict(x_now, solution.u[0], self._tick_grid)[0].copy()
+        x_next = self.mpc.predict_tick(x_now, solution.u[0])
         next_tilts = np.clip(x_next[CHI], self.airframe.tilt_min, self.airframe.tilt_max)
         next_state = predicted_state(state, x_next, self.period_usec)
         # At tick k+1 the previous tick's rates are the ones measured now; the yaw reference has turned on by a tick.

@@ -16,12 +16,11 @@ from dataclasses import dataclass
 import casadi as ca
 
 from aircraft.airframe import Airframe
-from autopilot.control.attitude import DEFAULT_GAINS, AttitudeGains
 from autopilot.mpc.model import (
     NP,
     NU,
     NX,
-    P_GRID,
+    P_STEP,
     PSI_D_INDEX,
     PSI_INDEX,
     MpcLimits,
@@ -35,9 +34,9 @@ from autopilot.mpc.model import (
 
 @dataclass(frozen=True)
 class StageFunctions:
-    """stage(x, u, x_next, p) -> (gap, A, B, H, g, cost); terminal(x, p) -> (H, g, cost); step(x, u, grid) -> x_next
-    (grid: the stage parameters P_GRID, its length and rate_held). H and g are in the stage's variables [x; u]
-    (terminal: x); outputs keep their structural zeros."""
+    """stage(x, u, x_next, p) -> (gap, A, B, H, g, cost); terminal(x, p) -> (H, g, cost); step(x, u, step) -> x_next
+    (step: the stage parameters P_STEP, its length, rate_held and the attitude gains). H and g are in the stage's
+    variables [x; u] (terminal: x); outputs keep their structural zeros."""
 
     stage: ca.Function
     terminal: ca.Function
@@ -46,22 +45,21 @@ class StageFunctions:
 
 def stage_functions(
     airframe: Airframe,
-    gains: AttitudeGains = DEFAULT_GAINS,
     weights: MpcWeights = MpcWeights(),
     soft: SoftTiltCost = SoftTiltCost(),
-    limits: MpcLimits = MpcLimits(),
     substeps: int = 1,
 ) -> StageFunctions:
-    """substeps: RK4 steps per stage (StageGrid.substeps)."""
-    step = discrete_dynamics(airframe, gains, substeps)
+    """substeps: RK4 steps per stage (StageGrid.substeps). The gains, the Table 2 weights and the attitude bound are
+    stage parameters; `weights` gives the terms built in (MpcWeights)."""
+    step = discrete_dynamics(airframe, substeps)
     xs, us, xn, ps = ca.SX.sym("x", NX), ca.SX.sym("u", NU), ca.SX.sym("x_next", NX), ca.SX.sym("p", NP)
-    x_next = step(xs, us, ps[P_GRID])
-    residual = stage_residual(airframe, weights, soft, xs, us, ps, limits)
+    x_next = step(xs, us, ps[P_STEP])
+    residual = stage_residual(airframe, weights, soft, xs, us, ps)
     jac = ca.jacobian(residual, ca.vertcat(xs, us))
     outputs = [x_next - xn, ca.jacobian(x_next, xs), ca.jacobian(x_next, us), jac.T @ jac, jac.T @ residual,
                ca.sumsqr(residual)]  # fmt: skip
     stage = ca.Function("mpc_stage", [xs, us, xn, ps], outputs)
-    r_terminal = terminal_residual(weights, xs, ps, limits)
+    r_terminal = terminal_residual(weights, xs, ps)
     j_terminal = ca.jacobian(r_terminal, xs)
     terminal_outputs = [j_terminal.T @ j_terminal, j_terminal.T @ r_terminal, ca.sumsqr(r_terminal)]
     terminal = ca.Function("mpc_terminal", [xs, ps], terminal_outputs)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import casadi as ca
 import numpy as np
 
-from autopilot.mpc.model import NP, NU, NX, P_GRID, PSI_D_INDEX, PSI_INDEX
+from autopilot.mpc.model import NP, NU, NX, P_STEP, PSI_D_INDEX, PSI_INDEX
 from autopilot.mpc.rti import RtiSolver
 
 
@@ -31,7 +31,7 @@ class ReferenceNlp:
         lbg, ubg = [0.0] * NX, [0.0] * NX
         for k in range(n):
             cost += ca.sumsqr(model.stage_residual(xs[k], us[k], params[:, k]))
-            constraints.append(solver.step_function(xs[k], us[k], params[P_GRID, k]) - xs[k + 1])
+            constraints.append(solver.step_function(xs[k], us[k], params[P_STEP, k]) - xs[k + 1])
             lbg += [0.0] * NX
             ubg += [0.0] * NX
             constraints.append(us[k][PSI_D_INDEX] - xs[k][PSI_INDEX])

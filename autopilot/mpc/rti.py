@@ -34,10 +34,13 @@ from autopilot.mpc.model import (
     NP,
     NU,
     NX,
+    P_ATTITUDE_BOUND,
     P_ATTITUDE_SP_PREV,
+    P_GAINS,
     P_GRID,
     P_MOVE,
     P_SOLVER,
+    P_WEIGHTS,
     PSI,
     PSI_D,
     PSI_D_INDEX,
@@ -51,6 +54,7 @@ from autopilot.mpc.model import (
     SoftTiltCost,
     V,
     stage_residual,
+    step_parameters,
     terminal_residual,
 )
 from autopilot.mpc.qp import build_qp_functions, stage_functions
@@ -78,18 +82,17 @@ class MpcSolution:
 
 @dataclass(frozen=True)
 class StageModel:
-    """The stage and terminal residuals with their weights bound (for the reference NLP)."""
+    """The stage and terminal residuals with their built-in terms bound (for the reference NLP)."""
 
     airframe: Airframe
     weights: MpcWeights
     soft: SoftTiltCost
-    limits: MpcLimits = MpcLimits()
 
     def stage_residual(self, x: ca.SX, u: ca.SX, p: ca.SX) -> ca.SX:
-        return stage_residual(self.airframe, self.weights, self.soft, x, u, p, self.limits)
+        return stage_residual(self.airframe, self.weights, self.soft, x, u, p)
 
     def terminal_residual(self, x: ca.SX, p: ca.SX) -> ca.SX:
-        return terminal_residual(self.weights, x, p, self.limits)
+        return terminal_residual(self.weights, x, p)
 
 
 def planned_force_function(airframe: Airframe) -> ca.Function:
@@ -122,23 +125,21 @@ class RtiSolver:
         qp_tolerance: HPIPM's stationarity tolerance (feasibility and complementarity 100x tighter, at least
         1e-8); 1e-5 for real time, 1e-8 to reproduce a converged NLP solution exactly. hpipm: all of HPIPM's
         settings instead (HPIPM_C only). compile_model: False keeps everything in CasADi's virtual machine (the
-        CASADI_CONIC back-end)."""
+        CASADI_CONIC back-end). gains, the Table 2 weights and the limits can be changed later (set_tuning)."""
         self.airframe = airframe
-        self.gains = gains
         self.grid = grid
         if gauss_newton_steps < 1:
             raise ValueError(f"gauss_newton_steps must be at least 1, got {gauss_newton_steps}")
         self.gauss_newton_steps = gauss_newton_steps
         self.horizon = n = grid.stages
-        self.limits = limits
-        functions = stage_functions(airframe, gains, weights, soft, limits, grid.substeps)
+        functions = stage_functions(airframe, weights, soft, grid.substeps)
         self.step_function = functions.step
         self._step = BufferedFunction(compiled(functions.step, "vtol-autopilot") if compile_model else functions.step)
-        self.model = StageModel(airframe, weights, soft, limits)
-        self.weights = weights
-        # The stage parameters P_SOLVER of every node (the terminal one's unused): each stage's length and whether it
-        # is one tick long (the delayed rate held, as the paper's stages), the roll and pitch set-point flown at the
-        # previous tick (set at each shift) and the weight of the move from it (the first stage's).
+        self.model = StageModel(airframe, weights, soft)
+        # The stage parameters P_SOLVER of every node: each stage's length and whether it is one tick long (the
+        # delayed rate held, as the paper's stages), the attitude gains, the roll and pitch set-point flown at the
+        # previous tick (set at each shift) and the weight of the move from it (the first stage's), the Table 2
+        # weights and the roll and pitch bound (set_tuning).
         self.solver_rows = np.zeros((P_SOLVER.stop - P_SOLVER.start, n + 1))
         rows = self._solver_row
         self.solver_rows[rows(P_GRID)] = np.vstack(
@@ -149,9 +150,10 @@ class RtiSolver:
         # The interval's far node, and the input in force at each new stage's start (the last repeated).
         self._shift_next = np.minimum(self._shift_interval + 1, self.horizon)
         self._shift_input = np.minimum(self._shift_interval[: self.horizon], self.horizon - 1)
-        self._one_tick = np.array((grid.tick_s, 1.0))
         self.n_w = NX * (n + 1) + NU * n
-        self.lbw, self.ubw = self._nominal_bounds()
+        self.weights, self.limits = weights, limits
+        self._limits_key: np.ndarray | None = None
+        self.set_tuning(gains, weights, limits)
         settings = hpipm or HpipmSettings.for_tolerance(qp_tolerance)
         self.fast = None
         self.last_step: RtiStep | None = None  # the C back-end's last QP: iterations, residuals, where the time went
@@ -178,10 +180,33 @@ class RtiSolver:
             )
         self.w = np.zeros(self.n_w)
         self.params = np.zeros((NP, n + 1))
-        self._limits_key: np.ndarray | None = None
         self.initialised = False
         self.levenberg = 1.0
         self._finished: MpcSolution | None = None  # start() without the C back-end: solved at once
+
+    # ---- tuning -------------------------------------------------------------------------------------------
+    def set_tuning(self, gains: AttitudeGains, weights: MpcWeights, limits: MpcLimits) -> None:
+        """The attitude loop's gains, the Table 2 weights and the limits from the next solve on. The problem's
+        structure is built in: `weights` may differ from the built ones only in the Table 2 weights, `limits` not in
+        yaw_sp_offset (ValueError otherwise)."""
+        if weights.built_in() != self.weights.built_in():
+            raise ValueError("only the Table 2 weights of an MPC can change once it is built")
+        if limits.yaw_sp_offset != self.limits.yaw_sp_offset:
+            raise ValueError("the MPC's yaw set-point offset is built into its QP")
+        self.gains, self.weights, self.limits = gains, weights, limits
+        rows = self._solver_row
+        self.solver_rows[rows(P_GAINS)] = gains.vector()[:, None]
+        self.solver_rows[rows(P_WEIGHTS)] = weights.table_2_rows()[:, None]
+        self.solver_rows[rows(P_ATTITUDE_BOUND)] = np.array(limits.attitude)[:, None]
+        self._one_tick = step_parameters(self.grid.tick_s, True, gains.vector())
+        self.lbw, self.ubw = self._nominal_bounds()
+        if self._limits_key is not None:  # the failure-aware bounds again, on the new nominal ones
+            key, self._limits_key = self._limits_key, None
+            self.set_actuator_limits(key[0:4], key[4:8], key[8:12], key[12:16])
+
+    def predict_tick(self, x: np.ndarray, u: np.ndarray) -> np.ndarray:
+        """The model's state one controller tick after x under the input u (a copy)."""
+        return self._step(x, u, self._one_tick)[0].copy()
 
     # ---- bounds -------------------------------------------------------------------------------------------
     def _nominal_bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -285,7 +310,7 @@ class RtiSolver:
         inputs = self.inputs()
         j, f = self._shift_interval, self._shift_fraction
         moved = states[j] + f[:, None] * (states[self._shift_next] - states[j])
-        moved[n] = self._step(states[n], inputs[n - 1], self._one_tick)[0]
+        moved[n] = self.predict_tick(states[n], inputs[n - 1])
         stages = self.w[: n * stride].reshape(n, stride)
         stages[:, :NX] = moved[:n]
         stages[:, NX:] = inputs[self._shift_input]

@@ -24,6 +24,7 @@ from typing import Any
 
 from autopilot.storage.kept_file import BackgroundWriter, read_kept
 from autopilot.storage.signing_key import SigningKey, SigningRefused, key_from_document, key_to_document
+from transport.plant_parameters import PLANT_PARAMETERS
 from transport.ports import Ports
 
 FILE_FORMAT = "tiltrotor-sitl parameters"
@@ -47,6 +48,8 @@ class ParameterDefinition:
     px4: bool = True  # False: this project's own parameter (PX4 has no such one)
     reboot_required: bool = False  # takes effect at the next start (the parameter metadata's rebootRequired)
     px4_default: float | None = None  # PX4's default where it differs from ours (None: the same, or not PX4's)
+    px4_unit: str | None = None  # PX4's unit where ours differs (px4_default is in it): the same name, another law
+    plant: bool = False  # True: the plant keeps it (the wind); shown and set here, never in the parameter file
 
 
 P = ParameterDefinition
@@ -190,7 +193,8 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         "s",
         "mission yaw timeout: above 0, a waypoint's yaw is not waited "
         "for (PX4 then waits only for forced headings, which these missions have not); -1 (and 0): wait for "
-        "MIS_YAW_ERR",
+        "MIS_YAW_ERR. It applies to the Go-to leg too, which waits for its yaw as a waypoint does (PX4's reposition "
+        "does not wait)",
     ),
     P("COM_POS_FS_DELAY", INT32, 1, 1, 100, "s", "position loss failsafe (GPS OFF): Descend after this long"),
     P(
@@ -372,6 +376,302 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
     P("CAL_MAG0_ID", INT32, 197388, 0, 2**31 - 1, "", "device id of magnetometer 0 (the simulated one)", px4_default=0),
     P("SENS_BOARD_X_OFF", REAL32, 0.0, -45.0, 45.0, "deg", "board roll offset (level horizon calibration)"),
     P("SENS_BOARD_Y_OFF", REAL32, 0.0, -45.0, 45.0, "deg", "board pitch offset (level horizon calibration)"),
+    # The attitude loop (autopilot/control/attitude.py), both controllers' and the MPC's model of it.
+    P(
+        "MC_ROLL_P",
+        REAL32,
+        6.0,
+        0.5,
+        12.0,
+        "1/s",
+        "roll attitude gain: roll error -> roll rate set-point",
+        px4_default=6.5,
+    ),
+    P(
+        "MC_PITCH_P",
+        REAL32,
+        6.0,
+        0.5,
+        12.0,
+        "1/s",
+        "pitch attitude gain: pitch error -> pitch rate set-point",
+        px4_default=6.5,
+    ),
+    P("MC_YAW_P", REAL32, 3.0, 0.5, 5.0, "1/s", "yaw attitude gain: yaw error -> yaw rate set-point", px4_default=2.8),
+    P(
+        "MC_ROLLRATE_P",
+        REAL32,
+        20.0,
+        2.0,
+        80.0,
+        "1/s",
+        "roll rate gain: rate error -> angular acceleration (not PX4's normalised torque: PX4's values, 0.01..0.5, "
+        "are refused)",
+        px4_default=0.15,
+        px4_unit="normalised torque per rad/s",
+    ),
+    P(
+        "MC_PITCHRATE_P",
+        REAL32,
+        20.0,
+        2.0,
+        80.0,
+        "1/s",
+        "pitch rate gain: rate error -> angular acceleration (not PX4's normalised torque)",
+        px4_default=0.15,
+        px4_unit="normalised torque per rad/s",
+    ),
+    P(
+        "MC_YAWRATE_P",
+        REAL32,
+        10.0,
+        1.0,
+        40.0,
+        "1/s",
+        "yaw rate gain: rate error -> angular acceleration (not PX4's normalised torque)",
+        px4_default=0.2,
+        px4_unit="normalised torque per rad/s",
+    ),
+    P(
+        "MC_ROLLRATE_D",
+        REAL32,
+        2.0,
+        0.0,
+        10.0,
+        "",
+        "roll rate damping on the rate's change between two attitude ticks (4 ms; PX4's is in seconds)",
+        px4_default=0.003,
+        px4_unit="s",
+    ),
+    P(
+        "MC_PITCHRATE_D",
+        REAL32,
+        2.0,
+        0.0,
+        10.0,
+        "",
+        "pitch rate damping on the rate's change between two attitude ticks (4 ms; PX4's is in seconds)",
+        px4_default=0.003,
+        px4_unit="s",
+    ),
+    P(
+        "MC_YAWRATE_D",
+        REAL32,
+        1.0,
+        0.0,
+        10.0,
+        "",
+        "yaw rate damping on the rate's change between two attitude ticks (4 ms; PX4's is in seconds)",
+        px4_default=0.0,
+        px4_unit="s",
+    ),
+    # The PID baseline (autopilot/control/pid_baseline.py).
+    P("MPC_XY_VEL_P_ACC", REAL32, 1.8, 1.2, 5.0, "1/s", "PID baseline: horizontal velocity error -> acceleration"),
+    P("MPC_XY_VEL_I_ACC", REAL32, 0.4, 0.0, 60.0, "1/s^2", "PID baseline: horizontal velocity integral gain"),
+    P("MPC_Z_VEL_P_ACC", REAL32, 4.0, 2.0, 15.0, "1/s", "PID baseline: vertical velocity error -> acceleration"),
+    P("MPC_Z_VEL_I_ACC", REAL32, 2.0, 0.2, 3.0, "1/s^2", "PID baseline: vertical velocity integral gain"),
+    P(
+        "MPC_TILTMAX_AIR",
+        REAL32,
+        35.0,
+        20.0,
+        89.0,
+        "deg",
+        "PID baseline: the most a multicopter phase tilts",
+        px4_default=45.0,
+    ),
+    P(
+        "MPC_ACC_HOR_MAX",
+        REAL32,
+        6.0,
+        2.0,
+        15.0,
+        "m/s^2",
+        "PID baseline: the largest horizontal acceleration",
+        px4_default=5.0,
+    ),
+    P(
+        "MPC_ACC_UP_MAX",
+        REAL32,
+        6.0,
+        1.0,
+        15.0,
+        "m/s^2",
+        "PID baseline: the largest upward acceleration",
+        px4_default=4.0,
+    ),
+    P(
+        "MPC_ACC_DOWN_MAX",
+        REAL32,
+        4.0,
+        1.0,
+        15.0,
+        "m/s^2",
+        "PID baseline: the largest downward acceleration",
+        px4_default=3.0,
+    ),
+    P(
+        "MC_YAWRATE_MAX",
+        REAL32,
+        45.0,
+        5.0,
+        1800.0,
+        "deg/s",
+        "PID baseline: the fastest a yaw reference turns the nose",
+        px4_default=200.0,
+    ),
+    P(
+        "VT_TILT_TRANS",
+        REAL32,
+        1 / 3,
+        0.1,
+        1.0,
+        "",
+        "PID baseline: rotor tilt during the forward transition, 1 = 90 deg",
+        px4_default=0.4,
+    ),
+    P("VT_B_DEC_MSS", REAL32, 2.0, 0.5, 10.0, "m/s^2", "PID baseline: deceleration of the back transition"),
+    P(
+        "FW_AIRSPD_MIN",
+        REAL32,
+        20.0,
+        10.0,
+        40.0,
+        "m/s",
+        "PID baseline: a set-point slower than this ends fixed-wing flight (back transition)",
+        px4_default=10.0,
+    ),
+    P("FW_R_LIM", REAL32, 35.0, 35.0, 70.0, "deg", "PID baseline: the largest fixed-wing bank", px4_default=50.0),
+    P("FW_P_LIM_MAX", REAL32, 20.0, 0.0, 60.0, "deg", "PID baseline: the largest fixed-wing pitch", px4_default=30.0),
+    P(
+        "VT_FW_SPD_P",
+        REAL32,
+        1.0,
+        0.0,
+        10.0,
+        "1/s",
+        "PID baseline, fixed wing: airspeed error -> along-track acceleration",
+        px4=False,
+    ),
+    P("VT_FW_SPD_I", REAL32, 0.3, 0.0, 10.0, "1/s^2", "PID baseline, fixed wing: airspeed integral gain", px4=False),
+    P(
+        "VT_FW_CLMB_P",
+        REAL32,
+        0.08,
+        0.0,
+        1.0,
+        "rad s/m",
+        "PID baseline, fixed wing: sink-rate error -> pitch",
+        px4=False,
+    ),
+    P("VT_FW_CLMB_I", REAL32, 0.05, 0.0, 1.0, "rad/m", "PID baseline, fixed wing: sink-rate integral gain", px4=False),
+    P("VT_FW_CRS_P", REAL32, 0.8, 0.0, 5.0, "1/s", "PID baseline, fixed wing: course error -> turn rate", px4=False),
+    # The unified MPC's weights (paper Table 2) and limits (autopilot/mpc/tuning.py).
+    P("VT_MPC_Q_VN", REAL32, 20.0, 0.0, 10000.0, "", "MPC weight: north velocity error", px4=False),
+    P("VT_MPC_Q_VE", REAL32, 10.0, 0.0, 10000.0, "", "MPC weight: east velocity error", px4=False),
+    P("VT_MPC_Q_VD", REAL32, 50.0, 0.0, 10000.0, "", "MPC weight: down velocity error", px4=False),
+    P(
+        "VT_MPC_QF_VN",
+        REAL32,
+        20.0,
+        0.0,
+        10000.0,
+        "",
+        "MPC weight: north velocity error at the horizon's end",
+        px4=False,
+    ),
+    P(
+        "VT_MPC_QF_VE",
+        REAL32,
+        10.0,
+        0.0,
+        10000.0,
+        "",
+        "MPC weight: east velocity error at the horizon's end",
+        px4=False,
+    ),
+    P(
+        "VT_MPC_QF_VD",
+        REAL32,
+        50.0,
+        0.0,
+        10000.0,
+        "",
+        "MPC weight: down velocity error at the horizon's end",
+        px4=False,
+    ),
+    P("VT_MPC_Q_ROLL", REAL32, 10.0, 0.0, 10000.0, "", "MPC weight: roll away from the turn's bank", px4=False),
+    P("VT_MPC_Q_PITCH", REAL32, 20.0, 0.0, 10000.0, "", "MPC weight: pitch", px4=False),
+    P("VT_MPC_Q_YAW", REAL32, 10.0, 0.0, 10000.0, "", "MPC weight: yaw away from its reference", px4=False),
+    P("VT_MPC_Q_ROLLR", REAL32, 3.0, 0.0, 10000.0, "", "MPC weight: roll rate", px4=False),
+    P("VT_MPC_Q_PITCHR", REAL32, 3.0, 0.0, 10000.0, "", "MPC weight: pitch rate", px4=False),
+    P("VT_MPC_Q_YAWR", REAL32, 3.0, 0.0, 10000.0, "", "MPC weight: yaw rate away from the turn's", px4=False),
+    P("VT_MPC_R_THR", REAL32, 0.0025, 0.0, 10.0, "1/N^2", "MPC weight: rotor thrust (least effort)", px4=False),
+    P(
+        "VT_MPC_R_LIFT",
+        REAL32,
+        0.25,
+        0.0,
+        100.0,
+        "1/N^2",
+        "MPC weight: each rotor's lifting thrust beyond the share the wing cannot carry",
+        px4=False,
+    ),
+    P("VT_MPC_R_TILTR", REAL32, 1.0, 0.0, 10000.0, "", "MPC weight: rotor tilt rate", px4=False),
+    P(
+        "VT_MPC_R_ROLLSP",
+        REAL32,
+        10.0,
+        0.0,
+        10000.0,
+        "",
+        "MPC weight: roll set-point away from the turn's bank",
+        px4=False,
+    ),
+    P("VT_MPC_R_PTCHSP", REAL32, 20.0, 0.0, 10000.0, "", "MPC weight: pitch set-point", px4=False),
+    P("VT_MPC_R_YAWSP", REAL32, 10.0, 0.0, 10000.0, "", "MPC weight: yaw set-point away from its reference", px4=False),
+    P("VT_MPC_ATT_MAX", REAL32, 45.0, 10.0, 80.0, "deg", "MPC limit: roll and pitch (a soft bound)", px4=False),
+    P("VT_MPC_ATTSP_MAX", REAL32, 60.0, 10.0, 85.0, "deg", "MPC limit: roll and pitch set-points", px4=False),
+    P("VT_MPC_VXY_MAX", REAL32, 30.0, 5.0, 60.0, "m/s", "MPC limit: north and east velocity", px4=False),
+    P("VT_MPC_VZ_MAX", REAL32, 10.0, 1.0, 20.0, "m/s", "MPC limit: vertical velocity", px4=False),
+    P("VT_MPC_TILTR_MAX", REAL32, 45.0, 5.0, 90.0, "deg/s", "MPC limit: rotor tilt rate", px4=False),
+    # The simulated battery and its failsafe (autopilot/commander/battery_simulator.py, docs/failsafes.md).
+    P(
+        "SIM_BAT_DRAIN",
+        REAL32,
+        60.0,
+        1.0,
+        86400.0,
+        "s",
+        "simulated battery: time to drain from full to empty while armed (full again when disarmed)",
+    ),
+    P("SIM_BAT_MIN_PCT", REAL32, 50.0, 0.0, 100.0, "%", "simulated battery: the charge never drains below this"),
+    P("BAT_LOW_THR", REAL32, 0.15, 0.12, 0.5, "", "low battery: state of charge below this (a warning)"),
+    P("BAT_CRIT_THR", REAL32, 0.07, 0.05, 0.25, "", "critical battery: state of charge below this (COM_LOW_BAT_ACT)"),
+    P(
+        "BAT_EMERGEN_THR",
+        REAL32,
+        0.05,
+        0.03,
+        0.1,
+        "",
+        "emergency battery: state of charge below this (COM_LOW_BAT_ACT)",
+    ),
+    P(
+        "COM_LOW_BAT_ACT",
+        INT32,
+        0,
+        0,
+        3,
+        "",
+        "battery failsafe at the critical and emergency levels: 0 warning, 1 Return, 2 Land, 3 Return at critical "
+        "and Land at emergency",
+    ),
+    # The plant's (transport/plant_parameters.py): read from the plant, set on it, not kept in the file.
+    *(
+        P(p.name, p.kind, p.default, p.minimum, p.maximum, p.unit, p.description, px4=p.px4, plant=True)
+        for p in PLANT_PARAMETERS
+    ),
 )
 del P
 SENSOR_FACTORY_PREFIXES = ("CAL_ACC", "CAL_GYRO", "CAL_MAG")  # what PREFLIGHT_STORAGE param1 3 resets (PX4's)
@@ -476,6 +776,8 @@ class ParameterStore:
         self.version += 1
         self.set_since_start.add(name)
         self.save()
+        if not definition.plant:
+            self.save()
         return True
 
     def set_signing_key(self, key: SigningKey | None) -> None:
@@ -485,8 +787,11 @@ class ParameterStore:
 
     # ---- persistence -------------------------------------------------------------------------------------
     def non_default(self) -> dict[str, int | float]:
+        """The vehicle's parameters that differ from their defaults (the plant's are the plant's to keep)."""
         changed: dict[str, int | float] = {}
         for d in self.definitions:
+            if d.plant:
+                continue
             value = self.values[d.name]
             if value != float(d.default):
                 changed[d.name] = int(value) if d.kind == INT32 else value
@@ -562,6 +867,10 @@ class ParameterStore:
         for name, value in parameters.items():
             if name not in self.index:
                 self.warnings.append(f"{where}: unknown parameter {name!r} ignored")
+                continue
+            if BY_NAME[name].plant:
+                self.warnings.append(f"{where}: {name} ignored: the plant keeps it (vtol-sim --wind, or PARAM_SET "
+                                     f"while it runs)")  # fmt: skip
                 continue
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 raise ParameterFileError(f"{where}: {name} = {value!r} is not a number")

@@ -16,6 +16,8 @@ from typing import TypeVar
 import numpy as np
 
 from aircraft.failures import Failure
+from autopilot.topics.battery import FULL as FULL_BATTERY
+from autopilot.topics.battery import BatteryStatus
 from autopilot.topics.flight_mode import ModeId
 from autopilot.topics.home_position import HomePosition
 from autopilot.topics.missions import EMPTY as NO_MISSIONS
@@ -40,6 +42,7 @@ class CommanderReport:
     flying: bool
     state_version: int
     terminated: bool
+    battery: BatteryStatus = FULL_BATTERY
 
 
 @dataclass(frozen=True)
@@ -94,6 +97,7 @@ class VehicleStatus:
     missions: Missions = NO_MISSIONS  # stored mission, fence, rally; current item, state, last reached (immutable)
     terminated: bool = False  # flight termination (a failsafe or DO_FLIGHTTERMINATION): motors off until cleared
     sensors: SensorSample | None = None  # the simulated sensors this step, calibrated (None before the plant sent any)
+    battery: BatteryStatus = FULL_BATTERY  # the simulated battery (autopilot/commander/battery_simulator.py)
 
     @property
     def time_boot_ms(self) -> int:

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from ground_tools.campaign.points import FlightPoint
-from ground_tools.campaign.spec import PLANT_AIRFRAME, WIND
+from ground_tools.campaign.spec import PLANT_AIRFRAME, autopilot_parameters, plant_wind, scenario_parameters
 from ground_tools.lockstep_client import ScenarioError
 from ground_tools.lockstep_flight import FlightFailed
 from ground_tools.scenario_run import run_scenario
@@ -46,7 +46,9 @@ def flight_folder(out: Path, key: str) -> Path:
 
 def fly_point(point: FlightPoint, out: str, campaign_folder: str) -> dict[str, Any]:
     """Fly `point` into `out`/flights/<key>/; the store's row for it."""
-    scenario_params = {k: v for k, v in point.params.items() if k not in WIND and k != PLANT_AIRFRAME}
+    autopilot_params = autopilot_parameters(point.params)
+    wind, turbulence, seed = plant_wind(point.params)
+    scenario_params = scenario_parameters(point.params)
     row: dict[str, Any] = {"key": point.key, "scenario": point.scenario, "controller": point.controller,
                            "repetition": point.repetition, "params": point.params, "code_version": code_version(),
                            "host": socket.gethostname(), "status": "failed", "error": None, "metrics": {},
@@ -54,12 +56,13 @@ def fly_point(point: FlightPoint, out: str, campaign_folder: str) -> dict[str, A
     started = time.perf_counter()
     try:
         scenario = build_scenario(point.scenario, scenario_params)
-        wind = tuple(float(point.params.get(name, 0.0)) for name in WIND)
         airframe = point.params.get(PLANT_AIRFRAME)
         plant_airframe = None if airframe is None else Path(campaign_folder) / airframe
         block = claim_block(FIRST_INSTANCE, INSTANCES, start=int(point.key, 16) % INSTANCES)
         result = run_scenario(scenario, point.controller, flight_folder(Path(out), point.key),  # type: ignore[arg-type]
-                              block=block, wind_ned=wind, plant_airframe=plant_airframe, record=False)  # fmt: skip
+                              block=block, wind_ned=wind, plant_airframe=plant_airframe, record=False,
+                              autopilot_params=autopilot_params, wind_turbulence=turbulence,
+                              wind_seed=seed)  # fmt: skip
     except (FlightFailed, ScenarioError, NoFreeBlock) as exc:
         row["error"] = str(exc) or type(exc).__name__
     except Exception:  # a bug must not stop the other flights: it is the row's reason, with its traceback

@@ -8,12 +8,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from autopilot.storage.parameters import BY_NAME, ParameterRejected, ParameterStore
 from ground_tools.metrics import METRIC_KINDS
 from scenarios.variants import PARAMETERS, VariantError, checked_values
+from transport.plant_parameters import BY_NAME as PLANT_PARAMETERS
+from transport.plant_parameters import refusal
+from transport.wind import Wind
 
 CONTROLLERS = ("mpc", "pid")
-WIND = ("wind_n_mps", "wind_e_mps", "wind_d_mps")  # the plant's constant wind, NED
+UPDRAFT = "wind_d_mps"  # the mean wind's vertical velocity (down), m/s: the plant's alone, no parameter
 WIND_LIMIT = 40.0  # m/s
+RENAMED = {"wind_n_mps": "SIH_WIND_N", "wind_e_mps": "SIH_WIND_E"}  # the mean wind is the plant's parameters
 PLANT_AIRFRAME = "plant_airframe"  # an airframe file for the plant only: model mismatch
 TOP_LEVEL = ("name", "scenario", "controllers", "repetitions", "seed", "samples", "fixed", "axes", "report")
 MAX_FLIGHTS = 1_000_000
@@ -86,16 +91,47 @@ def _grid_values(name: str, axis: Any) -> tuple[Any, ...] | RandomAxis:
                         f"not {axis!r}")  # fmt: skip
 
 
+def autopilot_parameters(values: dict[str, Any]) -> dict[str, float]:
+    """The values that are the autopilot's parameters (their PX4-style names: VT_MPC_Q_VN, MC_ROLLRATE_P ...)."""
+    return {key: value for key, value in values.items() if key in BY_NAME and key not in PLANT_PARAMETERS}
+
+
+def scenario_parameters(values: dict[str, Any]) -> dict[str, Any]:
+    """The values that are the scenario's own (not the plant's nor the autopilot's)."""
+    return {key: value for key, value in values.items()
+            if key != UPDRAFT and key != PLANT_AIRFRAME and key not in BY_NAME and key not in PLANT_PARAMETERS}  # fmt: skip
+
+
+def plant_wind(values: dict[str, Any]) -> tuple[tuple[float, float, float], float, int]:
+    """The plant's wind of a flight: its mean velocity (NED, m/s: SIH_WIND_N and SIH_WIND_E, where it comes from,
+    negated; wind_d_mps), the turbulence (SIM_WIND_TURB) and its seed (SIM_WIND_SEED)."""
+    given = Wind(float(values.get("SIH_WIND_N", 0.0)), float(values.get("SIH_WIND_E", 0.0)),
+                 float(values.get("SIM_WIND_TURB", 0.0)), int(values.get("SIM_WIND_SEED", 0)))  # fmt: skip
+    north, east = given.velocity_ne
+    return (north, east, float(values.get(UPDRAFT, 0.0))), given.turbulence, given.seed
+
+
 def check_parameters(scenario: str, values: dict[str, Any], folder: Path) -> None:
-    """Raise CampaignError unless every value is one the scenario or the plant takes, in range."""
-    own = {key: value for key, value in values.items() if key not in WIND and key != PLANT_AIRFRAME}
+    """Raise CampaignError unless every value is one the scenario, the plant or the autopilot takes, in range."""
+    autopilot = autopilot_parameters(values)
+    store = ParameterStore(None)
+    for key, value in autopilot.items():
+        try:
+            store.check(key, _number(key, value))
+        except ParameterRejected as exc:
+            raise CampaignError(str(exc)) from None
+    for key in set(values) & set(RENAMED):
+        raise CampaignError(f"{key}: the mean wind is {RENAMED[key]}, m/s where the wind comes from (PX4's SIH)")
+    for key in set(values) & set(PLANT_PARAMETERS):
+        if (why := refusal(PLANT_PARAMETERS[key], _number(key, values[key]))) is not None:
+            raise CampaignError(why)
+    own = scenario_parameters(values)
     try:
         checked_values(scenario, own)
     except VariantError as exc:
         raise CampaignError(str(exc)) from None
-    for key in WIND:
-        if key in values and not -WIND_LIMIT <= _number(key, values[key]) <= WIND_LIMIT:
-            raise CampaignError(f"{key} = {values[key]!r} is outside -{WIND_LIMIT:g} .. {WIND_LIMIT:g} m/s")
+    if UPDRAFT in values and not -WIND_LIMIT <= _number(UPDRAFT, values[UPDRAFT]) <= WIND_LIMIT:
+        raise CampaignError(f"{UPDRAFT} = {values[UPDRAFT]!r} is outside -{WIND_LIMIT:g} .. {WIND_LIMIT:g} m/s")
     if PLANT_AIRFRAME in values:
         airframe = values[PLANT_AIRFRAME]
         if not isinstance(airframe, str) or not (folder / airframe).is_file():

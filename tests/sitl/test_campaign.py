@@ -25,7 +25,7 @@ scenario = "servo-failure"
 controllers = ["mpc", "pid"]
 [fixed]
 duration_s = 0.6
-wind_e_mps = 0.5
+SIH_WIND_E = -0.5
 plant_airframe = "paper.toml"
 [axes]
 jam_deg = [0, 60]
@@ -92,7 +92,7 @@ def test_a_campaign_on_two_workers_is_killed_resumed_and_reported(tmp_path: Path
         assert metrics["vx_rmse"] == row["vx_rmse"] and metrics["survived"] == row["survived"]
         run = json.loads((Path(row["run_dir"]) / "run.json").read_text())
         assert f"STUCK at {row['jam_deg']:.1f} deg" in json.dumps(run["statustexts"])
-        assert run["plant"]["wind_ned"] == [0.0, 0.5, 0.0] and row["wind_e_mps"] == 0.5
+        assert run["plant"]["wind_ned"] == [0.0, 0.5, 0.0] and row["SIH_WIND_E"] == -0.5
         assert Path(run["plant"]["airframe"]).resolve() == (tmp_path / "paper.toml").resolve()
     survival = out / "figures" / "survival.png"
     assert survival.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and (out / "figures" / "error.png").is_file()
@@ -113,7 +113,7 @@ controllers = ["mpc", "pid"]
 [fixed]
 duration_s = 30.0
 [axes]
-wind_n_mps = [0, 1, 2]
+SIH_WIND_N = [0, 1, 2]
 """
 
 

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 import tiltrotor_sitl
-from tiltrotor_sitl import Faults, Fleet, ProcessOptions, Vehicle, VehicleError
+from tiltrotor_sitl import Faults, Fleet, ProcessOptions, Vehicle, VehicleError, Wind
 from tiltrotor_sitl._launch import Options
 from transport.ports import Ports
 
@@ -49,6 +49,10 @@ def children_of(pid: int) -> list[int]:
     ({"processes": ProcessOptions(autopilot_args="--quiet")}, "autopilot_args must be a sequence of strings"),
     ({"processes": ProcessOptions(plant_port=70000)}, "plant_port must be a UDP port"),
     ({"processes": ProcessOptions(autopilot=False), "link_faults": Faults(loss=0.1)}, "link_faults with autopilot=False"),
+    ({"wind": Wind(from_north=99.0)}, "wind: SIH_WIND_N: 99 outside -40..40"),
+    ({"wind": (3.0, 0.0)}, "wind must be a tiltrotor_sitl.Wind"),
+    ({"wind": Wind(turbulence=1.0), "processes": ProcessOptions(plant_port=4560)}, "wind with plant_port"),
+    ({"params": {"SIH_WIND_N": 3.0}}, "SIH_WIND_N is the plant's .*wind=Wind"),
 ])  # fmt: skip
 def test_bad_arguments_are_named(arguments: dict, message: str) -> None:
     with pytest.raises(ValueError, match=message):

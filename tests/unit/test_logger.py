@@ -13,7 +13,6 @@ from aircraft.airframe import load_airframe
 from autopilot.commander.commander import Commander, build_commander
 from autopilot.commander.failure_injection import FailureInjection
 from autopilot.control.flight_controller import FlightController
-from autopilot.control.pid_baseline import TransitionAirspeeds
 from autopilot.controllers import build_flight_controller
 from autopilot.logger.logger import Logger, VehicleIdentity
 from autopilot.storage.mission_store import MissionStore
@@ -41,8 +40,7 @@ class Bench:
         self.commander: Commander = build_commander(
             self.params, airframe.hover_thrust_per_rotor / airframe.thrust_max, armed=False, in_air=False,
             say=self.events.say, profile=None, stamped_setpoints=False, missions=MissionStore(), home=home)  # fmt: skip
-        self.controller: FlightController = build_flight_controller(
-            airframe, "pid", TransitionAirspeeds(13.5, 23.0), mpc_horizon=None, mpc_overlap=False)  # fmt: skip
+        self.controller: FlightController = build_flight_controller(airframe, "pid", self.params)
         self.notes: list[str] = []
         self.files = VehicleFiles.at(root)
         identity = VehicleIdentity(1, home, self.commander.navigator.ids, airframe.gravity, 4 * airframe.thrust_max)

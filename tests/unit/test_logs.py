@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from aircraft.failures import Failure, FailureType, FailureUnit
+from autopilot.control.attitude import DEFAULT_GAINS, AttitudeGains
 from autopilot.logger import samples, ulog
 from autopilot.logger.log_file import MAX_PENDING_BYTES, Chunk, LogFile
 from autopilot.logger.topics import TOPICS, VEHICLE_ATTITUDE
@@ -173,8 +174,11 @@ def test_navigation_states_and_motor_failures_as_px4_numbers_them():
 
 
 def test_the_rate_setpoint_is_the_attitude_loops_p_law():
-    rates = samples.BodyRateSetpoint()(np.zeros(3), np.array([0.0, 0.0, 0.1]))
+    rate_setpoint = samples.BodyRateSetpoint()
+    rates = rate_setpoint(np.zeros(3), np.array([0.0, 0.0, 0.1]), DEFAULT_GAINS)
     assert rates == pytest.approx([0.0, 0.0, np.pi * np.tanh(3.0 * 0.1 / np.pi)])  # yaw: 3 1/s, limited to pi
+    tuned = rate_setpoint(np.zeros(3), np.array([0.0, 0.0, 0.1]), AttitudeGains(attitude=(6.0, 6.0, 5.0)))
+    assert tuned == pytest.approx([0.0, 0.0, np.pi * np.tanh(5.0 * 0.1 / np.pi)])  # MC_YAW_P as set
 
 
 class SlowDisk(io.BytesIO):

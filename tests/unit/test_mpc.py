@@ -290,7 +290,7 @@ def test_soft_attitude_bound_is_zero_inside_and_quadratic_beyond():
     def penalty(roll_deg: float, pitch_deg: float) -> float:
         x = np.zeros(NX)
         x[7], x[8] = math.radians(roll_deg), math.radians(pitch_deg)
-        return float(ca.sumsqr(attitude_bound_residual(weights, limits, ca.DM(x))))
+        return float(ca.sumsqr(attitude_bound_residual(weights, ca.DM(x), ca.DM(limits.attitude))))
 
     # At the bound: q (width ln 2)^2 = 1e6 (0.05236 * 0.6931)^2 = 1317 per stage.
     assert penalty(0.0, 45.0) == pytest.approx(q * (width * math.log(2)) ** 2, rel=1e-9)
@@ -302,7 +302,8 @@ def test_soft_attitude_bound_is_zero_inside_and_quadratic_beyond():
     # The accel and circle attitudes (pitch 12 deg, bank 15.4 deg) are 30 deg = 10 widths inside: negligible.
     assert penalty(15.4, 12.0) < 1e-3
     # q = 0: the paper's hard bound, no penalty.
-    assert attitude_bound_residual(MpcWeights(q_attitude_bound=0.0), limits, ca.DM(np.zeros(NX))).numel() == 0
+    bound = ca.DM(limits.attitude)
+    assert attitude_bound_residual(MpcWeights(q_attitude_bound=0.0), ca.DM(np.zeros(NX)), bound).numel() == 0
 
 
 def test_soft_yaw_bound_acts_on_the_wrapped_error_from_the_reference():

@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 
 from aircraft.codegen import BufferedFunction
+from autopilot.control.attitude import DEFAULT_GAINS
 from autopilot.controllers import mpc_horizon
 from autopilot.mpc.horizon import LONG, PAPER, StageGrid, extrapolate_setpoint
-from autopilot.mpc.model import CHI, NU, NX, angle_chain, yaw_references
+from autopilot.mpc.model import CHI, NU, NX, angle_chain, step_parameters, yaw_references
 from autopilot.mpc.rti import RtiSolver, planned_force_function
 
 
@@ -49,7 +50,8 @@ def test_the_shift_on_the_papers_grid_moves_the_plan_by_one_stage(airframe):
     assert np.array_equal(solver.inputs()[:4], old_inputs[1:])
     assert np.array_equal(solver.inputs()[4], old_inputs[4])  # the last input repeated
     # the new terminal state: the model's step over one tick from the old one, bit for bit as CasADi evaluates it
-    expected = np.asarray(solver.step_function(old_states[5], old_inputs[4], (0.01, 1.0))).ravel()
+    tick = step_parameters(0.01, True, DEFAULT_GAINS.vector())
+    expected = np.asarray(solver.step_function(old_states[5], old_inputs[4], tick)).ravel()
     assert np.array_equal(solver.states()[5], expected)
 
 
@@ -118,7 +120,8 @@ def test_long_stages_hold_the_delayed_rate_in_continuous_form(airframe):
     u[4:8] = airframe.hover_thrust_per_rotor
     moved = x.copy()
     moved[13:16] = 0.5  # Psi_dot_prev
-    long_stage, tick = np.array([0.13, 0.0]), np.array([0.01, 1.0])
+    gains = DEFAULT_GAINS.vector()
+    long_stage, tick = step_parameters(0.13, False, gains), step_parameters(0.01, True, gains)
     assert np.array_equal(np.asarray(step(x, u, long_stage)), np.asarray(step(moved, u, long_stage)))
     assert not np.array_equal(np.asarray(step(x, u, tick)), np.asarray(step(moved, u, tick)))
 
