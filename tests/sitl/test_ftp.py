@@ -15,9 +15,9 @@ from typing import Any
 
 import pytest
 
-mavsdk = pytest.importorskip("mavsdk", reason="MAVSDK-Python is a test extra: pip install '.[test]'")
-if not hasattr(mavsdk, "Mavsdk"):
-    pytest.skip("needs mavsdk >= 4 (the native binding, no server binary)", allow_module_level=True)
+pytest.importorskip(
+    "mavsdk", minversion="4", reason="MAVSDK-Python 4 (the native binding) is a test extra: pip install '.[test]'"
+)
 
 from mavsdk import ComponentType, Configuration, Mavsdk  # noqa: E402
 from mavsdk.plugins.component_metadata import ComponentMetadata, MetadataType  # noqa: E402

@@ -10,9 +10,8 @@ import time
 
 import pytest
 
-mavsdk = pytest.importorskip("mavsdk", reason="MAVSDK-Python is a test extra: pip install '.[test]'")
-if not hasattr(mavsdk, "Mavsdk"):  # 3.x is the gRPC wrapper that needs a mavsdk_server binary
-    pytest.skip("needs mavsdk >= 4 (the native binding, no server binary)", allow_module_level=True)
+# 3.x is the gRPC wrapper that needs a mavsdk_server binary; 4 is the native binding.
+pytest.importorskip("mavsdk", minversion="4", reason="MAVSDK-Python 4 is a test extra: pip install '.[test]'")
 
 from mavsdk import ComponentType, Configuration, LogLevel, Mavsdk, log_subscribe  # noqa: E402
 from mavsdk.plugins.action import Action  # noqa: E402

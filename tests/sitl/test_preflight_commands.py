@@ -12,9 +12,9 @@ import pytest
 
 from transport.mavlink import mavlink as M
 
-mavsdk = pytest.importorskip("mavsdk", reason="MAVSDK-Python is a test extra: pip install '.[test]'")
-if not hasattr(mavsdk, "Mavsdk"):
-    pytest.skip("needs mavsdk >= 4 (the native binding, no server binary)", allow_module_level=True)
+pytest.importorskip(
+    "mavsdk", minversion="4", reason="MAVSDK-Python 4 (the native binding) is a test extra: pip install '.[test]'"
+)
 
 from mavsdk import ComponentType, Configuration, Mavsdk  # noqa: E402
 from mavsdk.plugins.calibration import Calibration, CalibrationResult  # noqa: E402
