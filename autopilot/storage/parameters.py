@@ -233,7 +233,7 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         1.0,
         30.0,
         "m/s",
-        "fastest horizontal speed flying to an Offboard position set-point",
+        "fastest horizontal speed flying to an Offboard position set-point or in Follow Me",
     ),
     P(
         "MPC_ACC_HOR",
