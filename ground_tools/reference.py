@@ -185,7 +185,7 @@ def first_sentence(text: str | None) -> str:
 def mode_summary(docstring: str | None) -> str:
     """A mode's docstring's first sentence without its leading PX4 name ("AUTO.LOITER: brake ..." -> "brake ...")."""
     sentence = first_sentence(docstring)
-    return re.sub(r"^[A-Z][A-Z.]*( \([^)]*\))?: ", "", sentence)
+    return re.sub(r"^[A-Z][A-Z._]*( \([^)]*\))?: ", "", sentence)
 
 
 def zenoh_page(keys: Iterable[Callable[[int], str]], plant_state_fields: Iterable[str]) -> str:

@@ -3,8 +3,8 @@
 
 The names are PX4's, in capitals as MAVSDK and PX4's shell write them: "HOLD", "MISSION", "RETURN", "OFFBOARD"...;
 QGroundControl's and PX4's other spellings are accepted too ("Hold", "LOITER", "AUTO.LOITER", "RTL", "Position").
-This vehicle flies HOLD, TAKEOFF, LAND, OFFBOARD, MISSION, RETURN, ORBIT, POSCTL and ALTCTL (docs/mavlink.md); it
-refuses the others as PX4 refuses a mode it cannot enter.
+This vehicle flies HOLD, TAKEOFF, LAND, OFFBOARD, MISSION, RETURN, FOLLOW_ME, ORBIT, POSCTL and ALTCTL
+(docs/mavlink.md); it refuses the others as PX4 refuses a mode it cannot enter.
 """
 
 from __future__ import annotations
@@ -12,6 +12,7 @@ from __future__ import annotations
 from enum import StrEnum
 
 from autopilot.topics.flight_mode import (
+    PX4_AUTO_FOLLOW_TARGET,
     PX4_AUTO_LAND,
     PX4_AUTO_LOITER,
     PX4_AUTO_MISSION,
@@ -25,7 +26,7 @@ from autopilot.topics.flight_mode import (
 )
 
 PX4_MAIN_MANUAL, PX4_MAIN_ACRO, PX4_MAIN_STABILIZED = 1, 5, 7
-PX4_AUTO_FOLLOW_TARGET, PX4_AUTO_PRECLAND = 8, 9
+PX4_AUTO_PRECLAND = 9
 
 
 class FlightMode(StrEnum):

@@ -48,7 +48,7 @@ from autopilot.topics.attitude_target import AttitudeTarget
 from autopilot.topics.flight_mode import ModeId
 from autopilot.topics.home_position import HomePosition
 from autopilot.topics.region_of_interest import RegionOfInterest
-from autopilot.topics.requests import FORCE_MAGIC, ManualControlInput, Reply
+from autopilot.topics.requests import FORCE_MAGIC, FollowTargetReport, ManualControlInput, Reply
 from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.vehicle_status import CommanderReport
 from autopilot.topics.yaw_setpoint import YawReference
@@ -83,6 +83,7 @@ class Commander:
         self.feasibility = context.feasibility
         self.offboard = context.offboard
         self.manual = context.manual
+        self.target = context.target
         self.yaw_shaper = YawShaper()
         self.say = say
         self.profile = profile
@@ -293,6 +294,7 @@ class Commander:
             terminated=self.terminated,
             outside_fence=None if force else self.failsafe.outside_fence(state.position_ned),
             mission_invalid=not force and self.mode == MISSION and self.feasibility.check() is not None,
+            mode_prevents_arming=self.active.prevents_arming,
         )
         if why is not None:
             return DENIED, why
@@ -343,6 +345,11 @@ class Commander:
     def manual_control(self, sticks: ManualControlInput) -> Reply:
         """MANUAL_CONTROL as a virtual RC, when COM_RC_IN_MODE takes it."""
         return self.manual.receive(sticks, self.now_usec)
+
+    def follow_target(self, report: FollowTargetReport) -> Reply:
+        """FOLLOW_TARGET: the Follow Me target's estimate takes it in any mode (PX4's estimator always runs)."""
+        self.target.measure(report.position, report.velocity, self.now_usec)
+        return ACCEPTED, None
 
     def takeoff(self, state: VehicleState, altitude_above_home: float | None) -> Reply:
         """Climb to `altitude_above_home` (None: MIS_TAKEOFF_ALT) over the current position, then Hold."""

@@ -1,6 +1,6 @@
-"""The flight stack as the MAVLink services see it: it takes their typed requests. Arming, modes, takeoff and
-ground-station heartbeats (for the data-link failsafe) go to the commander; landing, Go-to, Orbit, transitions,
-speed, home and Offboard set-points to its guided requests (guided_requests.py); a failure injection, once
+"""The flight stack as the MAVLink services see it: it takes their typed requests. Arming, modes, takeoff,
+ground-station heartbeats (for the data-link failsafe) and Follow Me's target go to the commander; landing, Go-to,
+Orbit, transitions, speed, home and Offboard set-points to its guided requests (guided_requests.py); a failure injection, once
 SYS_FAILURE_EN allows it (as PX4's commander checks it), goes to the plant link and is answered when the plant has.
 Mission uploads, clears and the current item go to the mission store (autopilot/storage/mission_store.py), which the
 navigator reads. A reboot, the parameter storage and the calibrations are taken while disarmed only, as PX4's
@@ -25,6 +25,7 @@ from autopilot.topics.requests import (
     ClearMission,
     Disarm,
     FlightTermination,
+    FollowTargetReport,
     GcsHeartbeat,
     InjectFailure,
     Land,
@@ -166,6 +167,8 @@ class FlightStack:
                 return guided.offboard_request(request)
             case ManualControlInput():
                 return commander.manual_control(request)
+            case FollowTargetReport():
+                return commander.follow_target(request)
             case GcsHeartbeat():
                 commander.gcs_heartbeat()
                 return mavlink.MAV_RESULT_ACCEPTED, None

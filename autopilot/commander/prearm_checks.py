@@ -12,9 +12,10 @@ MAX_LEVEL_TILT = math.radians(30.0)  # arming on the ground: roll and pitch with
 
 
 def prearm_refusal(state: VehicleState, *, force: bool, terminated: bool, outside_fence: str | None,
-                   mission_invalid: bool) -> str | None:  # fmt: skip
+                   mission_invalid: bool, mode_prevents_arming: bool = False) -> str | None:  # fmt: skip
     """Why arming is denied (the STATUSTEXT), or None. `outside_fence`: why the vehicle is outside the geofence;
-    `mission_invalid`: in Mission, the mission fails its feasibility check."""
+    `mission_invalid`: in Mission, the mission fails its feasibility check; `mode_prevents_arming`: the chosen mode
+    may not be armed in (Follow Me)."""
     if terminated:
         return "Arming denied: flight terminated (MAV_CMD_DO_FLIGHTTERMINATION with param1 0 clears it)"
     if force:
@@ -26,4 +27,6 @@ def prearm_refusal(state: VehicleState, *, force: bool, terminated: bool, outsid
         return f"Arming denied: vehicle outside the geofence ({outside_fence})"
     if mission_invalid:
         return "Arming denied: no valid mission"
+    if mode_prevents_arming:
+        return "Arming denied: Mode not suitable for arming"
     return None

@@ -20,6 +20,7 @@ from typing import Any
 
 from autopilot.mavlink import messages
 from autopilot.mavlink.commands import CommandService
+from autopilot.mavlink.follow_target import FollowTargetService
 from autopilot.mavlink.ftp import FtpService
 from autopilot.mavlink.ftp_protocol import FileRoot
 from autopilot.mavlink.log_download import LogDownloadService
@@ -70,6 +71,7 @@ class MavlinkServices:
         self.offboard = OffboardService(flight_stack, self.view, self.announcer, system_id=system_id, origin=home)
         self.offboard_attitude = OffboardAttitudeService(flight_stack, self.announcer, system_id=system_id)
         self.manual_control = ManualControlService(flight_stack, self.announcer, system_id=system_id)
+        self.follow_target = FollowTargetService(flight_stack, self.view, self.announcer, origin=home)
         self.parameters = ParameterService(params, router, self.announcer, system_id=system_id)
         self.missions = MissionService(flight_stack, self.view, router, self.announcer, system_id=system_id)
         self.signing = SigningService(params, router, self.announcer, system_id=system_id)
@@ -87,6 +89,7 @@ class MavlinkServices:
             "SET_POSITION_TARGET_GLOBAL_INT": self.offboard.on_position_target_global,
             "SET_ATTITUDE_TARGET": self.offboard_attitude.on_attitude_target,
             "MANUAL_CONTROL": self.manual_control.on_manual_control,
+            "FOLLOW_TARGET": self.follow_target.on_follow_target,
             "PARAM_REQUEST_LIST": self.parameters.on_request_list,
             "PARAM_REQUEST_READ": self.parameters.on_request_read,
             "PARAM_SET": self.parameters.on_set,
@@ -248,6 +251,7 @@ class MavlinkServices:
             {link.name.lower(): link.summary() for link in self.router.links}
             | {
                 "setpoints_dropped": self.offboard.dropped + self.offboard_attitude.dropped,
+                "follow_targets_dropped": self.follow_target.dropped,
                 "notices_suppressed": self.announcer.suppressed,
                 "lockstep_holds": self.holds,
                 "lockstep_hold_wall_s": round(self.hold_wall_s, 3),

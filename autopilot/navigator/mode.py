@@ -3,6 +3,7 @@ mode; the active mode turns the state into a velocity set-point (NED, m/s) at 10
 
     id                   the mode's name and PX4 custom mode (topics/flight_mode.py)
     needs_position       a ground station may choose it only with a position estimate
+    prevents_arming      arming is refused while it is chosen (PX4's mode_req_prevent_arming)
     entry_refusal(entry) why a ground station may not choose it now (None: it may), beside the commander's own checks
     entered_from(mode)   it is being entered from `mode` (before activate)
     activate(state)      the mode is entered (or entered again) here
@@ -31,8 +32,10 @@ from autopilot.navigator.manual_control import ManualControl
 from autopilot.navigator.mission_feasibility import MissionFeasibility
 from autopilot.navigator.mission_flight import MissionFlight
 from autopilot.navigator.offboard_setpoint import OffboardSetpoint
+from autopilot.navigator.target_estimator import TargetEstimator
 from autopilot.storage.parameters import ParameterStore
 from autopilot.topics.flight_mode import ModeId
+from autopilot.topics.home_position import HomeReader
 from autopilot.topics.requests import Reply
 from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.yaw_setpoint import YawSetpoint
@@ -59,6 +62,8 @@ class ModeContext:
     feasibility: MissionFeasibility  # the mission against the geofence
     offboard: OffboardSetpoint  # the client's latest Offboard set-point
     manual: ManualControl  # the latest MANUAL_CONTROL sticks
+    target: TargetEstimator  # the Follow Me target, from FOLLOW_TARGET
+    homes: HomeReader
     hover_fraction: float  # the rotors' hover thrust as a fraction of their full thrust
     say: Callable[..., None]  # a STATUSTEXT: say(severity, text)
 
@@ -68,6 +73,7 @@ class FlightMode(ABC):
 
     id: ModeId
     needs_position = True
+    prevents_arming = False
     resets_land_detector = False
     restarts_when_reentered = True  # entered again while active, it starts afresh
 

@@ -24,6 +24,7 @@ from autopilot.navigator.modes.orbit import ORBIT, OrbitMode
 from autopilot.navigator.modes.rtl import RETURN, ReturnMode
 from autopilot.navigator.modes.takeoff import TAKEOFF, TakeoffMode
 from autopilot.navigator.offboard_setpoint import OffboardSetpoint
+from autopilot.navigator.target_estimator import TargetEstimator
 from autopilot.storage.mission_store import MissionStore
 from autopilot.storage.parameters import ParameterStore
 from autopilot.topics.flight_mode import ModeId
@@ -85,11 +86,12 @@ def build_navigator(params: ParameterStore, missions: MissionStore, homes: HomeR
                     say: Callable[..., None], stamped_setpoints: bool = False) -> Navigator:  # fmt: skip
     """The navigator and what its modes share: the flight tasks, the route flier, the mission, its feasibility
     against the fence (`outside_fence`: why a NED position is outside, None inside), the Offboard set-point (stamped:
-    `--offboard-lockstep`) and the sticks; `landed`: the vehicle is on the ground."""
+    `--offboard-lockstep`), the sticks and the Follow Me target; `landed`: the vehicle is on the ground."""
     auto = AutoFlight(params)
     mission = MissionFlight(params, missions, homes, auto, landed=landed)
     context = ModeContext(params=params, tasks=FlightTasks(params), auto=auto, mission=mission,
                           feasibility=MissionFeasibility(mission, outside_fence, say),
                           offboard=OffboardSetpoint(stamped=stamped_setpoints), manual=ManualControl(params),
-                          hover_fraction=hover_fraction, say=say)  # fmt: skip
+                          target=TargetEstimator(params), homes=homes, hover_fraction=hover_fraction,
+                          say=say)  # fmt: skip
     return Navigator(context)

@@ -233,7 +233,7 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         1.0,
         30.0,
         "m/s",
-        "fastest horizontal speed flying to an Offboard position set-point",
+        "fastest horizontal speed flying to an Offboard position set-point or in Follow Me",
     ),
     P(
         "MPC_ACC_HOR",
@@ -666,6 +666,56 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         "",
         "battery failsafe at the critical and emergency levels: 0 warning, 1 Return, 2 Land, 3 Return at critical "
         "and Land at emergency",
+    ),
+    # Follow Me (AUTO.FOLLOW_TARGET, docs/mavlink.md#follow-me): PX4's AutoFollowTarget flight task's; PX4 has no
+    # maximum for the height and the distance, 100 m is its limit for adjusting them with the sticks.
+    P("FLW_TGT_HT", REAL32, 8.0, 8.0, 100.0, "m", "Follow Me: height above home (above the target with ALT_M 2)"),
+    P("FLW_TGT_DST", REAL32, 8.0, 1.0, 100.0, "m", "Follow Me: horizontal distance to the target"),
+    P(
+        "FLW_TGT_FA",
+        REAL32,
+        180.0,
+        -180.0,
+        180.0,
+        "deg",
+        "Follow Me: angle from the target's course, clockwise (0 in front, 90 right, 180 behind)",
+    ),
+    P(
+        "FLW_TGT_RS",
+        REAL32,
+        0.1,
+        0.0,
+        1.0,
+        "",
+        "Follow Me: the target estimator's responsiveness (lower: faster to follow the target's messages, less "
+        "smoothing; taken as 0.1 below 0.1)",
+    ),
+    P(
+        "FLW_TGT_VG",
+        REAL32,
+        0.9,
+        0.1,
+        1.0,
+        "",
+        "Follow Me: the target estimator's velocity gain relative to FLW_TGT_RS",
+    ),
+    P(
+        "FLW_TGT_ALT_M",
+        INT32,
+        0,
+        0,
+        2,
+        "",
+        "Follow Me altitude: 0 FLW_TGT_HT above home, 1 above the terrain (flat: as 0), 2 above the target's altitude",
+    ),
+    P(
+        "FLW_TGT_MAX_VEL",
+        REAL32,
+        5.0,
+        0.0,
+        20.0,
+        "m/s",
+        "Follow Me: the fastest the vehicle circles the target to a new follow angle",
     ),
     # The plant's (transport/plant_parameters.py): read from the plant, set on it, not kept in the file.
     *(

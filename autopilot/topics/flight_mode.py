@@ -8,11 +8,12 @@ from dataclasses import dataclass
 
 PX4_MAIN_ALTCTL, PX4_MAIN_POSCTL, PX4_MAIN_AUTO, PX4_MAIN_OFFBOARD = 2, 3, 4, 6
 PX4_AUTO_TAKEOFF, PX4_AUTO_LOITER, PX4_AUTO_MISSION, PX4_AUTO_RTL, PX4_AUTO_LAND = 2, 3, 4, 5, 6
+PX4_AUTO_FOLLOW_TARGET = 8
 PX4_POSCTL_ORBIT = 1  # PX4 reports its Orbit navigation state as POSCTL / ORBIT
 PX4_MAIN_NAMES = {1: "MANUAL", 2: "ALTCTL", 3: "POSCTL", 4: "AUTO", 5: "ACRO", 6: "OFFBOARD", 7: "STABILIZED",
                   8: "RATTITUDE"}  # fmt: skip
-PX4_AUTO_NAMES = {1: "READY", 2: "TAKEOFF", 3: "LOITER", 4: "MISSION", 5: "RTL", 6: "LAND", 7: "RTGS", 8: "FOLLOW",
-                  9: "PRECLAND"}  # fmt: skip
+PX4_AUTO_NAMES = {1: "READY", 2: "TAKEOFF", 3: "LOITER", 4: "MISSION", 5: "RTL", 6: "LAND", 7: "RTGS",
+                  8: "FOLLOW_TARGET", 9: "PRECLAND"}  # fmt: skip
 
 
 @dataclass(frozen=True)

@@ -108,6 +108,15 @@ class ManualControlInput:
 
 
 @dataclass(frozen=True)
+class FollowTargetReport:
+    """FOLLOW_TARGET, checked: where the target is now (finite, m, NED from the local origin) and its velocity
+    (finite, m/s, NED; None when the message gives none)."""
+
+    position: np.ndarray
+    velocity: np.ndarray | None
+
+
+@dataclass(frozen=True)
 class InjectFailure:
     """MAV_CMD_INJECT_FAILURE, checked against the failure vocabulary; `ticket` names it in the outcome."""
 
@@ -238,7 +247,7 @@ class Calibrate:
 
 
 Request = (Arm | Disarm | Takeoff | Land | SetMode | Transition | OffboardVelocity | OffboardPosition
-           | OffboardAttitude | ManualControlInput | InjectFailure
+           | OffboardAttitude | ManualControlInput | FollowTargetReport | InjectFailure
            | StoreMission | ClearMission | SetMissionCurrent | StartMission | ReturnToLaunch | Reposition | ChangeSpeed
            | Orbit | GcsHeartbeat | SetHome | TurnTo | SetRegionOfInterest | FlightTermination
            | OutputTest | Reboot | PreflightStorage | Calibrate)  # fmt: skip

@@ -1,8 +1,10 @@
 """`vtol up`: plant (real time) + autopilot for a ground station on an instance's ports; Ctrl-C or SIGTERM stops
-both cleanly; if one cannot start, the other is stopped too."""
+both cleanly; if one cannot start, the other is stopped too. --reset-params and --gcs-bind (and the API's
+gcs_bind) as a ground station sees them."""
 
 from __future__ import annotations
 
+import json
 import os
 import random
 import re
@@ -11,10 +13,14 @@ import socket
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 import pytest
 
+from autopilot.storage.parameters import BY_NAME
 from tests.sitl.ground_station import HOLD, GroundStation
+from tiltrotor_sitl import Vehicle
 from transport.ports import MAX_SYSID, Ports
 
 VTOL = os.path.join(os.path.dirname(sys.executable), "vtol")
@@ -137,3 +143,83 @@ def test_a_killed_vtol_up_leaves_no_vehicle_flying(tmp_path):
         if vtol.poll() is None:
             vtol.kill()
         subprocess.run(["pkill", "-KILL", "-s", str(vtol.pid)], check=False)  # its session, should any be left
+
+
+@contextmanager
+def vtol_up(tmp_path, instance: int, *options: str) -> Iterator[GroundStation]:
+    """`vtol up` (PID, real time x2, no zenoh) on `instance` with `options`, its ground station connected; both
+    stopped at the end."""
+    ports = Ports(instance)
+    gs = GroundStation(ports.gcs_remote, ports.system_id)
+    with open(tmp_path / "vtol.stderr", "a") as stderr:
+        vtol = subprocess.Popen([VTOL, "up", "--instance", str(instance), "--speed", "2", "--controller", "pid",
+                                 "--no-zenoh", *options], stdout=subprocess.DEVNULL, stderr=stderr,
+                                start_new_session=True)  # fmt: skip
+    try:
+        gs.connect(timeout_s=60)
+        yield gs
+    finally:
+        if vtol.poll() is None:
+            vtol.send_signal(signal.SIGTERM)
+            try:
+                vtol.wait(timeout=20)
+            except subprocess.TimeoutExpired:
+                os.killpg(vtol.pid, signal.SIGKILL)
+                vtol.wait()
+        gs.close()
+
+
+def read_parameter(gs: GroundStation, name: str) -> float:
+    """PARAM_REQUEST_READ by name, as a ground station reads one parameter; its PARAM_VALUE's value."""
+    start = len(gs.param_values)
+    gs.conn.mav.param_request_read_send(gs.vehicle, 1, name.encode(), -1)
+    found: list = []
+
+    def answered() -> bool:
+        found.extend(p for p in gs.param_values[start:] if p.param_id == name)
+        return bool(found)
+
+    gs.wait(answered, f"PARAM_VALUE {name}", 10.0)
+    return found[0].param_value
+
+
+def test_vtol_up_reset_params_brings_a_changed_parameter_in_the_file_back_to_its_default(tmp_path):
+    instance = free_instance()
+    params = tmp_path / "params.json"
+    params.write_text(json.dumps({"format": "tiltrotor-sitl parameters", "version": 1,
+                                  "parameters": {"MPC_TKO_SPEED": 2.5}}))  # fmt: skip
+    default = BY_NAME["MPC_TKO_SPEED"].default
+    assert default != 2.5
+    with vtol_up(tmp_path, instance, "--params", str(params)) as gs:  # without the option the file's value stands
+        assert read_parameter(gs, "MPC_TKO_SPEED") == pytest.approx(2.5)
+    with vtol_up(tmp_path, instance, "--params", str(params), "--reset-params") as gs:
+        assert read_parameter(gs, "MPC_TKO_SPEED") == pytest.approx(default)
+    assert "MPC_TKO_SPEED" not in json.loads(params.read_text())["parameters"]
+
+
+def test_vtol_up_gcs_bind_listens_on_the_address_given(tmp_path):
+    instance = free_instance()
+    ports = Ports(instance)
+    with vtol_up(tmp_path, instance, "--params", str(tmp_path / "params.json"), "--gcs-bind", "127.0.0.1") as gs:
+        assert gs.conn.clients == {("127.0.0.1", ports.gcs_bind)}  # the vehicle speaks from there
+        assert read_parameter(gs, "MAV_SYS_ID") > 0  # and hears the ground station's answer there
+
+
+def test_a_vehicle_with_gcs_bind_127_0_0_2_is_reached_there_and_not_on_127_0_0_1():
+    probe = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    try:
+        probe.bind(("127.0.0.2", 0))
+    except OSError as exc:
+        pytest.skip(f"this machine does not let one bind 127.0.0.2: {exc}")
+    finally:
+        probe.close()
+    with Vehicle(controller="pid", speed=0, truth=False, gcs_bind="127.0.0.2") as vehicle:
+        gcs = vehicle.ground_station
+        gcs_bind = vehicle.ports.links.gcs_bind
+        assert gcs.connection.clients == {("127.0.0.2", gcs_bind)}
+        assert gcs.get_parameter("MAV_SYS_ID") == vehicle.sysid  # a round trip through 127.0.0.2
+        elsewhere = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        try:
+            elsewhere.bind(("127.0.0.1", gcs_bind))  # free: the vehicle listens on 127.0.0.2 alone
+        finally:
+            elsewhere.close()

@@ -166,6 +166,7 @@ def test_navigation_states_and_motor_failures_as_px4_numbers_them():
     assert samples.nav_state(ModeId("Hold", 4, 3), False) == samples.NAV_STATE_AUTO_LOITER
     assert samples.nav_state(ModeId("Offboard", 6), False) == samples.NAV_STATE_OFFBOARD
     assert samples.nav_state(ModeId("Orbit", 3, 1), False) == samples.NAV_STATE_ORBIT
+    assert samples.nav_state(ModeId("Follow Me", 4, 8), False) == samples.NAV_STATE_AUTO_FOLLOW_TARGET == 19
     assert samples.nav_state(ModeId("Hold", 4, 3), True) == samples.NAV_STATE_TERMINATION
     assert samples.nav_states_mask((ModeId("Hold", 4, 3), ModeId("Land", 4, 6))) == (1 << 4) | (1 << 18)
     off, ok = FailureType.OFF, FailureType.OK

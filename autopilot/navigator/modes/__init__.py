@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from autopilot.navigator.mode import FlightMode, ModeContext
 from autopilot.navigator.modes.altitude import AltitudeMode
+from autopilot.navigator.modes.follow_target import FollowTargetMode
 from autopilot.navigator.modes.hold import HoldMode
 from autopilot.navigator.modes.land import LandMode
 from autopilot.navigator.modes.mission import MissionMode
@@ -21,6 +22,7 @@ MODES: tuple[type[FlightMode], ...] = (
     OffboardMode,
     MissionMode,
     ReturnMode,
+    FollowTargetMode,
     OrbitMode,
     PositionMode,
     AltitudeMode,
