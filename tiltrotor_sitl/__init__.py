@@ -255,11 +255,16 @@ class VehicleHandle:
         elif "vtol-autopilot" not in self.process_names or not self._child("vtol-autopilot").running():
             report = StatusReport(None, None, None, None, None)
         else:
-            report = _asked_status(self.ports.links.gcs_bind, self.sysid, timeout_s)
+            report = _asked_status(self._gcs_address(), self.ports.links.gcs_bind, self.sysid, timeout_s)
         if report.failsafe is None and "vtol-autopilot" in self.process_names:
             said = [line for line in self.stderr().splitlines() if "failsafe" in line.lower()]
             report = dataclasses.replace(report, failsafe=said[-1] if said else None)
         return report
+
+    def _gcs_address(self) -> str:
+        """Where the vehicle's GCS link listens: its gcs_bind, loopback when that is every interface or unset."""
+        bind = self._fleet.options.gcs_bind
+        return LOOPBACK if bind in (None, "0.0.0.0") else bind
 
     def set_link_faults(self, to_vehicle: Faults, to_ground: Faults | None = None) -> None:
         """With link_faults: change the faults of its ground-station links (GCS and API) while it flies, each
@@ -291,9 +296,9 @@ class VehicleHandle:
         raise ValueError(f"no process {process!r}: this vehicle started {started}")
 
 
-def _asked_status(port: int, sysid: int, timeout_s: float) -> StatusReport:
-    """The status of vehicle `sysid`, asked by a ground station speaking first to its GCS port `port`."""
-    link = GroundLink.speaking_to(port)
+def _asked_status(address: str, port: int, sysid: int, timeout_s: float) -> StatusReport:
+    """The status of vehicle `sysid`, asked by a ground station speaking first to its GCS port `address`:`port`."""
+    link = GroundLink.speaking_to(port, address=address)
     try:
         station = link.station(sysid)
         if station.next_message("HEARTBEAT", timeout_s=timeout_s) is not None:  # else: "no HEARTBEAT heard"

@@ -203,9 +203,9 @@ class GroundLink:
         return cls(f"udpin:{LOOPBACK}:{port}", tlog)
 
     @classmethod
-    def speaking_to(cls, port: int, tlog: Path | None = None) -> GroundLink:
-        """Sending first to a vehicle's own GCS port, 127.0.0.1:`port` (it answers the address it heard from)."""
-        return cls(f"udpout:{LOOPBACK}:{port}", tlog)
+    def speaking_to(cls, port: int, tlog: Path | None = None, address: str = LOOPBACK) -> GroundLink:
+        """Sending first to a vehicle's own GCS port, `address`:`port` (it answers the address it heard from)."""
+        return cls(f"udpout:{address}:{port}", tlog)
 
     def station(self, target_system: int) -> GroundStation:
         """A GroundStation for the vehicle of system id `target_system` on this link."""

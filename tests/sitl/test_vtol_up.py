@@ -223,3 +223,6 @@ def test_a_vehicle_with_gcs_bind_127_0_0_2_is_reached_there_and_not_on_127_0_0_1
             elsewhere.bind(("127.0.0.1", gcs_bind))  # free: the vehicle listens on 127.0.0.2 alone
         finally:
             elsewhere.close()
+    with Vehicle(controller="pid", speed=0, truth=False, gcs_bind="127.0.0.2") as vehicle:
+        asked = vehicle.status()  # no ground station in use: asked on 127.0.0.2, where the link listens
+        assert (asked.mode, asked.armed) == ("HOLD", False), asked
