@@ -33,6 +33,15 @@ class VehicleState:
     def altitude_above_home(self) -> float:
         return -float(self.position_ned[2])
 
+    def with_velocity(self, velocity_ned: np.ndarray) -> VehicleState:
+        """This state with `velocity_ned` instead (the other arrays shared, as dataclasses.replace shares them; a
+        third of its cost, at the controllers' 250 Hz)."""
+        return VehicleState(
+            time_usec=self.time_usec, position_ned=self.position_ned, velocity_ned=velocity_ned,
+            quaternion=self.quaternion, euler=self.euler, body_rates=self.body_rates, airspeed=self.airspeed,
+            specific_force=self.specific_force, valid=self.valid,
+        )  # fmt: skip
+
     def rotation(self) -> np.ndarray:
         """R_IB (body -> NED)."""
         return np.array(rotation_rows(*self.quaternion.tolist()))
