@@ -27,10 +27,12 @@ import sys
 import time
 from pathlib import Path
 
+from bench_mpc import vehicle_state
+
 from aircraft.actuators import command_to_pwm
 from aircraft.airframe import load_airframe
 from autopilot.controllers import build_flight_controller
-from autopilot.topics.vehicle_state import VehicleState, euler_from_quaternion
+from autopilot.topics.vehicle_state import VehicleState
 from scenarios.profiles import accel
 from sim_bridge.plant import Plant, Spawn
 from tiltrotor_sitl._commands import deterministic_argv, deterministic_environment
@@ -47,16 +49,8 @@ def fly(controller_kind: str, seconds: float) -> dict:
     busy = 0.0
     steps = int(round(seconds * 400))
     for _ in range(steps):
-        x = plant.state
-        state.time_usec = plant.time_usec
-        state.position_ned[:] = x[0:3]
-        state.velocity_ned[:] = x[3:6]
-        state.quaternion[:] = x[6:10]
-        state.euler[:] = euler_from_quaternion(*x[6:10].tolist())
-        state.body_rates[:] = x[10:13]
-        state.specific_force[:] = plant.specific_force
-        state.airspeed = float(plant.airspeed[0])
-        state.valid = True
+        vehicle_state(plant, state)
+        state.specific_force[:] = plant.specific_force  # the accelerometer, which the velocity estimate uses
         if controller.velocity_due(state.time_usec):
             controller.set_velocity_setpoint(accel(state.time_s))
         started = time.thread_time()
