@@ -74,7 +74,8 @@ class YawByTilt:
         if not active:
             self.tilt *= 1.0 - self.GAIN  # hand back to the velocity controller's tilts smoothly
             return
-        thrust = max(float(np.mean(thrust_fractions)) * self.thrust_max, self.thrust_min)
+        mean = float(thrust_fractions.sum()) / thrust_fractions.size  # np.mean's sum and division, without its wrapper
+        thrust = max(mean * self.thrust_max, self.thrust_min)
         self.tilt += self.GAIN * yaw_residual / (self.moment_per_tilt * thrust)
         self.tilt = min(max(self.tilt, -self.MAX), self.MAX)
 
