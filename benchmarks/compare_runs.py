@@ -3,8 +3,9 @@
     python benchmarks/compare_runs.py BEFORE_DIR AFTER_DIR
 
 For a refactor that must not change a flight: every metric of every <scenario>/<controller>/metrics.json in both
-folders is compared exactly, except the MPC's solve times (a measurement of the machine, not of the flight).
-Prints one line per run and exits 1 if any metric differs or a run is missing on one side.
+folders is compared exactly, except the MPC's solve times (a measurement of the machine, not of the flight), and
+the runs' timeseries.csv byte for byte where both have one. Prints one line per run and exits 1 if any metric or
+time series differs or a run is missing on one side.
 """
 
 from __future__ import annotations
@@ -36,11 +37,16 @@ def main() -> int:
             print(f"{run}: missing in {' and '.join(str(p.parent) for p in paths if not p.is_file())}")
             continue
         differences = metric_differences(*(json.loads(path.read_text()) for path in paths))
+        series = [path.with_name("timeseries.csv") for path in paths]
+        series_differ = all(path.is_file() for path in series) and series[0].read_bytes() != series[1].read_bytes()
         if differences:
             print(f"{run}: {len(differences)} metric(s) differ: {differences}")
+        elif series_differ:
+            print(f"{run}: metrics identical, timeseries.csv differs")
         else:
             same += 1
-            print(f"{run}: identical ({len(json.loads(paths[0].read_text()))} metrics, solve times aside)")
+            print(f"{run}: identical ({len(json.loads(paths[0].read_text()))} metrics, solve times aside"
+                  f"{', and the time series' if all(path.is_file() for path in series) else ''})")  # fmt: skip
     print(f"{same} of {len(runs)} runs identical")
     return 0 if same == len(runs) and runs else 1
 

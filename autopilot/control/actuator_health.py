@@ -26,18 +26,27 @@ class ServoEstimate:
         self.stuck = np.full(4, np.nan)  # angle (rad) of a stuck servo, NaN when healthy
         self.rate_scale = np.ones(4)
 
+    @property
+    def any_stuck(self) -> bool:
+        """Whether a servo is stuck (a stuck angle that is not NaN)."""
+        return any(angle == angle for angle in self.stuck.tolist())
+
     def advance(self, command: np.ndarray, dt: float) -> np.ndarray:
-        """Move the estimate dt seconds towards `command` (rad), at the servo's rate; plain Python (hot path)."""
+        """Move the estimate dt seconds towards `command` (rad), at the servo's rate; plain Python floats (hot
+        path, 250 Hz)."""
         a = self.airframe
-        for i, target in enumerate(command.tolist()):
-            stuck = self.stuck[i]
+        tilt_min, tilt_max, rate_max, tau = a.tilt_min, a.tilt_max, a.servo_rate_max, a.servo_tau
+        tilts = self.tilt.tolist()
+        for i, (target, stuck, scale) in enumerate(zip(command.tolist(), self.stuck.tolist(),
+                                                       self.rate_scale.tolist())):  # fmt: skip
             if stuck == stuck:  # not NaN: a stuck servo drives to its stuck angle
                 target = stuck
-            target = a.tilt_min if target < a.tilt_min else a.tilt_max if target > a.tilt_max else target
-            limit = a.servo_rate_max * self.rate_scale[i]
-            rate = (target - self.tilt[i]) / a.servo_tau
+            target = tilt_min if target < tilt_min else tilt_max if target > tilt_max else target
+            limit = rate_max * scale
+            rate = (target - tilts[i]) / tau
             rate = -limit if rate < -limit else limit if rate > limit else rate
-            self.tilt[i] += rate * dt
+            tilts[i] += rate * dt
+        self.tilt[:] = tilts
         return self.tilt
 
 

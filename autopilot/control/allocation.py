@@ -214,7 +214,7 @@ class ControlAllocator:
         if not math.isfinite(du @ du):  # defensive: proxsuite said solved but gave NaN
             return STATUS_INVALID_MODEL, iterations
         u = self._u
-        u += np.round(du, DU_DECIMALS)  # u = u_trim + du: the paper's incremental form
+        u += du.round(DU_DECIMALS)  # u = u_trim + du: the paper's incremental form
         np.maximum(u, self._lower, out=u)
         np.minimum(u, self._upper, out=u)
         self._evaluate_wrench()  # achieved = W(u), same model, and the optimality gap at u

@@ -14,7 +14,6 @@ the servo estimate are built by autopilot.controllers.build_flight_controller an
 
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import casadi as ca
@@ -75,7 +74,8 @@ class YawByTilt:
         if not active:
             self.tilt *= 1.0 - self.GAIN  # hand back to the velocity controller's tilts smoothly
             return
-        thrust = max(float(np.mean(thrust_fractions)) * self.thrust_max, self.thrust_min)
+        mean = float(thrust_fractions.sum()) / thrust_fractions.size  # np.mean's sum and division, without its wrapper
+        thrust = max(mean * self.thrust_max, self.thrust_min)
         self.tilt += self.GAIN * yaw_residual / (self.moment_per_tilt * thrust)
         self.tilt = min(max(self.tilt, -self.MAX), self.MAX)
 
@@ -210,7 +210,7 @@ class FlightController:
             self._next_velocity_usec = self._next_attitude_usec = self._servo_time_usec = t
         velocity = self.velocity_estimate.update(state)
         if t >= self._next_velocity_usec or t >= self._next_attitude_usec:
-            state = dataclasses.replace(state, velocity_ned=velocity.copy())  # the controllers fly on the estimate
+            state = state.with_velocity(velocity.copy())  # the controllers fly on the estimate
         if t >= self._next_velocity_usec:
             self._next_velocity_usec += VELOCITY_PERIOD_USEC
             tilts = self._velocity_controller_tilts()
@@ -252,9 +252,7 @@ class FlightController:
         (the PID's hover), and under the MPC when a servo is stuck. The MPC plans the tilts for force alone; a
         rotor stuck tilted forward at low speed makes a yaw moment the rotors' reaction torque cannot hold, and the
         aircraft spun up and fell (servo-jam campaign: 60-95 deg jams at 1-9 m/s)."""
-        return command.yaw_by_tilt or (
-            self.velocity_controller is not self.pid and not bool(np.all(np.isnan(self.servos.stuck)))
-        )
+        return command.yaw_by_tilt or (self.velocity_controller is not self.pid and self.servos.any_stuck)
 
     def _fall_back_to_pid(self, state: VehicleState, mpc: PrimaryVelocityController) -> None:
         """Paper: the PID is the MPC's back-up after repeated failed solves; it flies from this tick on."""
@@ -266,7 +264,7 @@ class FlightController:
     def _attitude_and_allocation(self, state: VehicleState) -> None:
         command = self.velocity_command
         self.torque_sp = self.attitude.update(state.euler, state.body_rates, command.euler_sp)
-        if not np.array_equal(self._weights[0:3], command.force_weights):
+        if self._weights[0:3].tolist() != command.force_weights.tolist():  # NaN differs too, as array_equal
             self._weights[0:3] = command.force_weights
             self.allocator.set_wrench_weights(self._weights)
         v_air_body = state.rotation().T @ state.velocity_ned  # no wind estimate: ground velocity as airspeed

@@ -286,7 +286,7 @@ class Logger:
         self._last_usec = t
         if t >= self._next_periodic_usec:
             self._periodic(t, state, controller, pwm)
-            self._next_periodic_usec = min(self._next[topic.name] for topic in PERIODIC)
+            self._next_periodic_usec = min(self._next.values())  # _next holds the PERIODIC topics (_start)
         mpc = controller.mpc
         solution = None if mpc is None else mpc.last_solution
         if solution is not self._solution and isinstance(solution, MpcSolution):

@@ -102,7 +102,7 @@ def extrapolate_setpoint(
     (a circle flown at constant speed stays on the circle); the vertical part is straight. Without a horizontal
     speed to turn (under 1 m/s) it is straight."""
     straight = v_sp[:, None] + rate[:, None] * times_s[None, :]
-    rates = np.repeat(rate[:, None], times_s.size, axis=1)
+    rates = rate[:, None].repeat(times_s.size, axis=1)
     speed = float(np.hypot(v_sp[0], v_sp[1]))
     if not turning or speed < 1.0:
         return straight, rates

@@ -290,9 +290,10 @@ def terminal_residual(weights: MpcWeights, x: ca.SX, p: ca.SX) -> ca.SX:
 def angle_chain(start: float, angles: np.ndarray, valid: np.ndarray) -> np.ndarray:
     """psi_k = psi_{k-1} + wrap(angle_k - psi_{k-1}) where valid_k, else psi_{k-1}, from psi_{-1} = start: each
     stage's angle unwrapped to within pi of the stage before, so that the plan never turns the long way round."""
-    steps = np.diff(np.concatenate(([start], angles[valid])))
-    chain = start + np.concatenate(([0.0], np.cumsum(np.arctan2(np.sin(steps), np.cos(steps)))))
-    return chain[np.cumsum(valid)]
+    unwrapped = np.concatenate(([start], angles[valid]))
+    steps = unwrapped[1:] - unwrapped[:-1]
+    chain = start + np.concatenate(([0.0], np.arctan2(np.sin(steps), np.cos(steps)).cumsum()))
+    return chain[valid.cumsum()]
 
 
 def yaw_references(v_sp: np.ndarray, yaw_now: float) -> np.ndarray:

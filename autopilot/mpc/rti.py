@@ -261,7 +261,7 @@ class RtiSolver:
     def states(self) -> np.ndarray:
         """The planned states (N+1, NX), a copy."""
         stride, n = NX + NU, self.horizon
-        return np.vstack((self.w[: n * stride].reshape(n, stride)[:, :NX], self.w[n * stride :]))
+        return np.concatenate((self.w[: n * stride].reshape(n, stride)[:, :NX], self.w[None, n * stride :]))
 
     def inputs(self) -> np.ndarray:
         """The planned inputs (N, NU), a copy."""
