@@ -206,7 +206,7 @@ REFUSED = [
     ("transition to state 7", M.MAV_CMD_DO_VTOL_TRANSITION, (7,), M.MAV_RESULT_DENIED, "Transition denied"),
     ("injection while disabled", M.MAV_CMD_INJECT_FAILURE, (102, 2, 1, 60), M.MAV_RESULT_DENIED, "SYS_FAILURE_EN"),
     ("an unknown command", 31337, (1, 2, 3), M.MAV_RESULT_UNSUPPORTED, None),
-    ("a command PX4 has but we do not", M.MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, (0,), M.MAV_RESULT_UNSUPPORTED, None),
+    ("a command PX4 has but we do not", M.MAV_CMD_DO_GRIPPER, (1, 0), M.MAV_RESULT_UNSUPPORTED, None),
     ("an ROI mode beyond MAV_ROI", M.MAV_CMD_DO_SET_ROI, (7,), M.MAV_RESULT_DENIED, "ROI denied"),
     ("an ROI at NaN", M.MAV_CMD_DO_SET_ROI_LOCATION, (0, 0, 0, 0, math.nan, 8.5, 0), M.MAV_RESULT_DENIED, "ROI denied"),
     ("go-to into the ground", M.MAV_CMD_DO_REPOSITION, (-1, 0, 0, 0, 0, 0, 0), M.MAV_RESULT_DENIED, "above home"),
