@@ -47,18 +47,29 @@ PLANT_PARAMETERS: tuple[PlantParameter, ...] = (
 BY_NAME = {parameter.name: parameter for parameter in PLANT_PARAMETERS}
 
 
-def encode(parameter: PlantParameter, value: float) -> float:
-    """The float that carries `value` in PARAM_VALUE / PARAM_SET."""
-    if parameter.kind == INT32:
+def encode_bytewise(kind: str, value: float) -> float:
+    """The float that carries a parameter of `kind` (INT32 or REAL32) in PARAM_VALUE / PARAM_SET: PX4's bytewise
+    encoding, an INT32's bytes as they are."""
+    if kind == INT32:
         return struct.unpack("<f", struct.pack("<i", int(value)))[0]
     return float(value)
 
 
-def decode(parameter: PlantParameter, param_value: float) -> float:
-    """The value a PARAM_SET / PARAM_VALUE float carries (NaN for an INT32's bytes that are not one)."""
-    if parameter.kind == INT32:
+def decode_bytewise(kind: str, param_value: float) -> float:
+    """The value a PARAM_SET / PARAM_VALUE float carries for a parameter of `kind` (a REAL32 as a float32 holds it)."""
+    if kind == INT32:
         return float(struct.unpack("<i", struct.pack("<f", param_value))[0])
     return float(struct.unpack("<f", struct.pack("<f", param_value))[0])
+
+
+def encode(parameter: PlantParameter, value: float) -> float:
+    """The float that carries `value` in PARAM_VALUE / PARAM_SET."""
+    return encode_bytewise(parameter.kind, value)
+
+
+def decode(parameter: PlantParameter, param_value: float) -> float:
+    """The value a PARAM_SET / PARAM_VALUE float carries."""
+    return decode_bytewise(parameter.kind, param_value)
 
 
 def refusal(parameter: PlantParameter, value: float) -> str | None:

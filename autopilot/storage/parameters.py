@@ -17,20 +17,18 @@ from __future__ import annotations
 import json
 import math
 import os
-import struct
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from autopilot.storage.kept_file import BackgroundWriter, read_kept
 from autopilot.storage.signing_key import SigningKey, SigningRefused, key_from_document, key_to_document
-from transport.plant_parameters import PLANT_PARAMETERS
+from transport.plant_parameters import INT32, PLANT_PARAMETERS, REAL32, decode_bytewise, encode_bytewise
 from transport.ports import Ports
 
 FILE_FORMAT = "tiltrotor-sitl parameters"
 FILE_VERSION = 1
 
-INT32, REAL32 = "INT32", "REAL32"
 MAV_PARAM_TYPE_INT32 = 6
 MAV_PARAM_TYPE_REAL32 = 9
 MAV_TYPE_OF = {INT32: MAV_PARAM_TYPE_INT32, REAL32: MAV_PARAM_TYPE_REAL32}
@@ -739,16 +737,12 @@ class ParameterRejected(ValueError):
 
 def encode_value(definition: ParameterDefinition, value: float) -> float:
     """The float that carries `value` in PARAM_VALUE.param_value (PX4 bytewise encoding for INT32)."""
-    if definition.kind == INT32:
-        return struct.unpack("<f", struct.pack("<i", int(value)))[0]
-    return float(value)
+    return encode_bytewise(definition.kind, value)
 
 
 def decode_value(definition: ParameterDefinition, param_value: float) -> float:
     """The value a PARAM_SET.param_value carries (PX4 bytewise encoding for INT32)."""
-    if definition.kind == INT32:
-        return float(struct.unpack("<i", struct.pack("<f", param_value))[0])
-    return float(struct.unpack("<f", struct.pack("<f", param_value))[0])  # what a float32 can hold
+    return decode_bytewise(definition.kind, param_value)
 
 
 def default_parameter_path(instance: int) -> Path:
