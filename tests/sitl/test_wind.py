@@ -28,9 +28,10 @@ RETURN_S = 90.0  # simulated seconds it may take
 
 
 def test_a_ground_station_sees_the_plants_wind_and_changes_it_in_flight(tmp_path):
-    """Hovering in Hold in a wind from the north; a ground station turns it into an 18 m/s wind from the west by
+    """Hovering in Hold in a wind from the north; a ground station turns it into a 14 m/s wind from the west by
     PARAM_SET: the vehicle is blown east and flies back to its place, with the wind in its airspeed (the paper's
-    aerodynamics fade in from 10 m/s, so a weaker wind barely pushes it). How it leans when the window ends depends
+    aerodynamics fade in from 10 m/s, so a weaker wind barely pushes it; at 18 m/s, the cruise speed, the wind can
+    overpower the hover's yaw and turn the vehicle, docs/plant-link.md). How it leans when the window ends depends
     on where it is on its way back (the PARAM_SET lands at a wall-clock moment), so the lean is printed, not checked."""
     with Vehicle(spawn_alt=30.0, speed=0, truth=False, wind=Wind(from_north=4.0), folder=tmp_path) as vehicle:
         gs = GroundStation(vehicle.gcs_port, vehicle.sysid)
@@ -42,8 +43,8 @@ def test_a_ground_station_sees_the_plants_wind_and_changes_it_in_flight(tmp_path
             with gs.recording("LOCAL_POSITION_NED") as calm:
                 gs.wait_sim(5.0)
             set_param(gs, "SIH_WIND_N", 0.0)
-            set_param(gs, "SIH_WIND_E", -18.0)  # from the west: blowing east
-            gs.wait(lambda: any("wind from N 0 E -18, gusts 0 m/s" in text for text in gs.statustexts),
+            set_param(gs, "SIH_WIND_E", -14.0)  # from the west: blowing east
+            gs.wait(lambda: any("wind from N 0 E -14, gusts 0 m/s" in text for text in gs.statustexts),
                     "the plant's text")  # fmt: skip
             with gs.recording("LOCAL_POSITION_NED", "VFR_HUD", "ATTITUDE") as samples:
                 # Blown east, then back: how far and how fast depends on where the PARAM_SET lands in the hover (a
@@ -60,14 +61,14 @@ def test_a_ground_station_sees_the_plants_wind_and_changes_it_in_flight(tmp_path
             print(f"east drift: calm {min(calm_east):.2f} .. {max(calm_east):.2f} m, in the new wind "
                   f"{min(east):.2f} .. {max(east):.2f} m, {east[-1]:.2f} m at the end; airspeed {mean_airspeed:.2f} "
                   f"m/s, roll {mean_roll:.1f} deg")  # fmt: skip
-            assert max(east) - max(calm_east) > 0.5  # blown downwind, east
+            assert max(east) - max(calm_east) > 0.3  # blown downwind, east
             assert abs(east[-1]) < HELD_M, f"not back within {RETURN_S:g} simulated s"  # and held again
-            assert abs(mean_airspeed - 18.0) < 3.0  # the new wind, felt (plus its own speed back into it)
-            assert read_param(gs, "SIH_WIND_E") == -18.0
+            assert abs(mean_airspeed - 14.0) < 3.0  # the new wind, felt (plus its own speed back into it)
+            assert read_param(gs, "SIH_WIND_E") == -14.0
         finally:
             gs.close()
         assert "SIH_WIND" not in (vehicle.params_path.read_text() if vehicle.params_path.exists() else "")
-        assert "wind from N 0 E -18, gusts 0 m/s" in vehicle.stderr("vtol-sim")
+        assert "wind from N 0 E -14, gusts 0 m/s" in vehicle.stderr("vtol-sim")
 
 
 GUSTS = """scenario = "accel"
