@@ -57,6 +57,7 @@ from transport.mavlink import mavlink
 from transport.plant_link import PlantLinkClient, PlantSample
 
 SILENCE_NOTICE_S = 1.0
+HELLO_REPEAT_S = 0.02  # s: the HELLO's period in the first second, until the plant's first state
 GROUND_TICK_USEC = 10_000  # the commander's 100 Hz while the flight controller is not running
 IDLE_THRUST = 0.1  # rotor thrust fraction when armed on the ground (PX4 spins its motors at idle)
 # The services' view of the flight stack (what a request such as Go-to "here" reads) is at most this old: the
@@ -283,11 +284,14 @@ class PlantLoop:
 
     def _fly(self, counters: LoopCounters) -> None:
         """Answer the plant's states until a stop is asked for or the duration is flown."""
-        last_heard = time.monotonic()
+        started = last_heard = time.monotonic()
         pwm: list[int] | None = None
         self.client.hello()
         while not self.should_stop():
-            sample = self.client.receive_step(0.25)
+            # In the first second, until the plant first answers, the HELLO is repeated often: one sent before the
+            # plant bound its port is lost, and start-up would wait on the next.
+            starting = self.boot_usec is None and time.monotonic() - started < SILENCE_NOTICE_S
+            sample = self.client.receive_step(HELLO_REPEAT_S if starting else 0.25)
             if sample is None:
                 if self.outputs.telemetry is not None:
                     self.outputs.telemetry.flush()  # nothing gathered waits on a plant that has stopped

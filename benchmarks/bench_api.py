@@ -7,7 +7,11 @@ by more than 2 m (the plant's truth, sampled every 0.2 s). A machine that cannot
 down instead: each fleet's simulation speed is printed, the largest fleet that held at 0.9 x real time or better is
 counted apart, and fleets stop growing once the simulation runs slower than 0.5 x real time (the machine is full).
 
-    python benchmarks/bench_api.py [--runs 10] [--controller mpc|pid] [--hover 60] [--max-fleet 8]
+With `--baseline DIR` (a checkout of another commit, e.g. `git worktree add DIR main`), each start here alternates
+with one of the baseline's (its own bench_api.py), and the medians and the ratio of this tree over the baseline,
+round by round, are printed.
+
+    python benchmarks/bench_api.py [--runs 10] [--controller mpc|pid] [--baseline DIR] [--hover 60] [--max-fleet 8]
 """
 
 from __future__ import annotations
@@ -15,7 +19,10 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import statistics
+import subprocess
+import sys
 import tempfile
 import time
 from dataclasses import dataclass
@@ -32,13 +39,24 @@ TOO_SLOW = "did not reach"  # a fleet stopped for slowness, not for a vehicle's 
 POLL_S = 0.2
 
 
-def time_to_ready(runs: int, controller: Controller) -> list[float]:
-    times = []
-    for _ in range(runs):
-        started = time.monotonic()
-        with Vehicle(controller=controller, truth=False):
-            times.append(time.monotonic() - started)
-    return times
+def time_to_ready(controller: Controller) -> float:
+    started = time.monotonic()
+    with Vehicle(controller=controller, truth=False):
+        return time.monotonic() - started
+
+
+def baseline_time_to_ready(directory: Path, controller: Controller, scratch: Path) -> float:
+    """One start with the code of the checkout `directory` (its own bench_api.py)."""
+    out = scratch / "baseline.json"
+    command = [sys.executable, "benchmarks/bench_api.py", "--runs", "1", "--controller", controller, "--json", str(out)]
+    subprocess.run(command, cwd=directory, env={**os.environ, "PYTHONPATH": str(directory)}, check=True,
+                   stdout=subprocess.DEVNULL)  # fmt: skip
+    return float(json.loads(out.read_text())["ready_s_median"])
+
+
+def report_ready(label: str, times: list[float]) -> None:
+    print(f"ready to arm ({label}): median {statistics.median(times):.2f} s over {len(times)} starts "
+          f"(min {min(times):.2f}, max {max(times):.2f})", flush=True)  # fmt: skip
 
 
 def hover_error(truth: PlantTruth) -> float:
@@ -130,10 +148,20 @@ def main() -> None:
     parser.add_argument("--hover", type=float, default=0.0, metavar="S", help="also the hover test, S sim seconds")
     parser.add_argument("--max-fleet", type=int, default=8)
     parser.add_argument("--json", type=Path, metavar="FILE", help="also write the figures to FILE (JSON)")
+    parser.add_argument("--baseline", type=Path, metavar="DIR", help="also start a checkout of another commit")
     args = parser.parse_args()
-    times = time_to_ready(args.runs, args.controller)
-    print(f"ready to arm ({args.controller}): median {statistics.median(times):.2f} s over {len(times)} starts "
-          f"(min {min(times):.2f}, max {max(times):.2f})", flush=True)  # fmt: skip
+    times, baseline = [], []
+    with tempfile.TemporaryDirectory() as scratch:
+        for _ in range(args.runs):
+            times.append(time_to_ready(args.controller))
+            if args.baseline is not None:
+                baseline.append(baseline_time_to_ready(args.baseline, args.controller, Path(scratch)))
+    report_ready(args.controller, times)
+    if baseline:
+        report_ready(f"{args.controller}, baseline {args.baseline}", baseline)
+        ratios = [here / there for here, there in zip(times, baseline)]
+        print(f"  this / baseline: median {statistics.median(ratios):.3f} (min {min(ratios):.3f}, "
+              f"max {max(ratios):.3f})")  # fmt: skip
     figures: dict[str, object] = {"controller": args.controller, "starts": len(times),
                                   "ready_s_median": statistics.median(times), "ready_s_max": max(times)}  # fmt: skip
     if args.hover > 0:

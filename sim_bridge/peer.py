@@ -79,7 +79,11 @@ class PeerGate:
         return self.peer is None and (self.named is None or sender == self.named)
 
     def _challenge(self, hello: Any, sender: Address) -> None:
-        challenge = Challenge(hello.nonce, new_plant_nonce())
+        """CHALLENGE a HELLO; a HELLO repeated before it was confirmed (same sender, same nonce) gets the same
+        challenge, so that either CONFIRM binds."""
+        pending = self.candidates.get(sender)
+        repeated = pending is not None and pending.client_nonce == hello.nonce
+        challenge = pending if repeated else Challenge(hello.nonce, new_plant_nonce())
         if sender != self.peer:
             self.candidates.pop(sender, None)
             self.candidates[sender] = challenge

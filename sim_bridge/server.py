@@ -227,9 +227,11 @@ class PlantServer:
         except OSError:  # full socket buffer or vanished peer: counted, the simulation goes on
             self.counters.ignored["send_failed"] += 1
 
-    def _receive_until(self, deadline: float, stop_on_command: bool) -> None:
-        """Handle datagrams until the deadline (monotonic s), or until the awaited command arrived."""
-        while not (stop_on_command and self._got_command) and not self.should_stop():
+    def _receive_until(self, deadline: float, stop_on_command: bool, stop_on_peer: bool = False) -> None:
+        """Handle datagrams until the deadline (monotonic s), or until the awaited command arrived
+        (`stop_on_command`), or until an autopilot completed the handshake (`stop_on_peer`)."""
+        while (not (stop_on_command and self._got_command) and not (stop_on_peer and self.peer is not None)
+               and not self.should_stop()):  # fmt: skip
             waiting_since = time.monotonic()
             if waiting_since >= deadline:
                 return
@@ -258,7 +260,7 @@ class PlantServer:
         while self.peer is None:
             if self.should_stop():
                 return False
-            self._receive_until(time.monotonic() + 0.25, stop_on_command=False)
+            self._receive_until(time.monotonic() + 0.25, stop_on_command=False, stop_on_peer=True)
         return True
 
     def _send_state(self) -> None:
