@@ -35,9 +35,10 @@ import numpy as np
 
 from aircraft.actuators import ROTOR_COUNT, ROTORS, TILTS, command_to_pwm
 from aircraft.airframe import Airframe
-from aircraft.failures import Failure
+from aircraft.failures import Failure, FailureType, FailureUnit
 from autopilot.commander.calibration import Calibration, Reading
 from autopilot.commander.commander import Commander
+from autopilot.commander.failure_detector import MotorCheck, MotorFailureDetector
 from autopilot.commander.failure_injection import FailureInjection
 from autopilot.commander.plant_parameter_sync import PlantParameterSync
 from autopilot.control.flight_controller import FlightController
@@ -125,6 +126,8 @@ class PlantLoop:
         self.calibration = calibration
         self.boot_usec: int | None = None  # the plant's time at this process's first step
         self.plant_parameters = PlantParameterSync(params, client)
+        self.motor_failures = MotorFailureDetector(airframe.rotor_speed_max, ROTOR_COUNT)
+        self.detected_failures: list[Failure] = []  # what the detector told the controllers (CA_FAILURE_MODE 1)
         self.state = VehicleState()
         self.counters = LoopCounters()
         self.controllers_started = 1
@@ -150,9 +153,11 @@ class PlantLoop:
     def _plant_messages(self) -> None:
         for message in self.client.received_other:
             kind = message.get_type()
-            if kind == "COMMAND_ACK" and message.command == mavlink.MAV_CMD_INJECT_FAILURE:
-                delay_s = self.params["SYS_FAILURE_DLY"]
-                for failure in self.injection.acknowledged(message.result, self._last_usec, delay_s):
+            if kind == "RAW_RPM":
+                self._esc_report(message.index, message.frequency)
+            elif kind == "COMMAND_ACK" and message.command == mavlink.MAV_CMD_INJECT_FAILURE:
+                delay_s, oracle = self.params["SYS_FAILURE_DLY"], self.params["VT_FAIL_ORACLE"] == 1
+                for failure in self.injection.acknowledged(message.result, self._last_usec, delay_s, oracle):
                     self._learn(failure)
             elif kind == "STATUSTEXT":
                 self.events.say(message.severity, message.text)
@@ -164,6 +169,36 @@ class PlantLoop:
             self.note(f"dropped {dropped - self._dropped_reported} bad frame(s) from the plant "
                       f"({dict(self.client.link.dropped)})")  # fmt: skip
             self._dropped_reported = dropped
+
+    def _esc_report(self, index: int, rpm: float) -> None:
+        """One ESC's telemetry through the failure detector's motor check (armed and flying, FD_ACT_EN 1)."""
+        detector, p = self.motor_failures, self.params
+        if not (self.commander.armed and self.commander.flying):
+            if detector.failed:
+                detector.reset()  # PX4 clears its motor failures at disarming
+                self.detected_failures.clear()
+            return
+        if p["FD_ACT_EN"] != 1:
+            return
+        check = MotorCheck(p["FD_ACT_MOT_THR"], p["VT_FD_RPM_RATIO"], int(p["FD_ACT_MOT_TOUT"]) * 1000)
+        command = float(self.controller.command[index]) if 0 <= index < ROTOR_COUNT else 0.0
+        if not detector.sample(index, rpm, command, self._last_usec, check):
+            return
+        self.note(f"motor {index + 1} failure detected at t = {self._last_usec / 1e6:.4f} s: {rpm:.0f} RPM at a "
+                  f"command of {command:.2f}")  # fmt: skip
+        self.events.say(mavlink.MAV_SEVERITY_CRITICAL, "Motor failure detected")
+        failure = Failure(FailureUnit.MOTOR, FailureType.OFF, index + 1)
+        if p["CA_FAILURE_MODE"] == 1 and not self._knows_motor_off(index + 1):
+            self.detected_failures.append(failure)
+            self._learn(failure)
+
+    def _knows_motor_off(self, instance: int) -> bool:
+        """The controllers already fly without motor `instance` (1-based): the injection told them."""
+        off = False
+        for failure in self.injection.known:
+            if failure.unit == FailureUnit.MOTOR and failure.instance in (0, instance):
+                off = failure.kind == FailureType.OFF
+        return off
 
     def _restart(self, t_usec: int) -> None:
         """The plant's clock went back: a new plant run."""
@@ -177,6 +212,8 @@ class PlantLoop:
         if self.outputs.ulog is not None:
             self.outputs.ulog.restart()
         self.injection.restart()
+        self.motor_failures.reset()
+        self.detected_failures.clear()
         self.plant_parameters.restart()
         self.commander.restart(self.state)
         if self.services is not None:
@@ -187,7 +224,7 @@ class PlantLoop:
         """A fresh flight controller (takeoff from the ground): nothing integrated before carries over."""
         self.controller = self.controller_factory()
         self.controllers_started += 1
-        for failure in self.injection.known:
+        for failure in (*self.injection.known, *self.detected_failures):
             self.controller.apply_failure(failure)
 
     def _learn(self, failure: Failure) -> None:
@@ -253,7 +290,8 @@ class PlantLoop:
             estimate=copy_state(self.state),
             position=GlobalPosition(hil.lat, hil.lon, hil.alt, hil.vx, hil.vy, hil.vz),
             home=self.commander.home, pwm=tuple(pwm), throttle_percent=throttle, controller=c.kind,
-            failures=tuple(self.injection.known), events=self.events.drain(),
+            failures=(*self.injection.known, *self.detected_failures), motors_failed=tuple(self.motor_failures.failed),
+            events=self.events.drain(),
             injections=self.injection.drain_outcomes(), missions=self.missions.snapshot, terminated=report.terminated,
             sensors=self._calibrated_sensors(t_usec),
             battery=report.battery,

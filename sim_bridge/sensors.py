@@ -15,14 +15,17 @@ import numpy as np
 
 from aircraft.failures import FailureUnit
 from aircraft.frames import rotation_rows
+from sim_bridge.dynamics import ROTOR_SPEED
 from sim_bridge.plant import DT_USEC, Plant
 from transport.geodesy import LocalGeodetic
 from transport.mavlink import Link, mavlink
-from transport.mavlink_frames import HIL_GPS, HIL_SENSOR, HIL_STATE_QUATERNION
+from transport.mavlink_frames import HIL_GPS, HIL_SENSOR, HIL_STATE_QUATERNION, RAW_RPM
 
 # Earth's field at the default home (Pittsburgh; WMM: 0.52 G, inclination 67 deg, declination -8.5 deg), NED.
 MAG_FIELD_NED_GAUSS = (0.2008, -0.0300, 0.4787)
 GPS_PERIOD_USEC = 100_000  # 10 Hz
+ESC_PERIOD_USEC = 10_000  # 100 Hz: each rotor's ESC telemetry (RPM)
+RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
 HEARTBEAT_PERIOD_USEC = 1_000_000
 HIL_SENSOR_ALL_FIELDS = 0x1FFF  # acc xyz, gyro xyz, mag xyz, abs pressure, diff pressure, pressure alt, temperature
 # HIL_SENSOR fields of each sensor: the fields_updated bits and the value indices (acc xyz, gyro xyz, mag xyz, abs
@@ -56,7 +59,8 @@ class SensorSuite:
         self.rng = None if noise_seed is None else np.random.default_rng(noise_seed)
 
     def datagram(self) -> bytes:
-        """HIL_STATE_QUATERNION + HIL_SENSOR (+ HIL_GPS at 10 Hz, HEARTBEAT at 1 Hz) for the current step.
+        """HIL_STATE_QUATERNION + HIL_SENSOR (+ HIL_GPS at 10 Hz, RAW_RPM per rotor at 100 Hz, HEARTBEAT at 1 Hz) for
+        the current step.
 
         Per-step code: plain Python floats (one tolist() per array), since numpy scalars cost ~10x more.
         """
@@ -101,6 +105,10 @@ class SensorSuite:
                     int(round(course * 100)) % 36000, 12,
                 )
             )  # fmt: skip
+        if t % ESC_PERIOD_USEC == 0:  # what the ESCs measure: the rotors' speed, a stopped one's too
+            rotor_speeds = plant.state[ROTOR_SPEED].tolist()
+            frames.extend(link.pack_fields(RAW_RPM, index, speed * RPM_PER_RAD_S)
+                          for index, speed in enumerate(rotor_speeds))  # fmt: skip
         if t % HEARTBEAT_PERIOD_USEC == 0:
             frames.append(
                 link.pack(

@@ -157,5 +157,6 @@ HIL_STATE_QUATERNION = FrameFormat(mavlink.MAVLink_hil_state_quaternion_message)
 HIL_SENSOR = FrameFormat(mavlink.MAVLink_hil_sensor_message)
 HIL_GPS = FrameFormat(mavlink.MAVLink_hil_gps_message)
 SERVO_OUTPUT_RAW = FrameFormat(mavlink.MAVLink_servo_output_raw_message)
+RAW_RPM = FrameFormat(mavlink.MAVLink_raw_rpm_message)
 # What crosses the plant link every step (docs/plant-link.md): the types both ends parse on the fast path.
-PLANT_STEP_FORMATS = (HIL_STATE_QUATERNION, HIL_SENSOR, HIL_GPS, SERVO_OUTPUT_RAW)
+PLANT_STEP_FORMATS = (HIL_STATE_QUATERNION, HIL_SENSOR, HIL_GPS, SERVO_OUTPUT_RAW, RAW_RPM)

@@ -66,8 +66,9 @@ class FailureInjection:
             return
         self._awaiting.append(pending)
 
-    def acknowledged(self, result: int, now_usec: int, delay_s: float) -> list[Failure]:
-        """The plant's COMMAND_ACK for the oldest injection; the failures the controllers learn now."""
+    def acknowledged(self, result: int, now_usec: int, delay_s: float, oracle: bool = True) -> list[Failure]:
+        """The plant's COMMAND_ACK for the oldest injection; the failures the controllers learn now. `oracle` False:
+        an actuator failure is not told (the failure detector has to find it); a sensor failure always is."""
         if not self._awaiting:
             return []
         pending = self._awaiting.pop(0)
@@ -78,6 +79,9 @@ class FailureInjection:
             self._outcome(pending, result, f"Failure refused by the plant: {text}")
             return []
         self.counters.acknowledged += 1
+        if not oracle and not pending.failure.sensor:
+            self._outcome(pending, result, f"Failure injected: {text}")
+            return []
         delay_usec = int(round(delay_s * 1e6))
         when = f", controllers told in {delay_usec / 1e6:g} s" if delay_usec > 0 else ""
         self._outcome(pending, result, f"Failure injected: {text}{when}")

@@ -92,6 +92,7 @@ class VehicleStatus:
     throttle_percent: int
     controller: str  # the velocity controller flying: "mpc" or "pid"
     failures: tuple[Failure, ...] = ()  # known to the controllers
+    motors_failed: tuple[int, ...] = ()  # 0-based motors the failure detector found failed (this flight)
     events: tuple[Event, ...] = ()  # since the last snapshot
     injections: tuple[InjectionOutcome, ...] = ()  # answered since the last snapshot
     missions: Missions = NO_MISSIONS  # stored mission, fence, rally; current item, state, last reached (immutable)
