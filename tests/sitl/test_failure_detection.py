@@ -1,7 +1,7 @@
 """The failure detector through the processes (docs/faults.md, "Failure detection"), lockstep, the MPC: with the
 oracle off (VT_FAIL_ORACLE 0) a ground station stops motor 1 in a hover; the autopilot learns of it only from the
-plant's ESC telemetry (RAW_RPM), says "Motor failure detected", clears SYS_STATUS's motor-outputs health and flies
-without the motor."""
+plant's ESC telemetry (RAW_RPM), says "Motor failure detected", clears SYS_STATUS's motor-outputs health and, with
+CA_FAILURE_MODE 1, flies without the motor."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ import re
 import time
 
 import numpy as np
+import pytest
 
 from tiltrotor_sitl import Vehicle
 from transport.mavlink import mavlink as M
@@ -18,8 +19,10 @@ MOTOR_OUTPUTS = M.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
 DETECTION_BUDGET_S = 0.1  # from the rotor's first slowing to the detection
 
 
-def test_a_stopped_motor_is_found_from_its_esc_telemetry_reported_and_flown_without(tmp_path):
-    with Vehicle(spawn_alt=30.0, speed=0, params={"VT_FAIL_ORACLE": 0}, folder=tmp_path) as vehicle:
+@pytest.mark.parametrize("reconfigure", [1, 0], ids=["CA_FAILURE_MODE 1", "CA_FAILURE_MODE 0"])
+def test_a_stopped_motor_is_found_from_its_esc_telemetry_reported_and_flown_without(tmp_path, reconfigure):
+    params = {"VT_FAIL_ORACLE": 0, "CA_FAILURE_MODE": reconfigure}
+    with Vehicle(spawn_alt=30.0, speed=0, params=params, folder=tmp_path) as vehicle:
         gcs = vehicle.ground_station
         gcs.wait_message("SYS_STATUS", lambda m: m.onboard_control_sensors_health & MOTOR_OUTPUTS)
         vehicle.truth.wait_until(lambda s: s.t > 2.0, timeout_sim_s=5.0, what="a steady hover")
@@ -30,9 +33,11 @@ def test_a_stopped_motor_is_found_from_its_esc_telemetry_reported_and_flown_with
             time.sleep(0.05)
         unhealthy = gcs.wait_message("SYS_STATUS", lambda m: not m.onboard_control_sensors_health & MOTOR_OUTPUTS)
         assert unhealthy.onboard_control_sensors_present & MOTOR_OUTPUTS
-        stopped = gcs.wait_message("SERVO_OUTPUT_RAW", lambda m: m.servo1_raw <= 1000, timeout_s=30)
-        # not commanded any more: the allocator flies on the others (the opposite rotor 3 is idled as well in a hover)
-        assert max(stopped.servo2_raw, stopped.servo3_raw, stopped.servo4_raw) > 1000
+        if reconfigure:  # not commanded any more: the allocator flies on the others (in a hover, rotor 3 idles too)
+            stopped = gcs.wait_message("SERVO_OUTPUT_RAW", lambda m: m.servo1_raw <= 1000, timeout_s=30)
+            assert max(stopped.servo2_raw, stopped.servo3_raw, stopped.servo4_raw) > 1000
+        else:  # reported only: the controllers still command it
+            assert gcs.wait_message("SERVO_OUTPUT_RAW").servo1_raw > 1000
         match = DETECTED.search(vehicle.stderr("vtol-autopilot"))
         assert match is not None, vehicle.stderr("vtol-autopilot")
         flown = vehicle.truth.trajectory()

@@ -309,6 +309,7 @@ def test_pid_flies_the_circle_from_50_hz_offboard_setpoints(tmp_path) -> None:
     metrics = json.loads((tmp_path / "circle" / "pid" / "metrics.json").read_text())
     assert metrics["radial_max_m"] < 2.0 and metrics["vy_rmse"] < 0.5, metrics
     assert command_chatter(tmp_path / "circle" / "pid", 18.0, 28.0) < 1e-3
+    assert "failure detected" not in (tmp_path / "circle" / "pid" / "autopilot.log").read_text()  # no false alarm
 
 
 def command_chatter(run_dir: Path, start_s: float, end_s: float) -> float:
@@ -327,3 +328,4 @@ def test_mpc_commands_are_smooth_in_the_turn_with_50_hz_offboard_setpoints(tmp_p
                   "--out", str(tmp_path))  # fmt: skip
     assert result.returncode == 0, result.stderr
     assert command_chatter(tmp_path / "circle" / "mpc", 16.0, 22.0) < 3e-3
+    assert "failure detected" not in (tmp_path / "circle" / "mpc" / "autopilot.log").read_text()  # no false alarm

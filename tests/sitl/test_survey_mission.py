@@ -24,6 +24,8 @@ def fly(plan: str, controller: str, out: Path) -> dict:
     for waypoint in result["waypoints"]:
         assert waypoint["closest_m"] <= waypoint["acceptance_m"], waypoint
     assert result["landing_error_m"] <= 2.0
+    autopilot = folder / controller / "vehicle" / "vehicle-1" / "vtol-autopilot.stderr"
+    assert "failure detected" not in autopilot.read_text()  # the motor check raises no false alarm on the survey
     for name in FIGURE_FILES:
         assert (folder / name).stat().st_size > 10_000
     return result
