@@ -8,9 +8,13 @@ Rotor i at tilt chi_i (0 = thrust up, 90 deg = forward) and thrust T_i = c_F ome
 
 from __future__ import annotations
 
+import math
+
 import casadi as ca
 
 from aircraft.airframe import Airframe
+
+RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)  # a rotor's speed as an ESC reports it
 
 
 def thrust_direction(tilt: ca.SX) -> ca.SX:

@@ -25,6 +25,7 @@ factory, told again about every failure it should know.
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 from collections.abc import Callable
@@ -128,6 +129,7 @@ class PlantLoop:
         self.plant_parameters = PlantParameterSync(params, client)
         self.motor_failures = MotorFailureDetector(airframe.rotor_speed_max, ROTOR_COUNT)
         self.detected_failures: list[Failure] = []  # what the detector told the controllers (CA_FAILURE_MODE 1)
+        self._esc_reports: list[tuple[int, float]] = []  # this step's (ESC index, RPM), checked once its time is known
         self.state = VehicleState()
         self.counters = LoopCounters()
         self.controllers_started = 1
@@ -151,10 +153,11 @@ class PlantLoop:
 
     # ---- the plant link ---------------------------------------------------------------------------------------
     def _plant_messages(self) -> None:
+        self._esc_reports.clear()
         for message in self.client.received_other:
             kind = message.get_type()
             if kind == "RAW_RPM":
-                self._esc_report(message.index, message.frequency)
+                self._esc_reports.append((message.index, message.frequency))
             elif kind == "COMMAND_ACK" and message.command == mavlink.MAV_CMD_INJECT_FAILURE:
                 delay_s, oracle = self.params["SYS_FAILURE_DLY"], self.params["VT_FAIL_ORACLE"] == 1
                 for failure in self.injection.acknowledged(message.result, self._last_usec, delay_s, oracle):
@@ -170,35 +173,43 @@ class PlantLoop:
                       f"({dict(self.client.link.dropped)})")  # fmt: skip
             self._dropped_reported = dropped
 
-    def _esc_report(self, index: int, rpm: float) -> None:
-        """One ESC's telemetry through the failure detector's motor check (armed and flying, FD_ACT_EN 1)."""
+    def _check_motors(self) -> None:
+        """This step's ESC telemetry through the failure detector's motor check (armed, flying, FD_ACT_EN 1)."""
         detector, p = self.motor_failures, self.params
-        if not (self.commander.armed and self.commander.flying):
+        if not self.commander.armed:
             if detector.failed:
-                detector.reset()  # PX4 clears its motor failures at disarming
-                self.detected_failures.clear()
+                self.detected_failures.clear()  # PX4 clears its motor failures at disarming
+            detector.reset()
             return
-        if p["FD_ACT_EN"] != 1:
+        if not self.commander.flying or p["FD_ACT_EN"] != 1:
+            detector.pause()
             return
         check = MotorCheck(p["FD_ACT_MOT_THR"], p["VT_FD_RPM_RATIO"], int(p["FD_ACT_MOT_TOUT"]) * 1000)
-        command = float(self.controller.command[index]) if 0 <= index < ROTOR_COUNT else 0.0
-        if not detector.sample(index, rpm, command, self._last_usec, check):
-            return
+        commands = self.controller.command[ROTORS].tolist()
+        for index, rpm in self._esc_reports:
+            command = commands[index] if 0 <= index < ROTOR_COUNT else math.nan
+            if detector.sample(index, rpm, command, self._last_usec, check):
+                self._motor_failed(index, rpm, command)
+
+    def _motor_failed(self, index: int, rpm: float, command: float) -> None:
+        """The detector found motor `index` (0-based) failed: said as PX4 says it, and told to the controllers with
+        CA_FAILURE_MODE 1 unless the injection already told them of a failure of that motor."""
         self.note(f"motor {index + 1} failure detected at t = {self._last_usec / 1e6:.4f} s: {rpm:.0f} RPM at a "
                   f"command of {command:.2f}")  # fmt: skip
         self.events.say(mavlink.MAV_SEVERITY_CRITICAL, "Motor failure detected")
-        failure = Failure(FailureUnit.MOTOR, FailureType.OFF, index + 1)
-        if p["CA_FAILURE_MODE"] == 1 and not self._knows_motor_off(index + 1):
+        if self.params["CA_FAILURE_MODE"] == 1 and not self._knows_motor_failure(index + 1):
+            failure = Failure(FailureUnit.MOTOR, FailureType.OFF, index + 1)
             self.detected_failures.append(failure)
             self._learn(failure)
 
-    def _knows_motor_off(self, instance: int) -> bool:
-        """The controllers already fly without motor `instance` (1-based): the injection told them."""
-        off = False
+    def _knows_motor_failure(self, instance: int) -> bool:
+        """The injection told the controllers of a failure of motor `instance` (1-based) that still holds (the
+        latest for that motor is not OK): they fly with what it left."""
+        known = False
         for failure in self.injection.known:
             if failure.unit == FailureUnit.MOTOR and failure.instance in (0, instance):
-                off = failure.kind == FailureType.OFF
-        return off
+                known = failure.kind != FailureType.OK
+        return known
 
     def _restart(self, t_usec: int) -> None:
         """The plant's clock went back: a new plant run."""
@@ -212,8 +223,6 @@ class PlantLoop:
         if self.outputs.ulog is not None:
             self.outputs.ulog.restart()
         self.injection.restart()
-        self.motor_failures.reset()
-        self.detected_failures.clear()
         self.plant_parameters.restart()
         self.commander.restart(self.state)
         if self.services is not None:
@@ -357,6 +366,7 @@ class PlantLoop:
                 if not self.commander.started:
                     self.commander.start(self.state)
             self.commander.observe(self.state)
+            self._check_motors()
             t = (t_usec - self._start_usec) / 1e6
             if self.offboard_lockstep and self.services is not None:
                 self.services.hold(t_usec, lambda: self.commander.setpoints_cover(t_usec), self.should_stop)

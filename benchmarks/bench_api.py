@@ -7,9 +7,9 @@ by more than 2 m (the plant's truth, sampled every 0.2 s). A machine that cannot
 down instead: each fleet's simulation speed is printed, the largest fleet that held at 0.9 x real time or better is
 counted apart, and fleets stop growing once the simulation runs slower than 0.5 x real time (the machine is full).
 
-With `--baseline DIR` (a checkout of another commit, e.g. `git worktree add DIR main`), each start here alternates
-with one of the baseline's (its own bench_api.py), and the medians and the ratio of this tree over the baseline,
-round by round, are printed.
+With `--baseline DIR` (a checkout of another commit, e.g. `git worktree add DIR main`), each start of this tree
+alternates with one of the baseline's, each in a fresh interpreter running its own tree's bench_api.py, and the
+medians and the ratio of this tree over the baseline, round by round, are printed.
 
     python benchmarks/bench_api.py [--runs 10] [--controller mpc|pid] [--baseline DIR] [--hover 60] [--max-fleet 8]
 """
@@ -39,15 +39,19 @@ TOO_SLOW = "did not reach"  # a fleet stopped for slowness, not for a vehicle's 
 POLL_S = 0.2
 
 
+THIS_TREE = Path(__file__).resolve().parents[1]
+
+
 def time_to_ready(controller: Controller) -> float:
+    """Wall seconds from `Vehicle(...)` to ready to arm, in this interpreter."""
     started = time.monotonic()
     with Vehicle(controller=controller, truth=False):
         return time.monotonic() - started
 
 
-def baseline_time_to_ready(directory: Path, controller: Controller, scratch: Path) -> float:
-    """One start with the code of the checkout `directory` (its own bench_api.py)."""
-    out = scratch / "baseline.json"
+def time_to_ready_of(directory: Path, controller: Controller, scratch: Path) -> float:
+    """One start with the code of the checkout `directory`, in a fresh interpreter (its own bench_api.py)."""
+    out = scratch / "start.json"
     command = [sys.executable, "benchmarks/bench_api.py", "--runs", "1", "--controller", controller, "--json", str(out)]
     subprocess.run(command, cwd=directory, env={**os.environ, "PYTHONPATH": str(directory)}, check=True,
                    stdout=subprocess.DEVNULL)  # fmt: skip
@@ -55,6 +59,7 @@ def baseline_time_to_ready(directory: Path, controller: Controller, scratch: Pat
 
 
 def report_ready(label: str, times: list[float]) -> None:
+    """The medians line of one tree's starts."""
     print(f"ready to arm ({label}): median {statistics.median(times):.2f} s over {len(times)} starts "
           f"(min {min(times):.2f}, max {max(times):.2f})", flush=True)  # fmt: skip
 
@@ -153,9 +158,11 @@ def main() -> None:
     times, baseline = [], []
     with tempfile.TemporaryDirectory() as scratch:
         for _ in range(args.runs):
-            times.append(time_to_ready(args.controller))
-            if args.baseline is not None:
-                baseline.append(baseline_time_to_ready(args.baseline, args.controller, Path(scratch)))
+            if args.baseline is None:
+                times.append(time_to_ready(args.controller))
+            else:  # both alike: a fresh interpreter each
+                times.append(time_to_ready_of(THIS_TREE, args.controller, Path(scratch)))
+                baseline.append(time_to_ready_of(args.baseline, args.controller, Path(scratch)))
     report_ready(args.controller, times)
     if baseline:
         report_ready(f"{args.controller}, baseline {args.baseline}", baseline)

@@ -15,6 +15,7 @@ import numpy as np
 
 from aircraft.failures import FailureUnit
 from aircraft.frames import rotation_rows
+from aircraft.rotors import RPM_PER_RAD_S
 from sim_bridge.dynamics import ROTOR_SPEED
 from sim_bridge.plant import DT_USEC, Plant
 from transport.geodesy import LocalGeodetic
@@ -25,7 +26,6 @@ from transport.mavlink_frames import HIL_GPS, HIL_SENSOR, HIL_STATE_QUATERNION, 
 MAG_FIELD_NED_GAUSS = (0.2008, -0.0300, 0.4787)
 GPS_PERIOD_USEC = 100_000  # 10 Hz
 ESC_PERIOD_USEC = 10_000  # 100 Hz: each rotor's ESC telemetry (RPM)
-RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
 HEARTBEAT_PERIOD_USEC = 1_000_000
 HIL_SENSOR_ALL_FIELDS = 0x1FFF  # acc xyz, gyro xyz, mag xyz, abs pressure, diff pressure, pressure alt, temperature
 # HIL_SENSOR fields of each sensor: the fields_updated bits and the value indices (acc xyz, gyro xyz, mag xyz, abs
@@ -140,3 +140,4 @@ def _clip_uint16(value: float) -> int:
 
 
 assert DT_USEC > 0 and GPS_PERIOD_USEC % DT_USEC == 0, "GPS period must be a whole number of steps"
+assert ESC_PERIOD_USEC % DT_USEC == 0, "ESC telemetry period must be a whole number of steps"

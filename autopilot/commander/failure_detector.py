@@ -2,10 +2,10 @@
 
 The plant reports each rotor's speed as its ESC would (RAW_RPM, 100 Hz, docs/plant-link.md). A rotor is failed
 when, for FD_ACT_MOT_TOUT, its command is at least FD_ACT_MOT_THR of full thrust and its measured speed is below
-FD_FAIL_RPM_R of the speed that command gives in steady state (rotor speed grows with the square root of the
-thrust fraction, aircraft/rotors.py). PX4 compares the ESC's current with the throttle (FD_ACT_MOT_C2T); the plant
-has no electrical model of its motors, so the speed stands in for the current. A failed rotor stays failed until
-the next flight (a new plant run or a restart).
+VT_FD_RPM_RATIO of the speed that command gives in steady state (rotor speed grows with the square root of the
+thrust fraction). PX4 compares the ESC's current with the throttle (FD_ACT_MOT_C2T); the plant has no electrical
+model of its motors, so the speed stands in for the current. A failed rotor stays failed until disarming
+(docs/failures.md).
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
+from aircraft.rotors import RPM_PER_RAD_S
 
 
 @dataclass(frozen=True)
@@ -21,7 +21,7 @@ class MotorCheck:
     """The check's parameters (autopilot/storage/parameters.py)."""
 
     min_command: float  # FD_ACT_MOT_THR: thrust fraction from which a rotor is checked
-    rpm_ratio: float  # FD_FAIL_RPM_R: measured / expected speed below which it is failing
+    rpm_ratio: float  # VT_FD_RPM_RATIO: measured / expected speed below which it is failing
     timeout_usec: int  # FD_ACT_MOT_TOUT (ms there): failing this long is a failure
 
 
@@ -31,8 +31,9 @@ def expected_rpm(command: float, speed_max_rad_s: float) -> float:
 
 
 def failing(rpm: float, command: float, speed_max_rad_s: float, check: MotorCheck) -> bool:
-    """This sample says the rotor does not turn as commanded (a NaN speed, an ESC that cannot tell, counts)."""
-    if command < check.min_command:
+    """This sample says the rotor does not turn as commanded (a NaN speed, an ESC that cannot tell, counts; a NaN
+    command is not checked)."""
+    if not command >= check.min_command:
         return False
     return not rpm >= check.rpm_ratio * expected_rpm(command, speed_max_rad_s)
 
@@ -60,7 +61,11 @@ class MotorFailureDetector:
         del self._failing_since[index]
         return True
 
+    def pause(self) -> None:
+        """The check is not running (on the ground, disabled): no rotor is failing from now on."""
+        self._failing_since.clear()
+
     def reset(self) -> None:
-        """A new flight: nothing is failed or failing."""
+        """Disarmed: nothing is failed or failing."""
         self.failed.clear()
         self._failing_since.clear()

@@ -59,8 +59,8 @@ def test_an_autopilot_without_the_key_never_gets_the_plant(tmp_path, autopilot_k
     wrong = None if autopilot_key is None else key_file(tmp_path, autopilot_key)
     pilot = start("vtol-autopilot", autopilot_command(port, wrong), stdout=Stream.CAPTURE, stderr=Stream.CAPTURE)
     try:
-        # Unanswered, it says HELLO every 0.25 s and, after 1 s of that, that the plant is silent: by then it has said
-        # HELLO 4 times or more. Wall time: a plant no autopilot has is not stepped, so no simulated time passes.
+        # Unanswered, it says HELLO every 20 ms in its first second, then every 0.25 s, and after 1 s without an answer
+        # that the plant is silent: by then it has said HELLO 4 times or more. Wall time: a plant no autopilot has is not stepped, so no simulated time passes.
         deadline = time.monotonic() + 60
         while "the plant is silent" not in pilot.stderr_text():
             assert time.monotonic() < deadline and pilot.running(), pilot.stderr_text()

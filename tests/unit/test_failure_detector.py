@@ -21,6 +21,7 @@ def test_the_expected_speed_grows_with_the_square_root_of_the_thrust_fraction():
 
 @pytest.mark.parametrize("rpm, command, verdict", [
     (0.0, 0.19, False),  # below FD_ACT_MOT_THR: not checked
+    (0.0, math.nan, False),  # no command to compare with: not checked
     (0.0, 0.5, True),  # stopped
     (math.nan, 0.5, True),  # an ESC that cannot tell
     (0.49 * expected_rpm(0.5, SPEED_MAX), 0.5, True),
@@ -60,3 +61,11 @@ def test_an_esc_index_past_the_rotors_is_ignored():
     detector = MotorFailureDetector(SPEED_MAX, 4)
     assert not any(detector.sample(4, 0.0, 1.0, t, CHECK) for t in range(0, 500_000, PERIOD))
     assert detector.failed == []
+
+
+def test_a_pause_forgets_a_rotor_that_was_failing_so_the_next_flight_starts_its_timeout_afresh():
+    detector = MotorFailureDetector(SPEED_MAX, 4)
+    assert not detector.sample(2, 0.0, 0.5, 0, CHECK)  # failing at the end of a flight
+    detector.pause()  # landed: the check is not running
+    assert not detector.sample(2, 0.0, 0.5, 500_000, CHECK)  # the next take-off's spin-up: failing from now only
+    assert detector.sample(2, 0.0, 0.5, 600_000, CHECK)
