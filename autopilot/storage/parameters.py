@@ -128,7 +128,16 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         "",
         "1: the failure detector checks each motor against its ESC telemetry (its RPM here, its current in PX4)",
     ),
-    P("FD_ACT_MOT_THR", REAL32, 0.2, 0.0, 1.0, "norm", "motor failure check: the thrust fraction from which it runs"),
+    P(
+        "FD_ACT_MOT_THR",
+        REAL32,
+        0.05,
+        0.0,
+        1.0,
+        "norm",
+        "motor failure check: the thrust fraction from which it runs",
+        px4_default=0.2,
+    ),
     P(
         "FD_ACT_MOT_TOUT",
         INT32,
