@@ -356,6 +356,10 @@ class GroundStation:
     def command(self, command: int, *params: float) -> Any:
         """COMMAND_LONG `command` with up to seven params (the rest 0) to the vehicle's autopilot: its COMMAND_ACK,
         whatever its result (resent as the module says); CommandTimeout without one."""
+        return self._command(command, params)[1]
+
+    def _command(self, command: int, params: tuple[float, ...]) -> tuple[int, Any]:
+        """command(): the COMMAND_ACK and its number among the messages received."""
         if len(params) > 7:
             raise ValueError(f"COMMAND_LONG has 7 params, not {len(params)}")
         values = [float(p) for p in params] + [0.0] * (7 - len(params))
@@ -372,17 +376,16 @@ class GroundStation:
             while found is not None and found[1].result == M.MAV_RESULT_IN_PROGRESS:
                 found = self._inbox.wait(found[0], answers, IN_PROGRESS_TIMEOUT_S)
             if found is not None:
-                return found[1]
+                return found
         raise CommandTimeout(f"{_command_name(command)}: no COMMAND_ACK from vehicle {self.target_system} after "
                              f"{COMMAND_RETRIES + 1} sends {ACK_TIMEOUT_S:g} s apart{self._last_words()}")  # fmt: skip
 
     def command_accepted(self, command: int, *params: float) -> Any:
         """command(), and CommandRefused (with the vehicle's reason) unless the result is MAV_RESULT_ACCEPTED."""
-        since = len(self.statustexts)
-        ack = self.command(command, *params)
+        number, ack = self._command(command, params)
         if ack.result != M.MAV_RESULT_ACCEPTED:
             raise CommandRefused(f"{_command_name(command)} refused by vehicle {self.target_system} "
-                                 f"({RESULT_NAMES.get(ack.result, ack.result)}){self._reason(since)}",
+                                 f"({RESULT_NAMES.get(ack.result, ack.result)}){self._reason(number)}",
                                  ack.result)  # fmt: skip
         return ack
 
@@ -494,7 +497,7 @@ class GroundStation:
         if result != M.MAV_MISSION_ACCEPTED:
             entry = M.enums["MAV_MISSION_RESULT"].get(result)
             raise CommandRefused(f"{what} upload refused by vehicle {self.target_system} "
-                                 f"({entry.name if entry else result}){self._reason(since)}", result)  # fmt: skip
+                                 f"({entry.name if entry else result}){self._said_since(since)}", result)  # fmt: skip
 
     def _item(self, item: MissionItem, seq: int, mission_type: int) -> Any:
         return self.mav.mission_item_int_encode(
@@ -507,11 +510,28 @@ class GroundStation:
         with self._inbox.changed:
             return self._inbox.received
 
-    def _reason(self, since: int) -> str:
-        """What the vehicle said after its refusal, which it says right after the answer, in one or more chunks
-        (": <text>", or "")."""
+    def _said_since(self, since: int) -> str:
+        """The last whole STATUSTEXT after the first `since` (": <text>", or ""), waited for briefly."""
         said = self._inbox.wait_statustexts(since, REASON_WAIT_S)
         return f": {said[-1]}" if said else ""
+
+    def _reason(self, ack_number: int) -> str:
+        """What the vehicle said after its refusal, which it says right after the answer (the message numbered
+        `ack_number`), in one or more chunks (": <text>", or ""). A text that came before the answer (e.g. the
+        "Armed" of an earlier command, read late) is not the reason."""
+        found = self._inbox.wait(ack_number, lambda message: message.get_type() == "STATUSTEXT", REASON_WAIT_S)
+        if found is None:
+            return ""
+        first = found[1]
+        if first.id == 0:
+            return f": {first.text}"
+        deadline = time.monotonic() + REASON_WAIT_S  # a text in chunks: the whole of it, once its last chunk came
+        while time.monotonic() < deadline:
+            whole = next((text for text in reversed(self.statustexts) if text.startswith(first.text)), None)
+            if whole is not None:
+                return f": {whole}"
+            time.sleep(0.01)
+        return f": {first.text}"
 
     def _last_words(self) -> str:
         said = self.statustexts[-3:]
