@@ -19,13 +19,14 @@ pytest.importorskip(
     "mavsdk", minversion="4", reason="MAVSDK-Python 4 (the native binding) is a test extra: pip install '.[test]'"
 )
 
-from mavsdk import ComponentType, Configuration, Mavsdk  # noqa: E402
+from mavsdk import Mavsdk  # noqa: E402
 from mavsdk.plugins.component_metadata import ComponentMetadata, MetadataType  # noqa: E402
 from mavsdk.plugins.ftp import FilesystemEntry, Ftp, FtpResult  # noqa: E402
 
 from autopilot.mavlink.component_metadata import MAVLINK_MSG_ID_COMPONENT_METADATA  # noqa: E402
 from autopilot.mavlink.ftp_protocol import Nak, Opcode, Payload  # noqa: E402
 from tests.sitl.ground_station import GroundStation  # noqa: E402
+from tests.sitl.mavsdk_client import connect_autopilot  # noqa: E402
 from tiltrotor_sitl import Vehicle  # noqa: E402
 from transport.mavlink import mavlink  # noqa: E402
 
@@ -84,10 +85,7 @@ def parameter_metadata(system: Any) -> dict:
 
 
 def mavsdk_ftp(api_port: int) -> tuple[Mavsdk, Any, Ftp]:
-    drone = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
-    drone.add_any_connection(f"udpin://127.0.0.1:{api_port}")
-    system = drone.first_autopilot(60.0)
-    assert system is not None, "MAVSDK found no autopilot"
+    drone, system = connect_autopilot(f"udpin://127.0.0.1:{api_port}")
     return drone, system, Ftp(system)
 
 

@@ -22,10 +22,10 @@ pytest.importorskip(
 )
 pyulog = pytest.importorskip("pyulog", reason="pyulog is a test extra: pip install '.[test]'")
 
-from mavsdk import ComponentType, Configuration, Mavsdk  # noqa: E402
 from mavsdk.plugins.log_files import LogFiles, LogFilesResult  # noqa: E402
 
 from tests.sitl.ground_station import GroundStation  # noqa: E402
+from tests.sitl.mavsdk_client import mavsdk_autopilot  # noqa: E402
 from tests.sitl.test_vtol_up import VTOL, free_instance  # noqa: E402
 from tiltrotor_sitl import PlantTruth, ProcessOptions, Vehicle  # noqa: E402
 from transport.geodesy import LocalGeodetic  # noqa: E402
@@ -146,11 +146,7 @@ def download_with_pymavlink(gs: GroundStation, timeout_s: float = 120.0) -> tupl
 
 
 def download_with_mavsdk(api_port: int, target: Path) -> list:
-    drone = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
-    try:
-        drone.add_any_connection(f"udpin://127.0.0.1:{api_port}")
-        system = drone.first_autopilot(60.0)
-        assert system is not None, "MAVSDK found no autopilot"
+    with mavsdk_autopilot(f"udpin://127.0.0.1:{api_port}") as system:
         log_files = LogFiles(system)
         entries = log_files.get_entries()
         done = threading.Event()
@@ -165,8 +161,6 @@ def download_with_mavsdk(api_port: int, target: Path) -> list:
         assert done.wait(180.0), "MAVSDK's download did not end"
         assert outcome == [LogFilesResult.SUCCESS]
         return entries
-    finally:
-        drone.destroy()
 
 
 def parameter_values(gs: GroundStation) -> dict[str, float]:

@@ -13,7 +13,7 @@ import pytest
 # 3.x is the gRPC wrapper that needs a mavsdk_server binary; 4 is the native binding.
 pytest.importorskip("mavsdk", minversion="4", reason="MAVSDK-Python 4 is a test extra: pip install '.[test]'")
 
-from mavsdk import ComponentType, Configuration, LogLevel, Mavsdk, log_subscribe  # noqa: E402
+from mavsdk import LogLevel, log_subscribe  # noqa: E402
 from mavsdk.plugins.action import Action  # noqa: E402
 from mavsdk.plugins.failure import Failure, FailureType, FailureUnit  # noqa: E402
 from mavsdk.plugins.offboard import Offboard, VelocityNedYaw  # noqa: E402
@@ -21,6 +21,7 @@ from mavsdk.plugins.param import Param  # noqa: E402
 from mavsdk.plugins.telemetry import FlightMode, LandedState, Telemetry, VtolState  # noqa: E402
 
 from tests.sitl.mavlink_sitl import start_sitl  # noqa: E402
+from tests.sitl.mavsdk_client import mavsdk_autopilot  # noqa: E402
 
 
 def wait_for(predicate, what: str, timeout_s: float = 30.0, period_s: float = 0.05) -> None:
@@ -58,11 +59,7 @@ def sitl(tmp_path):
 def test_mavsdk_flies_the_vehicle_unmodified(sitl):
     messages: list[str] = []
     log_subscribe(lambda level, message, file, line: messages.append(message) or level < LogLevel.WARN)
-    drone = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
-    try:
-        drone.add_any_connection(f"udpin://127.0.0.1:{sitl.ports['api_remote']}")
-        system = drone.first_autopilot(60.0)
-        assert system is not None, "MAVSDK found no autopilot"
+    with mavsdk_autopilot(f"udpin://127.0.0.1:{sitl.ports['api_remote']}") as system:
         telemetry, action, param, offboard = Telemetry(system), Action(system), Param(system), Offboard(system)
 
         wait_for(lambda: telemetry.health().is_armable and telemetry.health_all_ok(), "health and armable")
@@ -131,8 +128,6 @@ def test_mavsdk_flies_the_vehicle_unmodified(sitl):
         wait_for(lambda: not telemetry.armed(), "disarmed after landing", timeout_s=60)
         wait_for(lambda: telemetry.landed_state() == LandedState.ON_GROUND, "landed state ON_GROUND")
         assert telemetry.position().relative_altitude_m < 0.5
-    finally:
-        drone.destroy()
     autopilot, plant = sitl.stop()
     assert autopilot["failures_acknowledged"] == 2 and not autopilot["armed"]
     assert any("Failure injected: servo 1 STUCK" in line for line in sitl.stderr().splitlines())

@@ -16,9 +16,10 @@ pytest.importorskip(
     "mavsdk", minversion="4", reason="MAVSDK-Python 4 (the native binding) is a test extra: pip install '.[test]'"
 )
 
-from mavsdk import ComponentType, Configuration, Mavsdk  # noqa: E402
 from mavsdk.plugins.calibration import Calibration, CalibrationResult  # noqa: E402
 from mavsdk.plugins.telemetry import Telemetry  # noqa: E402
+
+from tests.sitl.mavsdk_client import mavsdk_autopilot  # noqa: E402
 
 
 def wait_file(path, predicate, timeout_s: float = 10.0) -> dict:
@@ -46,7 +47,6 @@ def test_reset_all_to_defaults_restores_them_and_the_file_says_so(vehicle_factor
 
 def test_gyro_calibration_through_mavsdk_completes(vehicle_factory):
     vehicle = vehicle_factory(speed=2.0)
-    drone = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
     results: list = []
     finished = threading.Event()
 
@@ -55,14 +55,9 @@ def test_gyro_calibration_through_mavsdk_completes(vehicle_factory):
         if result != CalibrationResult.NEXT:
             finished.set()
 
-    try:
-        drone.add_any_connection(vehicle.mavsdk)
-        system = drone.first_autopilot(60.0)
-        assert system is not None, "MAVSDK found no autopilot"
+    with mavsdk_autopilot(vehicle.mavsdk) as system:
         Calibration(system).calibrate_gyro_async(progress)
         assert finished.wait(60.0), f"no end of the calibration: {results}"
-    finally:
-        drone.destroy()
     assert results[-1][0] == CalibrationResult.SUCCESS, results
     assert any(p is not None and 0 < p < 1 for _, p, _ in results), results  # "[cal] progress <N>" seen
     print(f"gyro calibration: {len(results)} updates, {results[-1]}")
@@ -72,13 +67,9 @@ def test_gyro_calibration_through_mavsdk_completes(vehicle_factory):
 
 def test_highres_imu_at_50_hz_after_set_rate_imu(vehicle_factory):
     vehicle = vehicle_factory(speed=2.0)
-    drone = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
     stamps: list[int] = []
     imus: list = []
-    try:
-        drone.add_any_connection(vehicle.mavsdk)
-        system = drone.first_autopilot(60.0)
-        assert system is not None, "MAVSDK found no autopilot"
+    with mavsdk_autopilot(vehicle.mavsdk) as system:
         telemetry = Telemetry(system)
         telemetry.set_rate_imu(50.0)
         telemetry.subscribe_imu(lambda imu, user_data: (stamps.append(imu.timestamp_us), imus.append(imu)))
@@ -87,8 +78,6 @@ def test_highres_imu_at_50_hz_after_set_rate_imu(vehicle_factory):
             assert time.monotonic() < deadline, f"{len(stamps)} HIGHRES_IMU"
             time.sleep(0.05)
         taken = list(stamps)
-    finally:
-        drone.destroy()
     rate = (len(taken) - 1) / ((taken[-1] - taken[0]) / 1e6)
     print(f"HIGHRES_IMU on the API link: {rate:.2f} Hz over {len(taken)} messages")
     assert rate == pytest.approx(50.0, abs=1.0)

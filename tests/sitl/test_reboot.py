@@ -16,9 +16,10 @@ pytest.importorskip(
     "mavsdk", minversion="4", reason="MAVSDK-Python 4 (the native binding) is a test extra: pip install '.[test]'"
 )
 
-from mavsdk import ComponentType, Configuration, Mavsdk  # noqa: E402
 from mavsdk.plugins.action import Action  # noqa: E402
 from mavsdk.plugins.param import Param  # noqa: E402
+
+from tests.sitl.mavsdk_client import mavsdk_autopilot  # noqa: E402
 
 NEW_SYSID = 7
 
@@ -26,15 +27,9 @@ NEW_SYSID = 7
 def test_mavsdk_reboot_applies_mav_sys_id_and_the_new_process_flies(tmp_path):
     with Vehicle(speed=4.0, folder=tmp_path) as vehicle:
         pids = vehicle.pids
-        drone = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
-        try:
-            drone.add_any_connection(vehicle.mavsdk)
-            system = drone.first_autopilot(60.0)
-            assert system is not None, "MAVSDK found no autopilot"
+        with mavsdk_autopilot(vehicle.mavsdk) as system:
             Param(system).set_param_int("MAV_SYS_ID", NEW_SYSID)
             Action(system).reboot()
-        finally:
-            drone.destroy()
         link = GroundLink.listening(vehicle.gcs_port)
         try:
             station = link.station(NEW_SYSID)
