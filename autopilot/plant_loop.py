@@ -174,7 +174,10 @@ class PlantLoop:
             self._dropped_reported = dropped
 
     def _check_motors(self) -> None:
-        """This step's ESC telemetry through the failure detector's motor check (armed, flying, FD_ACT_EN 1)."""
+        """This step's ESC telemetry through the failure detector's motor check (armed, flying, FD_ACT_EN 1); a step
+        without telemetry (3 in 4) has nothing to check and changes nothing."""
+        if not self._esc_reports:
+            return
         detector, p = self.motor_failures, self.params
         if not self.commander.armed:
             if detector.failed:

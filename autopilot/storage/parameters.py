@@ -726,7 +726,7 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         "battery failsafe at the critical and emergency levels: 0 warning, 1 Return, 2 Land, 3 Return at critical "
         "and Land at emergency",
     ),
-    # Follow Me (AUTO.FOLLOW_TARGET, docs/mavlink.md#follow-me): PX4's AutoFollowTarget flight task's; PX4 has no
+    # Follow Me (AUTO.FOLLOW_TARGET, docs/follow-me.md): PX4's AutoFollowTarget flight task's; PX4 has no
     # maximum for the height and the distance, 100 m is its limit for adjusting them with the sticks.
     P("FLW_TGT_HT", REAL32, 8.0, 8.0, 100.0, "m", "Follow Me: height above home (above the target with ALT_M 2)"),
     P("FLW_TGT_DST", REAL32, 8.0, 1.0, 100.0, "m", "Follow Me: horizontal distance to the target"),
