@@ -34,14 +34,16 @@ from typing import Any
 
 import numpy as np
 
-from aircraft.actuators import ROTOR_COUNT, ROTORS, TILTS, command_to_pwm
+from aircraft.actuators import ROTOR_COUNT, ROTORS, SURFACES, TILTS, command_to_pwm
 from aircraft.airframe import Airframe
 from aircraft.failures import Failure, FailureType, FailureUnit
+from aircraft.rotors import RPM_PER_RAD_S
 from autopilot.commander.calibration import Calibration, Reading
 from autopilot.commander.commander import Commander
 from autopilot.commander.failure_detector import MotorCheck, MotorFailureDetector
 from autopilot.commander.failure_injection import FailureInjection
 from autopilot.commander.plant_parameter_sync import PlantParameterSync
+from autopilot.commander.servo_check import MomentModel, ServoCheck, ServoJam, ServoJamDetector
 from autopilot.control.flight_controller import FlightController
 from autopilot.logger.control_telemetry import ControlTelemetry
 from autopilot.logger.flight_log import FlightLogger
@@ -129,7 +131,9 @@ class PlantLoop:
         self.plant_parameters = PlantParameterSync(params, client)
         self.motor_failures = MotorFailureDetector(airframe.rotor_speed_max, ROTOR_COUNT)
         self.detected_failures: list[Failure] = []  # what the detector told the controllers (CA_FAILURE_MODE 1)
+        self.servo_jams = ServoJamDetector(MomentModel(airframe))
         self._esc_reports: list[tuple[int, float]] = []  # this step's (ESC index, RPM), checked once its time is known
+        self._rotor_rpm = [math.nan] * ROTOR_COUNT  # each ESC's last report
         self.state = VehicleState()
         self.counters = LoopCounters()
         self.controllers_started = 1
@@ -173,26 +177,61 @@ class PlantLoop:
                       f"({dict(self.client.link.dropped)})")  # fmt: skip
             self._dropped_reported = dropped
 
-    def _check_motors(self) -> None:
-        """This step's ESC telemetry through the failure detector's motor check (armed, flying, FD_ACT_EN 1); a step
-        without telemetry (3 in 4) has nothing to check and changes nothing."""
+    def _check_actuators(self) -> None:
+        """This step's ESC telemetry through the failure detector (armed, flying, FD_ACT_EN 1): the motor check, then
+        the tilt servo check; a step without telemetry (3 in 4) has nothing to check and changes nothing."""
         if not self._esc_reports:
             return
-        detector, p = self.motor_failures, self.params
+        motors, servos, p = self.motor_failures, self.servo_jams, self.params
+        for index, rpm in self._esc_reports:
+            if 0 <= index < ROTOR_COUNT:
+                self._rotor_rpm[index] = rpm
         if not self.commander.armed:
-            if detector.failed:
+            if motors.failed or servos.jammed:
                 self.detected_failures.clear()  # PX4 clears its motor failures at disarming
-            detector.reset()
+            motors.reset()
+            servos.reset()
             return
         if not self.commander.flying or p["FD_ACT_EN"] != 1:
-            detector.pause()
+            motors.pause()
+            servos.pause()
             return
         check = MotorCheck(p["FD_ACT_MOT_THR"], p["VT_FD_RPM_RATIO"], int(p["FD_ACT_MOT_TOUT"]) * 1000)
         commands = self.controller.command[ROTORS].tolist()
         for index, rpm in self._esc_reports:
             command = commands[index] if 0 <= index < ROTOR_COUNT else math.nan
-            if detector.sample(index, rpm, command, self._last_usec, check):
+            if motors.sample(index, rpm, command, self._last_usec, check):
                 self._motor_failed(index, rpm, command)
+        self._check_servos()
+
+    def _check_servos(self) -> None:
+        if any(rpm != rpm for rpm in self._rotor_rpm):
+            return  # an ESC not heard from yet
+        p, state, controller = self.params, self.state, self.controller
+        to_thrust = self.airframe.thrust_coefficient / (RPM_PER_RAD_S * RPM_PER_RAD_S)
+        thrusts = [to_thrust * rpm * rpm for rpm in self._rotor_rpm]
+        check = ServoCheck(p["VT_FD_SRV_MOM"], math.radians(p["VT_FD_SRV_ANG"]), int(p["VT_FD_SRV_TOUT"]) * 1000)
+        candidates = [servo for servo in range(ROTOR_COUNT) if servo not in self.motor_failures.failed]
+        jam = self.servo_jams.sample(self._last_usec, state.body_rates.tolist(), thrusts,
+                                     controller.servos.tilt.tolist(), controller.command[SURFACES].tolist(),
+                                     state.airspeed, candidates, check)  # fmt: skip
+        if jam is not None:
+            self._servo_jammed(jam)
+
+    def _servo_jammed(self, jam: ServoJam) -> None:
+        """The detector found tilt servo `jam.servo` (0-based) jammed: said once per servo, and told to the
+        controllers (CA_FAILURE_MODE 1) at the tilt found, again each time it is found elsewhere."""
+        degrees = math.degrees(jam.tilt_rad)
+        self.note(f"tilt servo {jam.servo + 1} jam detected at t = {self._last_usec / 1e6:.4f} s, at {degrees:.1f} deg "
+                  f"(estimated {math.degrees(self.controller.servos.tilt[jam.servo]):.1f} deg)")  # fmt: skip
+        if jam.first:
+            self.events.say(mavlink.MAV_SEVERITY_CRITICAL, f"Tilt servo {jam.servo + 1} jam detected")
+        if self.params["CA_FAILURE_MODE"] == 1:
+            failure = Failure(FailureUnit.SERVO, FailureType.STUCK, jam.servo + 1, degrees)
+            self.detected_failures[:] = [f for f in self.detected_failures
+                                         if not (f.unit == FailureUnit.SERVO and f.instance == jam.servo + 1)]
+            self.detected_failures.append(failure)
+            self._learn(failure)
 
     def _motor_failed(self, index: int, rpm: float, command: float) -> None:
         """The detector found motor `index` (0-based) failed: said as PX4 says it, and told to the controllers with
@@ -303,6 +342,7 @@ class PlantLoop:
             position=GlobalPosition(hil.lat, hil.lon, hil.alt, hil.vx, hil.vy, hil.vz),
             home=self.commander.home, pwm=tuple(pwm), throttle_percent=throttle, controller=c.kind,
             failures=(*self.injection.known, *self.detected_failures), motors_failed=tuple(self.motor_failures.failed),
+            servos_jammed=tuple(self.servo_jams.jammed),
             events=self.events.drain(),
             injections=self.injection.drain_outcomes(), missions=self.missions.snapshot, terminated=report.terminated,
             sensors=self._calibrated_sensors(t_usec),
@@ -369,7 +409,7 @@ class PlantLoop:
                 if not self.commander.started:
                     self.commander.start(self.state)
             self.commander.observe(self.state)
-            self._check_motors()
+            self._check_actuators()
             t = (t_usec - self._start_usec) / 1e6
             if self.offboard_lockstep and self.services is not None:
                 self.services.hold(t_usec, lambda: self.commander.setpoints_cover(t_usec), self.should_stop)

@@ -72,7 +72,7 @@ def sys_status(mav: Any, status: VehicleStatus) -> Any:
     health = SENSORS if status.started else SENSORS & ~M.MAV_SYS_STATUS_PREARM_CHECK
     for unit in failed_sensors(status.failures):
         health &= ~SENSOR_BITS[unit]
-    if status.motors_failed:  # as PX4's health report of motors_escs
+    if status.motors_failed or status.servos_jammed:  # as PX4's health report of motors_escs (actuators here)
         health &= ~M.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
     battery = status.battery
     return mav.sys_status_encode(SENSORS, SENSORS, health, 0, int(round(battery.voltage_v * 1000)), -1,

@@ -93,6 +93,7 @@ class VehicleStatus:
     controller: str  # the velocity controller flying: "mpc" or "pid"
     failures: tuple[Failure, ...] = ()  # known to the controllers
     motors_failed: tuple[int, ...] = ()  # 0-based motors the failure detector found failed (this flight)
+    servos_jammed: tuple[int, ...] = ()  # 0-based tilt servos the failure detector found jammed (this flight)
     events: tuple[Event, ...] = ()  # since the last snapshot
     injections: tuple[InjectionOutcome, ...] = ()  # answered since the last snapshot
     missions: Missions = NO_MISSIONS  # stored mission, fence, rally; current item, state, last reached (immutable)
