@@ -228,8 +228,9 @@ class PlantLoop:
             self.events.say(mavlink.MAV_SEVERITY_CRITICAL, f"Tilt servo {jam.servo + 1} jam detected")
         if self.params["CA_FAILURE_MODE"] == 1:
             failure = Failure(FailureUnit.SERVO, FailureType.STUCK, jam.servo + 1, degrees)
-            self.detected_failures[:] = [f for f in self.detected_failures
-                                         if not (f.unit == FailureUnit.SERVO and f.instance == jam.servo + 1)]
+            self.detected_failures[:] = [
+                f for f in self.detected_failures if not (f.unit == FailureUnit.SERVO and f.instance == jam.servo + 1)
+            ]
             self.detected_failures.append(failure)
             self._learn(failure)
 

@@ -31,7 +31,9 @@ from aircraft.rotors import rotor_wrench
 
 UNEXPLAINED_LEFT_MAX = 0.25  # the best servo's tilt leaves at most this fraction of the unexplained moment
 SECOND_BEST_RATIO = 2.0  # ... and the second best servo leaves at least this many times what the best leaves
-THRUST_RATIO_TOLERANCE = 0.3  # a fit that needs the rotor's thrust changed by more says the thrust is wrong, not the tilt
+THRUST_RATIO_TOLERANCE = (
+    0.3  # a fit that needs the rotor's thrust changed by more says the thrust is wrong, not the tilt
+)
 THRUST_MIN_N = 1.0
 MAX_REPORT_GAP_USEC = 50_000  # reports further apart are not differenced (a pause, a plant restart)  # a rotor with less thrust says too little about its tilt to be judged
 
@@ -130,13 +132,18 @@ def best_fits(model: MomentModel, unexplained: list[float], thrusts: list[float]
     return sorted(fits, key=lambda fit: fit.left)
 
 
-def failing_servo(fits: list[TiltFit], unexplained_norm: float, tilts: list[float], check: ServoCheck) -> TiltFit | None:
+def failing_servo(
+    fits: list[TiltFit], unexplained_norm: float, tilts: list[float], check: ServoCheck
+) -> TiltFit | None:
     """The servo these fits single out, if one explains the moment well, better than the others, at a tilt
     away from its estimate."""
     if unexplained_norm < check.min_moment or not fits:
         return None
     best = fits[0]
-    if not best.left <= UNEXPLAINED_LEFT_MAX * unexplained_norm or abs(best.thrust_ratio - 1.0) > THRUST_RATIO_TOLERANCE:
+    if (
+        not best.left <= UNEXPLAINED_LEFT_MAX * unexplained_norm
+        or abs(best.thrust_ratio - 1.0) > THRUST_RATIO_TOLERANCE
+    ):
         return None
     if len(fits) > 1 and fits[1].left < SECOND_BEST_RATIO * best.left:
         return None

@@ -116,7 +116,7 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         1,
         "",
         "1: the controllers learn of an injected motor or servo failure from the injection itself (the paper's "
-        "known failures); 0: only from the failure detector (a stopped motor; a jammed servo is not detected)",
+        "known failures); 0: only from the failure detector (a stopped motor, a jammed tilt servo)",
         px4=False,
     ),
     P(
@@ -126,7 +126,8 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         0,
         1,
         "",
-        "1: the failure detector checks each motor against its ESC telemetry (its RPM here, its current in PX4)",
+        "1: the failure detector checks each motor against its ESC telemetry (its RPM here, its current in PX4) "
+        "and each tilt servo against the moment its rotor gives",
     ),
     P(
         "FD_ACT_MOT_THR",
@@ -195,8 +196,8 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         0,
         1,
         "",
-        "a detected motor failure: 0 ignored by the controllers (only reported), 1 the controllers fly without "
-        "the motor",
+        "a detected actuator failure: 0 ignored by the controllers (only reported), 1 the controllers fly without "
+        "the motor, with the tilt servo stuck where it was found",
         px4_default=0,
     ),
     P("COM_OF_LOSS_T", REAL32, 1.0, 0.1, 60.0, "s", "offboard set-point loss timeout: then COM_OBL_RC_ACT"),

@@ -1,7 +1,8 @@
-"""The failure detector through the processes (docs/failures.md, "Failure detection"), lockstep, the MPC: with the
-oracle off (VT_FAIL_ORACLE 0) a ground station stops motor 1 in a hover; the autopilot learns of it only from the
+"""The failure detector through the processes (docs/failures.md, "Failure detection"), lockstep, the MPC, with the
+oracle off (VT_FAIL_ORACLE 0): a ground station stops motor 1 in a hover; the autopilot learns of it only from the
 plant's ESC telemetry (RAW_RPM), says "Motor failure detected", clears SYS_STATUS's motor-outputs health and, with
-CA_FAILURE_MODE 1, flies without the motor."""
+CA_FAILURE_MODE 1, flies without the motor. A ground station jams tilt servo 1 at 30 deg in a hover; the autopilot
+finds it from the moment it leaves unexplained, at the tilt it reached, and hovers on with it."""
 
 from __future__ import annotations
 
@@ -15,8 +16,10 @@ from tiltrotor_sitl import Vehicle
 from transport.mavlink import mavlink as M
 
 DETECTED = re.compile(r"motor 1 failure detected at t = ([0-9.]+) s")
+JAM_FOUND = re.compile(r"tilt servo 1 jam detected at t = ([0-9.]+) s, at (-?[0-9.]+) deg")
 MOTOR_OUTPUTS = M.MAV_SYS_STATUS_SENSOR_MOTOR_OUTPUTS
 DETECTION_BUDGET_S = 0.1  # from the rotor's first slowing to the detection
+JAM_BUDGET_S = 0.3  # from the servo's first move off its estimate to the detection
 
 
 @pytest.mark.parametrize("reconfigure", [1, 0], ids=["CA_FAILURE_MODE 1", "CA_FAILURE_MODE 0"])
@@ -50,3 +53,32 @@ def test_a_stopped_motor_is_found_from_its_esc_telemetry_reported_and_flown_with
         print(f"motor 1 stopped at t = {times[slowing]:.4f} s, detected {latency * 1000:.1f} ms later")
         assert 0.0 < latency <= DETECTION_BUDGET_S
         assert "Failure injected: motor 1 OFF" in " ".join(gcs.statustexts)  # the injection itself told nothing
+
+
+def test_a_jammed_tilt_servo_is_found_from_the_unexplained_moment_at_its_tilt_and_hovered_with(tmp_path):
+    with Vehicle(spawn_alt=100.0, params={"VT_FAIL_ORACLE": 0}, folder=tmp_path) as vehicle:
+        gcs = vehicle.ground_station
+        vehicle.truth.wait_until(lambda s: s.t > 2.0, timeout_sim_s=5.0, what="a steady hover")
+        gcs.inject_failure("servo", "stuck", 1, 30.0)  # the plant drives it to 30 deg; the autopilot is not told
+        vehicle.truth.wait_until(lambda s: s.t > 8.0, timeout_sim_s=10.0, what="6 s with the jam")
+        assert "Tilt servo 1 jam detected" in gcs.statustexts, gcs.statustexts
+        unhealthy = gcs.wait_message("SYS_STATUS", lambda m: not m.onboard_control_sensors_health & MOTOR_OUTPUTS)
+        assert unhealthy.onboard_control_sensors_present & MOTOR_OUTPUTS
+        found = [(float(t), float(angle)) for t, angle in JAM_FOUND.findall(vehicle.stderr("vtol-autopilot"))]
+        assert found, vehicle.stderr("vtol-autopilot")
+        flown = vehicle.truth.trajectory()
+        tilt, times = np.degrees(flown.tilts[:, 0]), flown.t
+        moving = int(np.argmax(np.abs(tilt - np.degrees(flown.tilts[:, 1])) > 0.5))  # servo 1 leaves servo 2
+        assert moving > 0
+        latency = found[0][0] - times[moving]
+        print(
+            f"servo 1 left its estimate at t = {times[moving]:.4f} s, found {latency * 1000:.0f} ms later; "
+            f"tilts found {[angle for _, angle in found]}"
+        )
+        assert 0.0 < latency <= JAM_BUDGET_S
+        assert abs(found[-1][1] - 30.0) <= 2.0  # the last finding: where it stopped
+        after = times > found[-1][0] + 1.0
+        assert np.ptp(flown.altitude[after]) < 1.0  # hovering with it: level and at height
+        roll, pitch = np.degrees(flown.euler[after, 0]), np.degrees(flown.euler[after, 1])
+        assert np.max(np.abs(roll)) < 5.0
+        assert np.max(np.abs(pitch)) < 10.0  # nose up about 6 deg: against the jammed rotor's forward force
