@@ -89,6 +89,19 @@ class LoopOutputs:
     ulog: Logger | None = None
 
 
+SURFACE_SERVOS = (5, 6, 7, 8)  # the servo instances of the ailerons, the elevator and the rudder
+
+
+def surfaces_failed(known: list[Failure]) -> bool:
+    """Whether, after `known` (in the order learnt), a control surface is failed: the model has them healthy."""
+    failed: set[int] = set()
+    for failure in known:
+        if failure.unit == FailureUnit.SERVO:
+            addressed = set(SURFACE_SERVOS) if failure.instance == 0 else {failure.instance} & set(SURFACE_SERVOS)
+            failed = failed - addressed if failure.kind == FailureType.OK else failed | addressed
+    return bool(failed)
+
+
 class PlantLoop:
     """Runs the flight stack against the plant and drives the MAVLink services (None: no ground links)."""
 
@@ -205,8 +218,12 @@ class PlantLoop:
         self._check_servos()
 
     def _check_servos(self) -> None:
+        """The tilt servo check, on the model of healthy surfaces: paused while a surface failure is known."""
         if any(rpm != rpm for rpm in self._rotor_rpm):
             return  # an ESC not heard from yet
+        if surfaces_failed(self.injection.known):
+            self.servo_jams.pause()
+            return
         p, state, controller = self.params, self.state, self.controller
         to_thrust = self.airframe.thrust_coefficient / (RPM_PER_RAD_S * RPM_PER_RAD_S)
         thrusts = [to_thrust * rpm * rpm for rpm in self._rotor_rpm]

@@ -34,8 +34,7 @@ SECOND_BEST_RATIO = 2.0  # ... and the second best servo leaves at least this ma
 THRUST_RATIO_TOLERANCE = (
     0.3  # a fit that needs the rotor's thrust changed by more says the thrust is wrong, not the tilt
 )
-THRUST_MIN_N = 1.0
-MAX_REPORT_GAP_USEC = 50_000  # reports further apart are not differenced (a pause, a plant restart)  # a rotor with less thrust says too little about its tilt to be judged
+MAX_REPORT_GAP_USEC = 50_000  # reports further apart are not differenced (a pause, a plant restart)
 
 
 @dataclass(frozen=True)
@@ -94,6 +93,11 @@ class MomentModel:
         s, c = thrust * math.sin(tilt), thrust * math.cos(tilt)
         return [s * a + c * b for a, b in zip(self.a[servo], self.b[servo])]
 
+    def tilt_sensitivity(self, servo: int, thrust: float, tilt: float) -> float:
+        """|d M_i / d chi| (N m per rad): how much rotor `servo`'s moment changes with its tilt."""
+        s, c = thrust * math.cos(tilt), -thrust * math.sin(tilt)
+        return math.sqrt(sum((s * a + c * b) ** 2 for a, b in zip(self.a[servo], self.b[servo])))
+
     def gyroscopic(self, rates: list[float], angular_acceleration: list[float]) -> list[float]:
         """J omega_dot + omega x J omega: the moment that turns the body as measured (N m)."""
         (jx, jy, jz), (p, q, r) = self.inertia, rates
@@ -130,6 +134,14 @@ def best_fits(model: MomentModel, unexplained: list[float], thrusts: list[float]
         own = model.rotor(servo, thrusts[servo], tilts[servo])
         fits.append(fit_tilt(model, servo, [x + y for x, y in zip(unexplained, own)], thrusts[servo]))
     return sorted(fits, key=lambda fit: fit.left)
+
+
+def observable(model: MomentModel, candidates: list[int], thrusts: list[float], tilts: list[float],
+               check: ServoCheck) -> list[int]:  # fmt: skip
+    """The candidates whose rotor turns hard enough that a tilt VT_FD_SRV_ANG off moves its moment by VT_FD_SRV_MOM:
+    a rotor near idle says too little about its tilt to be judged."""
+    return [servo for servo in candidates
+            if model.tilt_sensitivity(servo, thrusts[servo], tilts[servo]) * check.min_angle_rad >= check.min_moment]  # fmt: skip
 
 
 def failing_servo(
@@ -196,8 +208,9 @@ class ServoJamDetector:
         self.last_unexplained = norm
         fit = None
         if norm >= check.min_moment:
-            judged = [servo for servo in candidates if thrusts[servo] >= THRUST_MIN_N]
-            fit = failing_servo(best_fits(self.model, unexplained, thrusts, tilts, judged), norm, tilts, check)
+            judged = observable(self.model, candidates, thrusts, tilts, check)
+            if len(judged) >= 2:  # one alone cannot be told from a moment it happens to fit
+                fit = failing_servo(best_fits(self.model, unexplained, thrusts, tilts, judged), norm, tilts, check)
         if fit is None:
             self._failing = None
             return None

@@ -8,7 +8,9 @@ import math
 import pytest
 
 from aircraft.airframe import load_airframe
+from aircraft.failures import Failure, FailureType, FailureUnit
 from autopilot.commander.servo_check import MomentModel, ServoCheck, ServoJamDetector, TiltFit, failing_servo
+from autopilot.plant_loop import surfaces_failed
 
 AIRFRAME = load_airframe(None)
 MODEL = MomentModel(AIRFRAME)
@@ -88,3 +90,14 @@ def test_a_pause_forgets_the_last_report_and_what_was_failing():
     assert fly(true, estimated, reports=6, detector=detector) == [None] * 6  # primed again, then 50 ms anew
     detector.reset()
     assert detector.jammed == []
+
+
+def test_the_check_pauses_while_a_surface_is_known_failed_and_not_once_it_is_cleared():
+    elevator_stuck = Failure(FailureUnit.SERVO, FailureType.STUCK, 7, 5.0)
+    assert not surfaces_failed([Failure(FailureUnit.SERVO, FailureType.STUCK, 1, 60.0)])  # a tilt servo
+    assert surfaces_failed([elevator_stuck])
+    assert not surfaces_failed([elevator_stuck, Failure(FailureUnit.SERVO, FailureType.OK, 7)])
+    assert surfaces_failed([Failure(FailureUnit.SERVO, FailureType.OFF, 0)])
+    assert not surfaces_failed(
+        [Failure(FailureUnit.SERVO, FailureType.OFF, 0), Failure(FailureUnit.SERVO, FailureType.OK, 0)]
+    )
