@@ -236,20 +236,44 @@ class PlantLoop:
             self._servo_jammed(jam)
 
     def _servo_jammed(self, jam: ServoJam) -> None:
-        """The detector found tilt servo `jam.servo` (0-based) jammed: said once per servo, and told to the
-        controllers (CA_FAILURE_MODE 1) at the tilt found, again each time it is found elsewhere."""
-        degrees = math.degrees(jam.tilt_rad)
-        self.note(f"tilt servo {jam.servo + 1} jam detected at t = {self._last_usec / 1e6:.4f} s, at {degrees:.1f} deg "
-                  f"(estimated {math.degrees(self.controller.servos.tilt[jam.servo]):.1f} deg)")  # fmt: skip
+        """The detector found tilt servo `jam.servo` (0-based) off its estimate: a jam, said once per servo and told
+        to the controllers (CA_FAILURE_MODE 1) at the tilt found, again each time it is found elsewhere; or, for a
+        servo already found jammed, found where its command has it (within a healthy servo's lag): it moves again."""
+        servo, degrees = jam.servo, math.degrees(jam.tilt_rad)
+        lag = self.airframe.servo_tau * self.airframe.servo_rate_max  # how far a healthy servo trails its command
+        command = float(self.controller.command[TILTS][servo])
+        if not jam.first and abs(jam.tilt_rad - command) < math.radians(self.params["VT_FD_SRV_ANG"]) + lag:
+            self._servo_freed(servo, jam.tilt_rad)
+            return
+        reconfigure = self.params["CA_FAILURE_MODE"] == 1
+        if jam.first or reconfigure:
+            self.note(f"tilt servo {servo + 1} jam detected at t = {self._last_usec / 1e6:.4f} s, at {degrees:.1f} "
+                      f"deg (estimated {math.degrees(self.controller.servos.tilt[servo]):.1f} deg)")  # fmt: skip
         if jam.first:
-            self.events.say(mavlink.MAV_SEVERITY_CRITICAL, f"Tilt servo {jam.servo + 1} jam detected")
-        if self.params["CA_FAILURE_MODE"] == 1:
-            failure = Failure(FailureUnit.SERVO, FailureType.STUCK, jam.servo + 1, degrees)
-            self.detected_failures[:] = [
-                f for f in self.detected_failures if not (f.unit == FailureUnit.SERVO and f.instance == jam.servo + 1)
-            ]
+            self.events.say(mavlink.MAV_SEVERITY_CRITICAL, f"Tilt servo {servo + 1} jam detected")
+        if reconfigure:
+            self._forget_detected_servo(servo)
+            failure = Failure(FailureUnit.SERVO, FailureType.STUCK, servo + 1, degrees)
             self.detected_failures.append(failure)
             self._learn(failure)
+
+    def _servo_freed(self, servo: int, tilt: float) -> None:
+        """A servo found jammed follows its command again (a jam that cleared, or a finding that was wrong), found
+        at `tilt` (rad): said, and the controllers fly it as healthy again from there."""
+        self.note(f"tilt servo {servo + 1} follows its command again at t = {self._last_usec / 1e6:.4f} s, at "
+                  f"{math.degrees(tilt):.1f} deg")  # fmt: skip
+        self.events.say(mavlink.MAV_SEVERITY_INFO, f"Tilt servo {servo + 1} follows its command again")
+        self.servo_jams.free(servo)
+        if self._forget_detected_servo(servo):
+            self._learn(Failure(FailureUnit.SERVO, FailureType.OK, servo + 1))
+            self.controller.servos.observe(servo, tilt)
+
+    def _forget_detected_servo(self, servo: int) -> bool:
+        """Drop what the detector told the controllers of servo `servo` (0-based); whether it had told them."""
+        kept = [f for f in self.detected_failures if not (f.unit == FailureUnit.SERVO and f.instance == servo + 1)]
+        told = len(kept) < len(self.detected_failures)
+        self.detected_failures[:] = kept
+        return told
 
     def _motor_failed(self, index: int, rpm: float, command: float) -> None:
         """The detector found motor `index` (0-based) failed: said as PX4 says it, and told to the controllers with

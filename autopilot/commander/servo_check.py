@@ -224,6 +224,11 @@ class ServoJamDetector:
             self.jammed.append(fit.servo)
         return ServoJam(fit.servo, fit.tilt_rad, first)
 
+    def free(self, servo: int) -> None:
+        """Servo `servo` is no longer jammed (it follows its command again)."""
+        if servo in self.jammed:
+            self.jammed.remove(servo)
+
     def pause(self) -> None:
         """The check is not running (on the ground, disabled): nothing is failing, no report to difference."""
         self._failing = None

@@ -31,6 +31,10 @@ class ServoEstimate:
         """Whether a servo is stuck (a stuck angle that is not NaN)."""
         return any(angle == angle for angle in self.stuck.tolist())
 
+    def observe(self, index: int, tilt: float) -> None:
+        """Servo `index` was found at `tilt` (rad, the failure detector): the estimate goes on from there."""
+        self.tilt[index] = tilt
+
     def advance(self, command: np.ndarray, dt: float) -> np.ndarray:
         """Move the estimate dt seconds towards `command` (rad), at the servo's rate; plain Python floats (hot
         path, 250 Hz)."""

@@ -2,7 +2,8 @@
 oracle off (VT_FAIL_ORACLE 0): a ground station stops motor 1 in a hover; the autopilot learns of it only from the
 plant's ESC telemetry (RAW_RPM), says "Motor failure detected", clears SYS_STATUS's motor-outputs health and, with
 CA_FAILURE_MODE 1, flies without the motor. A ground station jams tilt servo 1 at 30 deg in a hover; the autopilot
-finds it from the moment it leaves unexplained, at the tilt it reached, and hovers on with it."""
+finds it from the moment it leaves unexplained, at the tilt it reached, and hovers on with it; the jam cleared, it
+finds the servo following its command again."""
 
 from __future__ import annotations
 
@@ -84,6 +85,17 @@ def test_a_jammed_tilt_servo_is_found_from_the_unexplained_moment_at_its_tilt_an
         roll, pitch = np.degrees(flown.euler[after, 0]), np.degrees(flown.euler[after, 1])
         assert np.max(np.abs(roll)) < 5.0
         assert np.max(np.abs(pitch)) < 10.0  # nose up about 6 deg: against the jammed rotor's forward force
+
+        gcs.inject_failure("servo", "ok", 1)  # the jam clears: the servo returns to its command
+        vehicle.truth.wait_until(lambda s: s.t > 12.0, timeout_sim_s=5.0, what="4 s after the jam cleared")
+        assert "Tilt servo 1 follows its command again" in gcs.statustexts, gcs.statustexts
+        gcs.wait_message("SYS_STATUS", lambda m: m.onboard_control_sensors_health & MOTOR_OUTPUTS)
+        log = vehicle.stderr("vtol-autopilot")
+        freed = log.index("tilt servo 1 follows its command again")
+        assert "jam detected" not in log[freed:]  # found healthy once, and left so
+        flown = vehicle.truth.trajectory()
+        late = flown.t > 11.0
+        assert np.max(np.abs(np.degrees(flown.euler[late, :2]))) < 3.0  # level again, the four rotors upright
 
 
 def test_a_hover_in_a_gusty_wind_raises_no_false_alarm(tmp_path):

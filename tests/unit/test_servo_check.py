@@ -64,6 +64,9 @@ def test_a_jam_found_again_is_not_the_first():
     said = [jam for jam in fly(true, estimated, reports=20, detector=detector) if jam is not None]
     assert [jam.first for jam in said] == [True, False, False]  # every 50 ms while the estimate stays put
     assert detector.jammed == [0]
+    detector.free(0)  # it followed its command again: a new finding is a new jam
+    assert detector.jammed == []
+    assert [jam.first for jam in fly(true, estimated, detector=detector) if jam is not None] == [True]
 
 
 def test_a_tilt_within_the_angle_threshold_is_not_failing():
