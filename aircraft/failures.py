@@ -152,3 +152,12 @@ def failed_sensors(failures: Iterable[Failure]) -> frozenset[FailureUnit]:
             else:
                 failed.discard(failure.unit)
     return frozenset(failed)
+
+
+def failed_actuators(failures: Iterable[Failure]) -> frozenset[int]:
+    """The actuator channels (0..11) failed after these failures, in the order they were applied (OK clears)."""
+    failed: set[int] = set()
+    for failure in failures:
+        channels = set(failure.channels)
+        failed = failed - channels if failure.kind == FailureType.OK else failed | channels
+    return frozenset(failed)

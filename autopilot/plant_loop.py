@@ -36,8 +36,8 @@ import numpy as np
 
 from aircraft.actuators import ROTOR_COUNT, ROTORS, SURFACES, TILTS, command_to_pwm
 from aircraft.airframe import Airframe
-from aircraft.failures import Failure, FailureType, FailureUnit
-from aircraft.rotors import RPM_PER_RAD_S
+from aircraft.failures import Failure, FailureType, FailureUnit, failed_actuators
+from aircraft.rotors import RPM_PER_RAD_S, thrust_from_speed
 from autopilot.commander.calibration import Calibration, Reading
 from autopilot.commander.commander import Commander
 from autopilot.commander.failure_detector import MotorCheck, MotorFailureDetector
@@ -89,17 +89,9 @@ class LoopOutputs:
     ulog: Logger | None = None
 
 
-SURFACE_SERVOS = (5, 6, 7, 8)  # the servo instances of the ailerons, the elevator and the rudder
-
-
 def surfaces_failed(known: list[Failure]) -> bool:
     """Whether, after `known` (in the order learnt), a control surface is failed: the model has them healthy."""
-    failed: set[int] = set()
-    for failure in known:
-        if failure.unit == FailureUnit.SERVO:
-            addressed = set(SURFACE_SERVOS) if failure.instance == 0 else {failure.instance} & set(SURFACE_SERVOS)
-            failed = failed - addressed if failure.kind == FailureType.OK else failed | addressed
-    return bool(failed)
+    return any(SURFACES.start <= channel < SURFACES.stop for channel in failed_actuators(known))
 
 
 class PlantLoop:
@@ -225,8 +217,7 @@ class PlantLoop:
             self.servo_jams.pause()
             return
         p, state, controller = self.params, self.state, self.controller
-        to_thrust = self.airframe.thrust_coefficient / (RPM_PER_RAD_S * RPM_PER_RAD_S)
-        thrusts = [to_thrust * rpm * rpm for rpm in self._rotor_rpm]
+        thrusts = [thrust_from_speed(self.airframe, rpm / RPM_PER_RAD_S) for rpm in self._rotor_rpm]
         check = ServoCheck(p["VT_FD_SRV_MOM"], math.radians(p["VT_FD_SRV_ANG"]), int(p["VT_FD_SRV_TOUT"]) * 1000)
         candidates = [servo for servo in range(ROTOR_COUNT) if servo not in self.motor_failures.failed]
         jam = self.servo_jams.sample(self._last_usec, state.body_rates.tolist(), thrusts,
@@ -289,11 +280,7 @@ class PlantLoop:
     def _knows_motor_failure(self, instance: int) -> bool:
         """The injection told the controllers of a failure of motor `instance` (1-based) that still holds (the
         latest for that motor is not OK): they fly with what it left."""
-        known = False
-        for failure in self.injection.known:
-            if failure.unit == FailureUnit.MOTOR and failure.instance in (0, instance):
-                known = failure.kind != FailureType.OK
-        return known
+        return ROTORS.start + instance - 1 in failed_actuators(self.injection.known)
 
     def _restart(self, t_usec: int) -> None:
         """The plant's clock went back: a new plant run."""

@@ -8,7 +8,7 @@ import math
 import pytest
 
 from aircraft.airframe import load_airframe
-from aircraft.failures import Failure, FailureType, FailureUnit
+from aircraft.failures import Failure, FailureType, FailureUnit, failed_actuators
 from autopilot.commander.servo_check import MomentModel, ServoCheck, ServoJamDetector, TiltFit, failing_servo
 from autopilot.plant_loop import surfaces_failed
 
@@ -104,3 +104,14 @@ def test_the_check_pauses_while_a_surface_is_known_failed_and_not_once_it_is_cle
     assert not surfaces_failed(
         [Failure(FailureUnit.SERVO, FailureType.OFF, 0), Failure(FailureUnit.SERVO, FailureType.OK, 0)]
     )
+
+
+def test_failed_actuators_follow_the_failures_in_order_and_ok_clears_what_it_addresses():
+    motor_1_off, all_motors_ok = (
+        Failure(FailureUnit.MOTOR, FailureType.OFF, 1),
+        Failure(FailureUnit.MOTOR, FailureType.OK, 0),
+    )
+    assert failed_actuators([motor_1_off]) == {0}
+    assert failed_actuators([motor_1_off, all_motors_ok]) == set()
+    assert failed_actuators([Failure(FailureUnit.SERVO, FailureType.STUCK, 2, 30.0), motor_1_off]) == {5, 0}
+    assert failed_actuators([Failure(FailureUnit.GYRO, FailureType.OFF, 0)]) == set()  # a sensor is no actuator
