@@ -44,6 +44,7 @@ class ReferenceNlp:
             {"x": w, "p": ca.vertcat(x0, ca.vec(params)), "f": cost, "g": ca.vertcat(*constraints)},
             {"ipopt.print_level": 0, "print_time": False, "ipopt.tol": tol, "ipopt.max_iter": 500},
         )  # fmt: skip
+        self._cost = self.nlp.get_function("nlp_f")
 
     def solve(self, x0: np.ndarray, params: np.ndarray) -> np.ndarray:
         """The optimal w from x0 and the stage parameters (NP, N+1), with the solver's current bounds."""
@@ -51,11 +52,18 @@ class ReferenceNlp:
         cold = np.zeros(solver.n_w)
         for k in range(solver.horizon + 1):
             cold[k * stride : k * stride + NX] = x0
-        p = np.concatenate((x0, solver.stage_parameters(params).ravel(order="F")))
-        result = self.nlp(x0=cold, p=p, lbx=solver.lbw, ubx=solver.ubw, lbg=self.lbg, ubg=self.ubg)
+        result = self.nlp(x0=cold, p=self._parameters(x0, params), lbx=solver.lbw, ubx=solver.ubw, lbg=self.lbg,
+                          ubg=self.ubg)  # fmt: skip
         if not self.nlp.stats()["success"]:
             raise RuntimeError(f"IPOPT did not converge: {self.nlp.stats()['return_status']}")
         return np.asarray(result["x"]).ravel()
+
+    def cost(self, w: np.ndarray, x0: np.ndarray, params: np.ndarray) -> float:
+        """The NLP's cost at w (from x0, the stage parameters (NP, N+1))."""
+        return float(self._cost(x=w, p=self._parameters(x0, params))["f"])
+
+    def _parameters(self, x0: np.ndarray, params: np.ndarray) -> np.ndarray:
+        return np.concatenate((x0, self.solver.stage_parameters(params).ravel(order="F")))
 
 
 def solve_reference_nlp(solver: RtiSolver, x0: np.ndarray, params: np.ndarray, tol: float = 1e-10) -> np.ndarray:

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from aircraft.airframe import Airframe, load_airframe
+from aircraft.failures import Failure, FailureType, FailureUnit
 from aircraft.frames import quaternion_from_euler
 from autopilot.control.flight_controller import VELOCITY_PERIOD_USEC
 from autopilot.control.pid_baseline import PidVelocityController
@@ -18,7 +19,9 @@ from autopilot.control.velocity_command import VelocityCommand
 from autopilot.control.velocity_controller import VelocityController
 from autopilot.controllers import KINDS, build_flight_controller
 from autopilot.mpc.controller import MpcVelocityController
+from autopilot.mpc.model import THRUST
 from autopilot.mpc.overlap import OverlappedMpc
+from autopilot.mpc.rti import MpcSolution
 from autopilot.topics.controller_kind import MPC
 from autopilot.topics.vehicle_state import VehicleState
 from autopilot.topics.yaw_setpoint import YawReference
@@ -139,3 +142,71 @@ def test_a_yaw_reference_turns_the_yaw_set_point_towards_it(airframe, kind):
         assert command.euler_sp[2] < math.radians(-5.0)
     held = fly(build(airframe, kind), "hover, hold")[-1]
     assert abs(held.euler_sp[2]) < math.radians(1.0)
+
+
+# ---- the same contract with a failure known (MAV_CMD_INJECT_FAILURE accepted, or found by the failure detector) ----
+
+# failure -> (what the controllers are told, the tilts (deg) the servo estimate gives them)
+FAILURES = {
+    "rotor 1 off": (Failure(FailureUnit.MOTOR, FailureType.OFF, 1), None),
+    "rotor 3 stuck at 40 %": (Failure(FailureUnit.MOTOR, FailureType.STUCK, 3, 0.4), None),
+    "tilt servo 1 jammed at 60 deg": (Failure(FailureUnit.SERVO, FailureType.STUCK, 1, 60.0), (60.0, None, None, None)),
+    "tilt servo 2 jammed at 0 deg": (Failure(FailureUnit.SERVO, FailureType.STUCK, 2, 0.0), (None, 0.0, None, None)),
+    "tilt servo 4 at half its rate": (Failure(FailureUnit.SERVO, FailureType.WRONG, 4, 0.5), None),
+    "elevon 1 stuck at 10 deg": (Failure(FailureUnit.SERVO, FailureType.STUCK, 5, 10.0), None),
+}
+FAILURE_CASES = ("hover, hold", "hover, cruise asked", "transition, brake", "cruise, turn and sink")
+
+
+def build_with(airframe: Airframe, variant: str, failure: Failure) -> VelocityController:
+    """The velocity controller of a flight controller that has been told of `failure`."""
+    overlapped = variant == MPC_OVERLAPPED
+    flight = build_flight_controller(airframe, MPC if overlapped else variant, mpc_overlap=overlapped)
+    flight.apply_failure(failure)
+    return flight.velocity_controller
+
+
+def fly_with(
+    controller: VelocityController, case: str, jammed: tuple[float | None, ...] | None
+) -> list[VelocityCommand]:
+    """`fly`, the tilts of jammed servos at their jam (where the servo estimate has them once they got there)."""
+    velocity, euler, rates, tilt_deg, v_sp = CASES[case]
+    tilts = np.radians([tilt_deg if jam is None else jam for jam in (jammed or (None,) * 4)])
+    setpoint = np.array(v_sp, dtype=float)
+    return [controller.update(state_at(tick * VELOCITY_PERIOD_USEC, velocity, euler, rates), setpoint, tilts.copy())
+            for tick in range(TICKS)]  # fmt: skip
+
+
+@pytest.mark.parametrize("failure", sorted(FAILURES))
+@pytest.mark.parametrize("case", FAILURE_CASES)
+@pytest.mark.parametrize("kind", VARIANTS)
+def test_with_a_failure_known_the_commands_are_finite_within_the_limits_and_repeat(airframe, kind, case, failure):
+    told, jammed = FAILURES[failure]
+    controller = build_with(airframe, kind, told)
+    limit = attitude_limit(controller)
+    commands = fly_with(controller, case, jammed)
+    for command in commands:
+        for values in arrays(command):
+            assert values.shape in ((3,), (4,)) and np.all(np.isfinite(values))
+        assert np.all(np.abs(command.euler_sp[0:2]) <= limit + TOLERANCE)
+        assert np.all(command.tilt_sp >= airframe.tilt_min - TOLERANCE)
+        assert np.all(command.tilt_sp <= airframe.tilt_max + TOLERANCE)
+        assert np.all((command.force_weights >= 0.0) & (command.force_weights <= 1.0))
+        assert isinstance(command.mode, str) and command.mode
+    for a, b in zip(commands, fly_with(build_with(airframe, kind, told), case, jammed)):
+        assert a.mode == b.mode and all(np.array_equal(x, y) for x, y in zip(arrays(a), arrays(b)))
+
+
+@pytest.mark.parametrize("case", FAILURE_CASES)
+@pytest.mark.parametrize("kind", (MPC, MPC_OVERLAPPED))
+def test_the_mpc_plans_a_jammed_servo_where_it_jammed_and_no_thrust_on_a_dead_rotor(airframe, kind, case):
+    """The MPC's own side of a failure (docs/mpc.md, failures): the jammed servo's tilt set-point is its jam, and the
+    plan gives a rotor that is off no thrust."""
+    told, jammed = FAILURES["tilt servo 1 jammed at 60 deg"]
+    for command in fly_with(build_with(airframe, kind, told), case, jammed):
+        assert command.tilt_sp[0] == pytest.approx(math.radians(60.0), abs=TOLERANCE)
+    controller = build_with(airframe, kind, FAILURES["rotor 1 off"][0])
+    fly_with(controller, case, None)
+    solution = controller.last_solution
+    assert isinstance(solution, MpcSolution) and solution.ok
+    assert np.abs(solution.u[:, THRUST][:, 0]).max() < 1e-6
