@@ -1,7 +1,7 @@
 """Where a simulated second goes in the lockstep SITL: the autopilot's pieces under cProfile, the plant's work.
 
     python benchmarks/bench_sitl_breakdown.py [--controller mpc|pid] [--overlap 0|1] [--profile accel]
-                                              [--duration 10]
+                                              [--duration 10] [--json FILE]
 
 Flies the profile twice in lockstep (vtol-sim + vtol-autopilot, no ground station, no zenoh, no log): once as it
 is, for the real wall time and each process's own work, and once with the autopilot under cProfile, for the
@@ -12,6 +12,7 @@ gives each piece's profiled time per simulated second and the same scaled to the
 from __future__ import annotations
 
 import argparse
+import json
 import pstats
 import sys
 import tempfile
@@ -73,6 +74,7 @@ def main() -> None:
     parser.add_argument("--overlap", type=int, choices=(0, 1), default=1, help="VT_MPC_OVERLAP")
     parser.add_argument("--profile", choices=sorted(PROFILES), default="accel")
     parser.add_argument("--duration", type=float, default=10.0, help="simulated seconds")
+    parser.add_argument("--json", type=Path, metavar="FILE", help="also write the table to FILE (JSON)")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as scratch:
         params = overlap_params(Path(scratch) / "params.json", args.overlap)
@@ -95,14 +97,22 @@ def main() -> None:
     receive_s, _ = cumulative(stats, "plant_link.py", "receive_step")
     scale = autopilot_busy_ms / ((run_s - receive_s) / sim_s * 1e3) if run_s > receive_s else 1.0
     print(f"{'piece':66} {'calls/s':>8} {'ms/s profiled':>14} {'ms/s scaled':>12}")
+    pieces = []
     for label, module, function in PIECES:
         seconds, calls = cumulative(stats, module, function)
         if calls == 0:
             continue
         per_second = seconds / sim_s * 1e3
         print(f"{label:66} {calls / sim_s:8.0f} {per_second:14.1f} {per_second * scale:12.1f}")
+        pieces.append({"piece": label, "calls_per_s": calls / sim_s, "ms_per_s": per_second * scale})
     print(f"(scaled: profiled times x {scale:.2f}, the unprofiled autopilot's work over the profiled one's outside "
           f"the plant link's receive)")  # fmt: skip
+    if args.json:
+        args.json.write_text(json.dumps({
+            "profile": args.profile, "seconds": args.duration, "controller": args.controller, "overlap": args.overlap,
+            "real_time_factor": pl["real_time_factor"], "wall_ms_per_s": wall_ms,
+            "autopilot_ms_per_s": autopilot_busy_ms, "plant_ms_per_s": plant_busy_ms, "pieces": pieces,
+        }, indent=1))  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -48,6 +48,7 @@ def benchmarks(runs: Path) -> tuple[Benchmark, ...]:
         Benchmark("scenarios", "bench_scenarios.py", ("--out", str(runs))),
         Benchmark("mpc", "bench_mpc.py", ("--seconds", "10", "--ipopt-samples", "3", "--horizons", "")),
         Benchmark("sitl", "bench_sitl.py", ("--repeats", "1")),
+        Benchmark("breakdown", "bench_sitl_breakdown.py", ("--duration", "5", "--overlap", "0")),
         Benchmark("plant", "bench_plant.py", ("--seconds", "5", "--repeats", "1")),
         Benchmark("allocation", "bench_allocation.py", ("--solves", "2000")),
         Benchmark("api", "bench_api.py", ("--runs", "3")),
@@ -96,6 +97,12 @@ METRICS: tuple[tuple[str, str, int], ...] = (
 )
 
 
+def piece_label(label: str) -> str:
+    """A breakdown piece's label with its nesting (two leading spaces a level) shown in a table cell."""
+    depth = (len(label) - len(label.lstrip(" "))) // 2
+    return "· " * depth + label.strip()
+
+
 def metric_cell(value: Any, digits: int) -> str:
     if value is None:
         return ""
@@ -118,7 +125,7 @@ def metrics_rows(runs: Mapping[str, Mapping[str, Any]]) -> list[tuple[str, ...]]
 
 
 def page(figures: Mapping[str, Any], stamp: Mapping[str, str]) -> str:
-    scenarios, mpc, sitl = figures["scenarios"], figures["mpc"], figures["sitl"]
+    scenarios, mpc, sitl, breakdown = figures["scenarios"], figures["mpc"], figures["sitl"], figures["breakdown"]
     plant, allocation, api, campaign = figures["plant"], figures["allocation"], figures["api"], figures["campaign"]
     run_rows = [
         (
@@ -136,6 +143,9 @@ def page(figures: Mapping[str, Any], stamp: Mapping[str, str]) -> str:
     sitl_rows = [(label, fixed(run["real_time_factor"], 1), fixed(run["wall_us_per_step"], 0),
                   fixed(run["autopilot_us_per_step"], 0), fixed(run["plant_us_per_step"], 0))
                  for label, run in sitl["configurations"].items()]  # fmt: skip
+    breakdown_rows = [(piece_label(piece["piece"]), fixed(piece["calls_per_s"], 0) if piece["calls_per_s"] >= 1 else "",
+                       fixed(piece["ms_per_s"], 1))
+                      for piece in breakdown["pieces"]]  # fmt: skip
     component_rows = [(name.removesuffix("_us").replace("_", " "), fixed(value, 1))
                       for name, value in plant["component_us"].items()]  # fmt: skip
     rates = campaign["flights_per_minute"]
@@ -192,6 +202,17 @@ def page(figures: Mapping[str, Any], stamp: Mapping[str, str]) -> str:
         "",
         *table(("configuration", "x real time", "wall µs / step", "autopilot µs / step", "plant µs / step"),
                sitl_rows),  # fmt: skip
+        "### Where a simulated second goes",
+        "",
+        f"`bench_sitl_breakdown.py`: the same lockstep pair, the {breakdown['controller'].upper()} solving "
+        f"{'one tick ahead' if breakdown['overlap'] else 'synchronously'}, {breakdown['seconds']:g} s of the "
+        f"{breakdown['profile']} profile: {fixed(breakdown['real_time_factor'], 1)}x real time. Per simulated "
+        f"second, {fixed(breakdown['wall_ms_per_s'], 0)} ms of wall time: the autopilot's work "
+        f"{fixed(breakdown['autopilot_ms_per_s'], 0)} ms, the plant's {fixed(breakdown['plant_ms_per_s'], 0)} ms "
+        "(its pieces: [the plant](#the-plant)). The autopilot's pieces, measured under cProfile and scaled to its "
+        "unprofiled work (a piece's time includes the pieces under it):",
+        "",
+        *table(("piece", "calls / simulated s", "ms / simulated s"), breakdown_rows),
         "## The plant",
         "",
         f"`bench_plant.py`: `vtol-sim` in lockstep against the smallest correct autopilot (an echo): "
@@ -229,8 +250,8 @@ def page(figures: Mapping[str, Any], stamp: Mapping[str, str]) -> str:
         "variant), `bench_sitl.py` (3 rounds), `bench_api.py --hover 60` (how many vehicles hover together at real "
         "time), `bench_campaign.py` (8 flights, `--repeats`). Others measure what this page does not: "
         "`bench_soak.py` (hours of hovering: memory and step time), `bench_ulog.py` (what the ULog logger adds), `bench_faults.py` (the fault campaign at full "
-        "size), `bench_busy.py` (an interactive flight beside a lockstep one), `bench_sitl_breakdown.py` (where a "
-        "simulated second goes, under cProfile), `bench_horizon.py` and `bench_braking_bound.py` (the long "
+        "size), `bench_busy.py` (an interactive flight beside a lockstep one; `bench_sitl_breakdown.py --controller "
+        "pid` or `--overlap 1` breaks down the other configurations), `bench_horizon.py` and `bench_braking_bound.py` (the long "
         "horizon's screening), `bench_engines.py` (Dask against Ray), `mavsdk_examples.py` (MAVSDK-Python's "
         "examples against `vtol up`), `compare_runs.py` (two `vtol scenario` folders, metric by metric and their "
         "time series byte for byte), `bench_control_path.py` (the flight controller's CPU time per simulated second "

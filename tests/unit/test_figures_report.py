@@ -30,6 +30,10 @@ FIGURES = {
     "sitl": {"profile": "accel", "seconds": 25, "configurations": {
         "pid": {"real_time_factor": 5.0, "wall_us_per_step": 500, "autopilot_us_per_step": 160,
                 "plant_us_per_step": 80}}},
+    "breakdown": {"profile": "accel", "seconds": 5, "controller": "mpc", "overlap": 0, "real_time_factor": 7.2,
+                  "wall_ms_per_s": 139, "autopilot_ms_per_s": 118, "plant_ms_per_s": 19, "pieces": [
+        {"piece": "autopilot loop (PlantLoop.run)", "calls_per_s": 0, "ms_per_s": 134.1},
+        {"piece": "    MPC tick, synchronous (MpcVelocityController.update)", "calls_per_s": 100, "ms_per_s": 43.3}]},
     "plant": {"component_us": {"rk4_step_us": 2.2}, "lockstep_real_time_factor": 5.7, "wall_us_per_step": 440,
               "plant_alone_real_time_factor": 24.6},
     "allocation": {"solves": 2000, "allocate_us_median": 25.0, "allocate_us_p99": 60.0, "fallbacks": 0},
@@ -42,7 +46,15 @@ STAMP = {"date": "today", "machine": "a machine", "commit": "`abc`", "load": "0.
 def test_the_page_has_every_section_the_guides_link_to():
     page = report.page(FIGURES, STAMP)
     sections = {slugify(line.lstrip("#").strip(), "-") for line in page.splitlines() if line.startswith("#")}
-    assert {"the-papers-experiments", "the-mpc-solve", "the-whole-sitl", "the-python-api", "campaigns"} <= sections
+    assert {
+        "the-papers-experiments",
+        "the-mpc-solve",
+        "the-whole-sitl",
+        "where-a-simulated-second-goes",
+        "the-python-api",
+        "campaigns",
+    } <= sections
+    assert "| · · MPC tick, synchronous (MpcVelocityController.update) | 100 | 43.3 |" in page
 
 
 def test_the_metrics_are_mpc_against_pid_and_a_lost_run_stands_out():
