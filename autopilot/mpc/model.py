@@ -39,9 +39,10 @@ from dataclasses import dataclass, replace
 import casadi as ca
 import numpy as np
 
-from aircraft.aerodynamics import aero_effectiveness
+from aircraft.aerodynamics import aero_effectiveness, surface_moment
 from aircraft.airframe import Airframe
 from aircraft.frames import rotation_from_euler, wrap_angle
+from aircraft.rotors import rotor_wrench
 from aircraft.wrench import body_wrench
 from autopilot.control.attitude import GAIN_COUNT, RATE_D_GAINS, attitude_law
 from autopilot.control.velocity_command import has_course
@@ -72,7 +73,9 @@ P_R_THRUST, P_R_ROTOR_LIFT, P_R_TILT_RATE = P_Q_PSI_DOT.stop, P_Q_PSI_DOT.stop +
 P_R_PSI_D = slice(P_R_TILT_RATE + 1, P_R_TILT_RATE + 4)
 P_WEIGHTS = slice(P_Q_REF.start, P_R_PSI_D.stop)
 P_ATTITUDE_BOUND = slice(P_R_PSI_D.stop, P_R_PSI_D.stop + 2)
-NP = P_ATTITUDE_BOUND.stop
+# sqrt of the rotors' moment bound's weight (moment_bound_residual): of q_moment_bound while a rotor has failed, else 0.
+P_MOMENT_BOUND = P_ATTITUDE_BOUND.stop
+NP = P_MOMENT_BOUND + 1
 P_SOLVER = slice(P_GRID.start, NP)
 # The stage the paper's weights are given for (Table 2: 25 stages of 10 ms); a stage of length dt weighs dt / this,
 # so the cost stays the same integral on any grid. Also the delay of Psi_dot_prev in the continuous-time form.
@@ -110,6 +113,12 @@ class MpcWeights:
     # Each stage's cost weighed by its length over REFERENCE_STAGE_S (the same integral on any grid), or each stage
     # alike (as the paper's uniform stages are).
     weigh_by_length: bool = True
+    # With a rotor failed, the moment of the planned rotor thrusts bounded softly to what the control surfaces can
+    # cancel at the stage's airspeed, less a margin for the attitude loop (moment_bound_residual): q per (N m)^2
+    # (VT_MPC_Q_MOM; 0 or no failure: no bound, as the paper), the softplus width (N m), the surfaces' share.
+    q_moment_bound: float = 1000.0
+    moment_bound_width: float = 0.5
+    moment_bound_share: float = 0.5
 
     def table_2_rows(self) -> np.ndarray:
         """The Table 2 weights as the stage parameters P_WEIGHTS carry them."""
@@ -121,7 +130,7 @@ class MpcWeights:
         return replace(self, q_ref=MpcWeights.q_ref, q_final=MpcWeights.q_final, q_psi=MpcWeights.q_psi,
                        q_psi_dot=MpcWeights.q_psi_dot, r_thrust=MpcWeights.r_thrust,
                        r_rotor_lift=MpcWeights.r_rotor_lift, r_tilt_rate=MpcWeights.r_tilt_rate,
-                       r_psi_d=MpcWeights.r_psi_d)  # fmt: skip
+                       r_psi_d=MpcWeights.r_psi_d, q_moment_bound=MpcWeights.q_moment_bound)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -222,6 +231,21 @@ def attitude_bound_residual(weights: MpcWeights, x: ca.SX, bound: ca.SX) -> ca.S
                       ca.vertcat(angles - bound, -angles - bound))  # fmt: skip
 
 
+def moment_bound_residual(airframe: Airframe, weights: MpcWeights, x: ca.SX, u: ca.SX, sqrt_q: ca.SX) -> ca.SX:
+    """The soft bound |M_i| <= share x the surfaces' reach on each body axis i, M the moment of the planned rotor
+    thrusts at the planned tilts, weighed q per (N m)^2 (sqrt_q: the stage parameter P_MOMENT_BOUND). The MPC plans the rotors for
+    force; with a rotor out, thrust the remaining three share equally makes a moment that only the surfaces can
+    cancel, and where they cannot the allocator leaves it (the rotor-failure map lost the aircraft so at 18 m/s,
+    docs/campaigns.md). The surfaces' reach is their full deflection at the stage's airspeed (aircraft.aerodynamics)."""
+    v_air_body = rotation_from_euler(x[PSI]).T @ x[V]
+    _, moment = rotor_wrench(airframe, u[THRUST], x[CHI])
+    reach = weights.moment_bound_share * ca.fabs(surface_moment(airframe, v_air_body, ca.DM([1.0, -1.0, 1.0, 1.0])))
+    width = weights.moment_bound_width
+    scaled = ca.vertcat(moment - reach, -moment - reach) / width
+    softplus = ca.if_else(scaled > 30, scaled, ca.log1p(ca.exp(ca.fmin(scaled, 30))))
+    return sqrt_q * width * softplus
+
+
 def yaw_bound_residual(weights: MpcWeights, x: ca.SX, psi_ref: ca.SX) -> ca.SX:
     """The soft bound |psi - psi_ref| <= yaw_bound: on a 2 s horizon the cheapest braking at speed was to yaw the
     aircraft across its course and brake on the fuselage's side force (docs/design/alternatives.md, the long horizon)."""
@@ -278,6 +302,7 @@ def stage_residual(airframe: Airframe, weights: MpcWeights, soft: SoftTiltCost, 
         yaw_bound_residual(weights, x, psi_ref),
         tilt_spread_residual(weights, x, free_tilt),
         attitude_sp_move_residual(weights, u, p),
+        moment_bound_residual(airframe, weights, x, u, p[P_MOMENT_BOUND]),
     )
 
 

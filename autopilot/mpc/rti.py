@@ -38,6 +38,7 @@ from autopilot.mpc.model import (
     P_ATTITUDE_SP_PREV,
     P_GAINS,
     P_GRID,
+    P_MOMENT_BOUND,
     P_MOVE,
     P_SOLVER,
     P_WEIGHTS,
@@ -256,6 +257,10 @@ class RtiSolver:
         u_lb[CHI_DOT] = np.where(stuck, 0.0, u_lb[CHI_DOT])
         u_ub[CHI_DOT] = np.where(stuck, 0.0, u_ub[CHI_DOT])
         self.lbw, self.ubw = self._stack(x_lb, u_lb), self._stack(x_ub, u_ub)
+        rotor_failed = bool(np.any(thrust_max < self.airframe.thrust_planned_max) or np.any(thrust_min > 0.0))
+        self.solver_rows[self._solver_row(P_MOMENT_BOUND)] = (
+            math.sqrt(self.weights.q_moment_bound) if rotor_failed else 0.0
+        )
 
     # ---- solving ------------------------------------------------------------------------------------------
     def states(self) -> np.ndarray:

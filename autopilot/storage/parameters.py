@@ -709,6 +709,16 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
     ),
     P("VT_MPC_R_TILTR", REAL32, 1.0, 0.0, 10000.0, "", "MPC weight: rotor tilt rate", px4=False),
     P(
+        "VT_MPC_Q_MOM",
+        REAL32,
+        1000.0,
+        0.0,
+        1e6,
+        "1/(N m)^2",
+        "MPC weight, with a rotor failed: the planned rotors' moment beyond half of what the surfaces can cancel",
+        px4=False,
+    ),
+    P(
         "VT_MPC_R_ROLLSP",
         REAL32,
         10.0,
