@@ -111,12 +111,12 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
     P(
         "VT_FAIL_ORACLE",
         INT32,
-        1,
+        0,
         0,
         1,
         "",
-        "1: the controllers learn of an injected motor or servo failure from the injection itself (the paper's "
-        "known failures); 0: only from the failure detector (a stopped motor, a jammed tilt servo)",
+        "0: the controllers learn of a motor or servo failure only from the failure detector (a stopped motor, a "
+        "jammed tilt servo), as PX4's; 1: from the injection itself (the paper's known failures: vtol scenario)",
         px4=False,
     ),
     P(

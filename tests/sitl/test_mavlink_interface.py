@@ -232,9 +232,13 @@ def test_commands_with_bad_parameters_are_refused_with_a_reason(hovering):
     assert_hovering(gs, start)
 
 
+def set_int_parameter(gs, name: str, integer: int) -> None:
+    value = struct.unpack("<f", struct.pack("<i", integer))[0]
+    assert gs.param_set(name, value, M.MAV_PARAM_TYPE_INT32).param_value == value
+
+
 def set_failure_enabled(gs, enabled: int) -> None:
-    value = struct.unpack("<f", struct.pack("<i", enabled))[0]
-    assert gs.param_set("SYS_FAILURE_EN", value, M.MAV_PARAM_TYPE_INT32).param_value == value
+    set_int_parameter(gs, "SYS_FAILURE_EN", enabled)
 
 
 def test_failure_injection_is_gated_forwarded_acknowledged_and_announced(hovering):
@@ -257,15 +261,18 @@ def test_failure_injection_is_gated_forwarded_acknowledged_and_announced(hoverin
         ]:
             assert gs.command(M.MAV_CMD_INJECT_FAILURE, *params).result == result, what
         assert any("plant: failure refused" in t for t in gs.statustexts[texts:])
-        # Cleared (type OK), and with a delay before the controllers learn of a failure (SYS_FAILURE_DLY).
+        # Cleared (type OK), and with the controllers told by the injection (the paper's known failures), a delay
+        # before they learn of it (SYS_FAILURE_DLY).
         texts = len(gs.statustexts)
         assert gs.command(M.MAV_CMD_INJECT_FAILURE, 102, 0, 1).result == M.MAV_RESULT_ACCEPTED
         gs.wait(lambda: "Failure injected: servo 1 OK (cleared)" in gs.statustexts[texts:], "the clearing")
+        set_int_parameter(gs, "VT_FAIL_ORACLE", 1)
         assert gs.param_set("SYS_FAILURE_DLY", 0.5, M.MAV_PARAM_TYPE_REAL32).param_value == 0.5
         assert gs.command(M.MAV_CMD_INJECT_FAILURE, 101, 4, 2, 0.8).result == M.MAV_RESULT_ACCEPTED
         gs.wait(lambda: any("motor 2 WRONG x0.8, controllers told in 0.5 s" in t for t in gs.statustexts), "delay")
         assert gs.command(M.MAV_CMD_INJECT_FAILURE, 101, 0, 0).result == M.MAV_RESULT_ACCEPTED
         assert gs.param_set("SYS_FAILURE_DLY", 0.0, M.MAV_PARAM_TYPE_REAL32).param_value == 0.0
+        set_int_parameter(gs, "VT_FAIL_ORACLE", 0)
         gs.wait_sim(2.0)
         gs.wait(lambda: all(abs(v) < 0.5 for v in gs.velocity), "the hover to settle", timeout_s=20)
         assert_hovering(gs)
