@@ -232,16 +232,18 @@ def attitude_bound_residual(weights: MpcWeights, x: ca.SX, bound: ca.SX) -> ca.S
 
 
 def moment_bound_residual(airframe: Airframe, weights: MpcWeights, x: ca.SX, u: ca.SX, sqrt_q: ca.SX) -> ca.SX:
-    """The soft bound |M_i| <= share x the surfaces' reach on each body axis i, M the moment of the planned rotor
-    thrusts at the planned tilts, weighed q per (N m)^2 (sqrt_q: the stage parameter P_MOMENT_BOUND). The MPC plans the rotors for
-    force; with a rotor out, thrust the remaining three share equally makes a moment that only the surfaces can
-    cancel, and where they cannot the allocator leaves it (the rotor-failure map lost the aircraft so at 18 m/s,
-    docs/campaigns.md). The surfaces' reach is their full deflection at the stage's airspeed (aircraft.aerodynamics)."""
+    """The soft bound |M_i| <= share x the surfaces' reach in roll and pitch, M the moment of the planned rotor
+    thrusts at the planned tilts, weighed q per (N m)^2 (sqrt_q: the stage parameter P_MOMENT_BOUND). The MPC plans
+    the rotors for force; with a rotor out, thrust the remaining three share equally makes a moment that only the
+    surfaces can cancel, and where they cannot the allocator leaves it (the rotor-failure map lost the aircraft so at
+    18 m/s, docs/campaigns.md). The surfaces' reach is their full deflection at the stage's airspeed
+    (aircraft.aerodynamics). Yaw is left to the allocator's differential thrust: the rudder cancels a tenth of what
+    the ailerons and the elevator do, and a yaw bound that tight made the plans at cruise worse, not safer."""
     v_air_body = rotation_from_euler(x[PSI]).T @ x[V]
     _, moment = rotor_wrench(airframe, u[THRUST], x[CHI])
     reach = weights.moment_bound_share * ca.fabs(surface_moment(airframe, v_air_body, ca.DM([1.0, -1.0, 1.0, 1.0])))
     width = weights.moment_bound_width
-    scaled = ca.vertcat(moment - reach, -moment - reach) / width
+    scaled = ca.vertcat(moment[0:2] - reach[0:2], -moment[0:2] - reach[0:2]) / width
     softplus = ca.if_else(scaled > 30, scaled, ca.log1p(ca.exp(ca.fmin(scaled, 30))))
     return sqrt_q * width * softplus
 
