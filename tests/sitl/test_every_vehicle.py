@@ -121,7 +121,11 @@ def inject(gs: GroundStation, unit: int, kind: int, instance: int, value: float 
 
 
 def exercise_failure_injection(gs: GroundStation, truth: TruthFeed) -> None:
-    """A motor, a servo and a sensor failed and cleared through MAVLink, each seen in the plant's truth."""
+    """A motor, a servo and a sensor failed and cleared through MAVLink, each seen in the plant's truth. The
+    controllers are told by the injection (VT_FAIL_ORACLE 1): a motor failure the detector finds stands until
+    disarming, as PX4's, so the rotor would not spin again once cleared."""
+    oracle = struct.unpack("<f", struct.pack("<i", 1))[0]
+    assert gs.param_set("VT_FAIL_ORACLE", oracle, M.MAV_PARAM_TYPE_INT32).param_value == oracle
     inject(gs, 101, M.FAILURE_TYPE_OFF, 1)  # rotor 1 stops at once
     truth.wait_until(lambda s: s.rotor_speeds[0] == 0.0, 1.0, what="rotor 1 stopped")
     inject(gs, 101, M.FAILURE_TYPE_OK, 1)
