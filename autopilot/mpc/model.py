@@ -73,6 +73,8 @@ P_R_THRUST, P_R_ROTOR_LIFT, P_R_TILT_RATE = P_Q_PSI_DOT.stop, P_Q_PSI_DOT.stop +
 P_R_PSI_D = slice(P_R_TILT_RATE + 1, P_R_TILT_RATE + 4)
 P_WEIGHTS = slice(P_Q_REF.start, P_R_PSI_D.stop)
 P_ATTITUDE_BOUND = slice(P_R_PSI_D.stop, P_R_PSI_D.stop + 2)
+# The surfaces' deflections (aileron L, aileron R, elevator, rudder, in -1..1) that give each its positive moment.
+FULL_DEFLECTION = (1.0, -1.0, 1.0, 1.0)
 # sqrt of the rotors' moment bound's weight (moment_bound_residual): of q_moment_bound while a rotor has failed, else 0.
 P_MOMENT_BOUND = P_ATTITUDE_BOUND.stop
 NP = P_MOMENT_BOUND + 1
@@ -216,9 +218,12 @@ def step_parameters(dt: float, rate_held: bool, gains: np.ndarray) -> np.ndarray
 def soft_bound(q: float, width: float, excess: ca.SX) -> ca.SX:
     """~0 where excess (how far beyond the bound) < -a few widths, ~sqrt(q) excess beyond it; smooth (softplus),
     so that the Gauss-Newton Hessian sees the bound before the plan reaches it."""
-    scaled = excess / width
-    softplus = ca.if_else(scaled > 30, scaled, ca.log1p(ca.exp(ca.fmin(scaled, 30))))
-    return math.sqrt(q) * width * softplus
+    return math.sqrt(q) * width * softplus(excess / width)
+
+
+def softplus(scaled: ca.SX) -> ca.SX:
+    """log(1 + e^scaled), taken as scaled itself beyond 30 (where they agree to double precision)."""
+    return ca.if_else(scaled > 30, scaled, ca.log1p(ca.exp(ca.fmin(scaled, 30))))
 
 
 def attitude_bound_residual(weights: MpcWeights, x: ca.SX, bound: ca.SX) -> ca.SX:
@@ -241,11 +246,9 @@ def moment_bound_residual(airframe: Airframe, weights: MpcWeights, x: ca.SX, u: 
     the ailerons and the elevator do, and a yaw bound that tight made the plans at cruise worse, not safer."""
     v_air_body = rotation_from_euler(x[PSI]).T @ x[V]
     _, moment = rotor_wrench(airframe, u[THRUST], x[CHI])
-    reach = weights.moment_bound_share * ca.fabs(surface_moment(airframe, v_air_body, ca.DM([1.0, -1.0, 1.0, 1.0])))
+    reach = weights.moment_bound_share * ca.fabs(surface_moment(airframe, v_air_body, ca.DM(FULL_DEFLECTION)))
     width = weights.moment_bound_width
-    scaled = ca.vertcat(moment[0:2] - reach[0:2], -moment[0:2] - reach[0:2]) / width
-    softplus = ca.if_else(scaled > 30, scaled, ca.log1p(ca.exp(ca.fmin(scaled, 30))))
-    return sqrt_q * width * softplus
+    return sqrt_q * width * softplus(ca.vertcat(moment[0:2] - reach[0:2], -moment[0:2] - reach[0:2]) / width)
 
 
 def yaw_bound_residual(weights: MpcWeights, x: ca.SX, psi_ref: ca.SX) -> ca.SX:

@@ -11,7 +11,6 @@ import os
 import re
 import signal
 import socket
-import struct
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -22,6 +21,7 @@ import pytest
 
 from tests.sitl.ground_station import OFFBOARD, GroundStation, MissionClient, said
 from tiltrotor_sitl import Fleet, ProcessOptions, TruthFeed, Vehicle, VehicleHandle
+from tiltrotor_sitl.ground_station import encode_parameter
 from transport.geodesy import LocalGeodetic
 from transport.mavlink import mavlink as M
 from transport.ports import MAX_SYSID, Ports
@@ -124,7 +124,7 @@ def exercise_failure_injection(gs: GroundStation, truth: TruthFeed) -> None:
     """A motor, a servo and a sensor failed and cleared through MAVLink, each seen in the plant's truth. The
     controllers are told by the injection (VT_FAIL_ORACLE 1): a motor failure the detector finds stands until
     disarming, as PX4's, so the rotor would not spin again once cleared."""
-    oracle = struct.unpack("<f", struct.pack("<i", 1))[0]
+    oracle = encode_parameter(1, M.MAV_PARAM_TYPE_INT32)
     assert gs.param_set("VT_FAIL_ORACLE", oracle, M.MAV_PARAM_TYPE_INT32).param_value == oracle
     inject(gs, 101, M.FAILURE_TYPE_OFF, 1)  # rotor 1 stops at once
     truth.wait_until(lambda s: s.rotor_speeds[0] == 0.0, 1.0, what="rotor 1 stopped")
@@ -212,7 +212,7 @@ def test_vehicle_3_of_vtol_up_count_3_takes_its_failures(tmp_path):
     gs = GroundStation(third.gcs_bind, third.system_id, speaks_first=True)
     try:
         gs.connect()
-        one = struct.unpack("<f", struct.pack("<i", 1))[0]  # PX4's bytewise INT32
+        one = encode_parameter(1, M.MAV_PARAM_TYPE_INT32)  # PX4's bytewise INT32
         assert gs.param_set("SYS_FAILURE_EN", one, M.MAV_PARAM_TYPE_INT32).param_value == one
         truth = TruthFeed(third.zenoh_plant, third.system_id)
         exercise_failure_injection(gs, truth)

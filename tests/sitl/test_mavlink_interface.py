@@ -7,7 +7,6 @@ from __future__ import annotations
 import math
 import random
 import socket
-import struct
 import time
 from pathlib import Path
 
@@ -18,6 +17,7 @@ from pymavlink.dialects.v20 import ardupilotmega
 from aircraft.actuators import ROTORS, TILTS, pwm_to_command
 from tests.sitl.ground_station import HOLD, OFFBOARD, VELOCITY_MASK
 from tests.sitl.mavlink_sitl import start_sitl
+from tiltrotor_sitl.ground_station import encode_parameter
 from transport.mavlink import Link
 from transport.mavlink import mavlink as M
 
@@ -233,7 +233,7 @@ def test_commands_with_bad_parameters_are_refused_with_a_reason(hovering):
 
 
 def set_int_parameter(gs, name: str, integer: int) -> None:
-    value = struct.unpack("<f", struct.pack("<i", integer))[0]
+    value = encode_parameter(integer, M.MAV_PARAM_TYPE_INT32)
     assert gs.param_set(name, value, M.MAV_PARAM_TYPE_INT32).param_value == value
 
 

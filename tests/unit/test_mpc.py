@@ -14,6 +14,7 @@ from aircraft.rotors import rotor_wrench
 from autopilot.mpc.horizon import LONG
 from autopilot.mpc.model import (
     CHI,
+    FULL_DEFLECTION,
     NP,
     NU,
     NX,
@@ -180,7 +181,7 @@ def planned_rotor_moments(solver: RtiSolver) -> tuple[np.ndarray, np.ndarray]:
     for x, u in zip(solver.states()[:-1], solver.inputs()):
         _, moment = rotor_wrench(airframe, ca.DM(u[THRUST]), ca.DM(x[CHI]))
         v_air_body = np.asarray(rotation_from_euler(ca.DM(x[PSI]))).T @ x[V]
-        reach = surface_moment(airframe, ca.DM(v_air_body), ca.DM([1.0, -1.0, 1.0, 1.0]))
+        reach = surface_moment(airframe, ca.DM(v_air_body), ca.DM(FULL_DEFLECTION))
         moments.append(np.asarray(moment).ravel())
         reaches.append(np.abs(np.asarray(reach).ravel()))
     return np.array(moments), np.array(reaches)

@@ -30,6 +30,7 @@ TICKS = 25  # 0.25 s at 100 Hz per case
 MPC_OVERLAPPED = "mpc-overlapped"  # the MPC solving one tick ahead on its worker thread (VT_MPC_OVERLAP = 1)
 VARIANTS = (*KINDS, MPC_OVERLAPPED)
 TOLERANCE = 1e-6  # rad: the MPC meets its bounds to the QP's tolerance
+Jams = tuple[float | None, float | None, float | None, float | None]  # per tilt servo: its jam (deg), None if free
 
 
 @pytest.fixture(scope="module")
@@ -61,10 +62,14 @@ CASES = {
 }
 
 
-def build(airframe: Airframe, variant: str) -> VelocityController:
+def build(airframe: Airframe, variant: str, failure: Failure | None = None) -> VelocityController:
+    """The velocity controller of a flight controller (told of `failure` when given)."""
     overlapped = variant == MPC_OVERLAPPED
     kind = MPC if overlapped else variant
-    controller = build_flight_controller(airframe, kind, mpc_overlap=overlapped).velocity_controller
+    flight = build_flight_controller(airframe, kind, mpc_overlap=overlapped)
+    if failure is not None:
+        flight.apply_failure(failure)
+    controller = flight.velocity_controller
     expected = OverlappedMpc if overlapped else MpcVelocityController if kind == MPC else PidVelocityController
     assert isinstance(controller, expected)
     return controller
@@ -78,9 +83,11 @@ def attitude_limit(controller: VelocityController) -> float:
     return math.radians(max(p.mc_tilt_max_deg, p.fw_roll_max_deg, p.fw_pitch_max_deg))
 
 
-def fly(controller: VelocityController, case: str) -> list[VelocityCommand]:
+def fly(controller: VelocityController, case: str, jammed: Jams | None = None) -> list[VelocityCommand]:
+    """The case's commands; the tilts of `jammed` servos (deg, None: free) at their jam, where the servo estimate
+    has them once they got there."""
     velocity, euler, rates, tilt_deg, v_sp = CASES[case]
-    tilts = np.full(4, math.radians(tilt_deg))
+    tilts = np.radians([tilt_deg if jam is None else jam for jam in (jammed or (None,) * 4)])
     setpoint = np.array(v_sp, dtype=float)
     commands = []
     for tick in range(TICKS):
@@ -95,6 +102,24 @@ def arrays(command: VelocityCommand) -> tuple[np.ndarray, ...]:
     return command.euler_sp, command.tilt_sp, command.force_sp_body, command.force_weights
 
 
+def assert_keeps_the_contract(command: VelocityCommand, airframe: Airframe, limit: float) -> None:
+    """Finite set-points of the right shapes, attitude and tilts within the limits, weights in 0..1, a phase name."""
+    for values in arrays(command):
+        assert values.shape in ((3,), (4,)) and np.all(np.isfinite(values))
+    assert np.all(np.abs(command.euler_sp[0:2]) <= limit + TOLERANCE)
+    assert np.all(command.tilt_sp >= airframe.tilt_min - TOLERANCE)
+    assert np.all(command.tilt_sp <= airframe.tilt_max + TOLERANCE)
+    assert np.all((command.force_weights >= 0.0) & (command.force_weights <= 1.0))
+    assert isinstance(command.mode, str) and command.mode
+
+
+def assert_the_same(first: list[VelocityCommand], second: list[VelocityCommand]) -> None:
+    for a, b in zip(first, second):
+        assert a.mode == b.mode and a.yaw_by_tilt == b.yaw_by_tilt
+        for values_a, values_b in zip(arrays(a), arrays(b)):
+            assert np.array_equal(values_a, values_b)
+
+
 @pytest.mark.parametrize("case", sorted(CASES))
 @pytest.mark.parametrize("kind", VARIANTS)
 def test_commands_are_finite_and_within_the_limits(airframe, kind, case):
@@ -102,13 +127,7 @@ def test_commands_are_finite_and_within_the_limits(airframe, kind, case):
     limit = attitude_limit(controller)
     switches = controller.mode_switches
     for command in fly(controller, case):
-        for values in arrays(command):
-            assert values.shape in ((3,), (4,)) and np.all(np.isfinite(values))
-        assert np.all(np.abs(command.euler_sp[0:2]) <= limit + TOLERANCE)
-        assert np.all(command.tilt_sp >= airframe.tilt_min - TOLERANCE)
-        assert np.all(command.tilt_sp <= airframe.tilt_max + TOLERANCE)
-        assert np.all((command.force_weights >= 0.0) & (command.force_weights <= 1.0))
-        assert isinstance(command.mode, str) and command.mode
+        assert_keeps_the_contract(command, airframe, limit)
         assert isinstance(controller.mode_switches, int) and controller.mode_switches >= switches
         switches = controller.mode_switches
 
@@ -116,11 +135,7 @@ def test_commands_are_finite_and_within_the_limits(airframe, kind, case):
 @pytest.mark.parametrize("kind", VARIANTS)
 def test_the_same_inputs_give_the_same_commands(airframe, kind):
     for case in ("hover, cruise asked", "cruise, turn and sink"):
-        first, second = fly(build(airframe, kind), case), fly(build(airframe, kind), case)
-        for a, b in zip(first, second):
-            assert a.mode == b.mode and a.yaw_by_tilt == b.yaw_by_tilt
-            for values_a, values_b in zip(arrays(a), arrays(b)):
-                assert np.array_equal(values_a, values_b)
+        assert_the_same(fly(build(airframe, kind), case), fly(build(airframe, kind), case))
 
 
 @pytest.mark.parametrize("kind", VARIANTS)
@@ -158,43 +173,17 @@ FAILURES = {
 FAILURE_CASES = ("hover, hold", "hover, cruise asked", "transition, brake", "cruise, turn and sink")
 
 
-def build_with(airframe: Airframe, variant: str, failure: Failure) -> VelocityController:
-    """The velocity controller of a flight controller that has been told of `failure`."""
-    overlapped = variant == MPC_OVERLAPPED
-    flight = build_flight_controller(airframe, MPC if overlapped else variant, mpc_overlap=overlapped)
-    flight.apply_failure(failure)
-    return flight.velocity_controller
-
-
-def fly_with(
-    controller: VelocityController, case: str, jammed: tuple[float | None, ...] | None
-) -> list[VelocityCommand]:
-    """`fly`, the tilts of jammed servos at their jam (where the servo estimate has them once they got there)."""
-    velocity, euler, rates, tilt_deg, v_sp = CASES[case]
-    tilts = np.radians([tilt_deg if jam is None else jam for jam in (jammed or (None,) * 4)])
-    setpoint = np.array(v_sp, dtype=float)
-    return [controller.update(state_at(tick * VELOCITY_PERIOD_USEC, velocity, euler, rates), setpoint, tilts.copy())
-            for tick in range(TICKS)]  # fmt: skip
-
-
 @pytest.mark.parametrize("failure", sorted(FAILURES))
 @pytest.mark.parametrize("case", FAILURE_CASES)
 @pytest.mark.parametrize("kind", VARIANTS)
 def test_with_a_failure_known_the_commands_are_finite_within_the_limits_and_repeat(airframe, kind, case, failure):
     told, jammed = FAILURES[failure]
-    controller = build_with(airframe, kind, told)
+    controller = build(airframe, kind, told)
     limit = attitude_limit(controller)
-    commands = fly_with(controller, case, jammed)
+    commands = fly(controller, case, jammed)
     for command in commands:
-        for values in arrays(command):
-            assert values.shape in ((3,), (4,)) and np.all(np.isfinite(values))
-        assert np.all(np.abs(command.euler_sp[0:2]) <= limit + TOLERANCE)
-        assert np.all(command.tilt_sp >= airframe.tilt_min - TOLERANCE)
-        assert np.all(command.tilt_sp <= airframe.tilt_max + TOLERANCE)
-        assert np.all((command.force_weights >= 0.0) & (command.force_weights <= 1.0))
-        assert isinstance(command.mode, str) and command.mode
-    for a, b in zip(commands, fly_with(build_with(airframe, kind, told), case, jammed)):
-        assert a.mode == b.mode and all(np.array_equal(x, y) for x, y in zip(arrays(a), arrays(b)))
+        assert_keeps_the_contract(command, airframe, limit)
+    assert_the_same(commands, fly(build(airframe, kind, told), case, jammed))
 
 
 @pytest.mark.parametrize("case", FAILURE_CASES)
@@ -203,10 +192,10 @@ def test_the_mpc_plans_a_jammed_servo_where_it_jammed_and_no_thrust_on_a_dead_ro
     """The MPC's own side of a failure (docs/mpc.md, failures): the jammed servo's tilt set-point is its jam, and the
     plan gives a rotor that is off no thrust."""
     told, jammed = FAILURES["tilt servo 1 jammed at 60 deg"]
-    for command in fly_with(build_with(airframe, kind, told), case, jammed):
+    for command in fly(build(airframe, kind, told), case, jammed):
         assert command.tilt_sp[0] == pytest.approx(math.radians(60.0), abs=TOLERANCE)
-    controller = build_with(airframe, kind, FAILURES["rotor 1 off"][0])
-    fly_with(controller, case, None)
+    controller = build(airframe, kind, FAILURES["rotor 1 off"][0])
+    fly(controller, case)
     solution = controller.last_solution
     assert isinstance(solution, MpcSolution) and solution.ok
     assert np.abs(solution.u[:, THRUST][:, 0]).max() < 1e-6
