@@ -283,6 +283,7 @@ def main(argv: list[str] | None = None) -> int:
         modes=commander.navigator.ids,
         events_publisher=None if session is None else session.declare_publisher(autopilot_events_key(system_id)),
         quiet=args.quiet, files=file_root, logs=files, statustext_sink=None if ulog is None else ulog.statustext,
+        logs_finishing=(lambda: False) if ulog is None else ulog.finishing,
     )  # fmt: skip
     kind = controller_kind(args.controller, params.get_int("VT_CTRL"))
 

@@ -76,6 +76,11 @@ class LogFile:
         self._thread.join(timeout_s)
         return not self._thread.is_alive()
 
+    @property
+    def finished(self) -> bool:
+        """Closed and all written (or ended by an error)."""
+        return not self._thread.is_alive()
+
     def _run(self) -> None:
         try:
             while True:

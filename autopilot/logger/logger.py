@@ -195,6 +195,10 @@ class Logger:
                 self.note(f"the log {file.path} was not finished within {JOIN_TIMEOUT_S:g} s")
         self._report_errors()
 
+    def finishing(self) -> bool:
+        """A log has ended and is still being written to disk."""
+        return any(not file.finished for file in self._closed)
+
     @property
     def logging(self) -> Path | None:
         """The log being written, None between logs."""

@@ -9,7 +9,8 @@
     LOG_ERASE                         removes every log (and their day folders)
 
 The list is taken at LOG_REQUEST_LIST (a log being written is in it with its size then, as in PX4, which serves logs
-while armed too); LOG_REQUEST_DATA refers to that list. Entries and data go out on the link they were asked on,
+while armed too), or as soon as a log just ended is all on disk (within SETTLE_S), so a log asked for right after
+disarming is listed whole; LOG_REQUEST_DATA refers to that list. Entries and data go out on the link they were asked on,
 PER_STEP messages a plant step, so a download never holds the control loop up.
 """
 
@@ -17,6 +18,8 @@ from __future__ import annotations
 
 import os
 import shutil
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import BinaryIO
 
@@ -29,6 +32,15 @@ ENTRIES_PER_STEP = 16
 DATA_PER_STEP = 16  # about 1.8 kB a plant step
 ALL = 0xFFFF
 TO_THE_END = 0xFFFFFFFF
+SETTLE_S = 2.0  # wall clock: how long a listing waits for a log just ended to be written
+
+
+@dataclass
+class ListRequest:
+    link: GroundLink
+    start: int
+    end: int
+    deadline_s: float  # time.monotonic()
 
 
 @dataclass
@@ -50,9 +62,12 @@ class Transfer:
 
 
 class LogDownloadService:
-    def __init__(self, files: VehicleFiles, *, system_id: int) -> None:
+    def __init__(self, files: VehicleFiles, *, system_id: int, finishing: Callable[[], bool] = lambda: False) -> None:
+        """finishing: True while a log that has ended is still being written to disk (the logger's)."""
         self.files = files
         self.system_id = system_id
+        self.finishing = finishing
+        self.asked: ListRequest | None = None
         self.entries: list[LogEntry] | None = None  # as listed at the last LOG_REQUEST_LIST
         self.listing: Listing | None = None
         self.transfer: Transfer | None = None
@@ -61,22 +76,29 @@ class LogDownloadService:
         if not for_us(self.system_id, message.target_system, message.target_component):
             return
         self._stop_sending()
+        self.listing = None
+        self.asked = ListRequest(link, message.start, message.end, time.monotonic() + SETTLE_S)
+        self._list_when_written(self.asked)
+
+    def _list_when_written(self, asked: ListRequest) -> None:
+        if self.finishing() and time.monotonic() < asked.deadline_s:
+            return
+        self.asked = None
         self.entries = self.files.logs()
         count = len(self.entries)
         if count == 0:
-            self.listing = None
-            link.queue(link.mav.log_entry_encode(0, 0, 0, 0, 0))
+            asked.link.queue(asked.link.mav.log_entry_encode(0, 0, 0, 0, 0))
             return
-        last = count - 1 if message.end == ALL else min(message.end, count - 1)
-        first = min(message.start, count - 1)
-        self.listing = Listing(link, first, max(first, last))
+        last = count - 1 if asked.end == ALL else min(asked.end, count - 1)
+        first = min(asked.start, count - 1)
+        self.listing = Listing(asked.link, first, max(first, last))
 
     def on_request_data(self, link: GroundLink, message) -> None:
         if not for_us(self.system_id, message.target_system, message.target_component):
             return
         if self.entries is None or message.id >= len(self.entries):
             return  # PX4 ignores a request for a log it has not listed
-        self.listing = None
+        self.listing = self.asked = None
         transfer = self.transfer
         if transfer is None or transfer.log_id != message.id:
             self._stop_sending()
@@ -95,13 +117,13 @@ class LogDownloadService:
     def on_request_end(self, link: GroundLink, message) -> None:
         if not for_us(self.system_id, message.target_system, message.target_component):
             return
-        self.listing = None
+        self.listing = self.asked = None
         self._stop_sending()
 
     def on_erase(self, link: GroundLink, message) -> None:
         if not for_us(self.system_id, message.target_system, message.target_component):
             return
-        self.listing = None
+        self.listing = self.asked = None
         self._stop_sending()
         self.entries = None
         for entry in self.files.logs():
@@ -113,7 +135,9 @@ class LogDownloadService:
             shutil.rmtree(day, ignore_errors=True)
 
     def send(self) -> None:
-        """Once per plant step: the next entries of a listing, the next data of a download."""
+        """Once per plant step: a listing asked for, the next entries of a listing, the next data of a download."""
+        if self.asked is not None:
+            self._list_when_written(self.asked)
         if self.listing is not None:
             self._send_entries(self.listing)
         if self.transfer is not None and self.transfer.offset < self.transfer.end:

@@ -55,11 +55,13 @@ class MavlinkServices:
     def __init__(self, router: Router, params: ParameterStore, flight_stack: RequestHandler, *, system_id: int,
                  home: Home, missions: Missions, modes: tuple[ModeId, ...], events_publisher: Any | None = None,
                  quiet: bool = False, files: FileRoot | None = None, logs: VehicleFiles | None = None,
-                 statustext_sink: StatustextSink | None = None) -> None:  # fmt: skip
+                 statustext_sink: StatustextSink | None = None,
+                 logs_finishing: Callable[[], bool] = lambda: False) -> None:  # fmt: skip
         """missions: the stored lists as loaded from the mission file at start (served until the first publish);
         modes: the vehicle's flight modes (the navigator's table), which ground stations may choose; files: what
         MAVLink FTP serves (None: FTP is not answered); logs: the ULogs log download lists (None: an empty list);
-        statustext_sink: told every STATUSTEXT said (the logger)."""
+        statustext_sink: told every STATUSTEXT said (the logger); logs_finishing: True while a log that has ended
+        is still being written (the logger's), which a log listing waits for."""
         self.router = router
         self.flight_stack = flight_stack
         self.view = StatusView(loaded_missions=missions)
@@ -76,7 +78,8 @@ class MavlinkServices:
         self.missions = MissionService(flight_stack, self.view, router, self.announcer, system_id=system_id)
         self.signing = SigningService(params, router, self.announcer, system_id=system_id)
         self.ftp = None if files is None else FtpService(files, system_id=system_id)
-        self.log_download = None if logs is None else LogDownloadService(logs, system_id=system_id)
+        self.log_download = (None if logs is None
+                             else LogDownloadService(logs, system_id=system_id, finishing=logs_finishing))
         self.holds = 0  # --offboard-lockstep: steps held for set-points, and the wall time spent holding
         self.hold_wall_s = 0.0
         self._heartbeat_version = 0

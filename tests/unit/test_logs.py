@@ -255,6 +255,22 @@ def messages(link: QueueLink, kind: str) -> list:
     return [m for m in link.sent if m.get_type() == kind]
 
 
+def test_a_listing_waits_for_a_log_just_ended_to_be_written(tmp_path):
+    files = VehicleFiles.at(tmp_path)
+    path = files.new_log_path(dt.datetime(2026, 1, 1, 12, 0, 0, tzinfo=dt.UTC))
+    path.parent.mkdir(parents=True)
+    path.write_bytes(b"")  # ended, its last chunk not yet on disk
+    finishing = [True]
+    service, link = LogDownloadService(files, system_id=1, finishing=lambda: finishing[0]), QueueLink()
+    service.on_request_list(link, Request(start=0, end=0xFFFF))
+    service.send()
+    assert link.sent == []
+    path.write_bytes(b"the whole log")
+    finishing[0] = False
+    service.send()
+    assert [(m.id, m.size) for m in messages(link, "LOG_ENTRY")] == [(0, len(b"the whole log"))]
+
+
 class Request:
     """A decoded LOG_* request as the services get it."""
 
