@@ -78,8 +78,9 @@ class MavlinkServices:
         self.missions = MissionService(flight_stack, self.view, router, self.announcer, system_id=system_id)
         self.signing = SigningService(params, router, self.announcer, system_id=system_id)
         self.ftp = None if files is None else FtpService(files, system_id=system_id)
-        self.log_download = (None if logs is None
-                             else LogDownloadService(logs, system_id=system_id, finishing=logs_finishing))
+        self.log_download = (
+            None if logs is None else LogDownloadService(logs, system_id=system_id, finishing=logs_finishing)
+        )
         self.holds = 0  # --offboard-lockstep: steps held for set-points, and the wall time spent holding
         self.hold_wall_s = 0.0
         self._heartbeat_version = 0
