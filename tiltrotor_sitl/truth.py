@@ -301,7 +301,8 @@ class TruthFeed(TruthHistory):
     since the subscription (once the vehicle was ready) in its history, and the failures the plant announced.
 
     The plant publishes with zenoh's congestion control DROP: a process too busy to take the samples in loses some,
-    the plant does not slow down (docs/telemetry.md)."""
+    the plant does not slow down (docs/telemetry.md). Close it (`close()`, or use it in a `with`): its zenoh
+    session's threads keep the interpreter from exiting until then."""
 
     def __init__(self, endpoint: str, system_id: int) -> None:
         import zenoh
@@ -338,6 +339,12 @@ class TruthFeed(TruthHistory):
         for subscriber in self._subscribers:
             subscriber.undeclare()
         self._session.close()
+
+    def __enter__(self) -> TruthFeed:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
 
     @property
     def failures(self) -> list[str]:

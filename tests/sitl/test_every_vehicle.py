@@ -91,7 +91,8 @@ def vehicle_under_test(case: str, tmp_path: Path) -> Iterator[VehicleHandle | _S
                 processes=ProcessOptions(plant_port=plant.ports.plant),
             ) as autopilot:
                 assert autopilot.sysid == 42
-                yield _SplitVehicle(autopilot, TruthFeed(plant.ports.zenoh_plant, 7))
+                with TruthFeed(plant.ports.zenoh_plant, 7) as truth:
+                    yield _SplitVehicle(autopilot, truth)
 
 
 class _SplitVehicle:
