@@ -75,7 +75,8 @@ P_WEIGHTS = slice(P_Q_REF.start, P_R_PSI_D.stop)
 P_ATTITUDE_BOUND = slice(P_R_PSI_D.stop, P_R_PSI_D.stop + 2)
 # The surfaces' deflections (aileron L, aileron R, elevator, rudder, in -1..1) that give each its positive moment.
 FULL_DEFLECTION = (1.0, -1.0, 1.0, 1.0)
-# sqrt of the rotors' moment bound's weight (moment_bound_residual): of q_moment_bound while a rotor has failed, else 0.
+# sqrt of the rotors' moment bound's weight (moment_bound_residual): of q_moment_bound while a rotor has failed, of
+# q_moment_bound_servo while a tilt servo is jammed (the larger of the two with both), else 0.
 P_MOMENT_BOUND = P_ATTITUDE_BOUND.stop
 NP = P_MOMENT_BOUND + 1
 P_SOLVER = slice(P_GRID.start, NP)
@@ -115,10 +116,13 @@ class MpcWeights:
     # Each stage's cost weighed by its length over REFERENCE_STAGE_S (the same integral on any grid), or each stage
     # alike (as the paper's uniform stages are).
     weigh_by_length: bool = True
-    # With a rotor failed, the moment of the planned rotor thrusts bounded softly to what the control surfaces can
-    # cancel at the stage's airspeed, less a margin for the attitude loop (moment_bound_residual): q per (N m)^2
-    # (VT_MPC_Q_MOM; 0 or no failure: no bound, as the paper), the softplus width (N m), the surfaces' share.
+    # With a rotor or a tilt servo failed, the moment of the planned rotor thrusts bounded softly to what the control
+    # surfaces can cancel at the stage's airspeed, less a margin for the attitude loop (moment_bound_residual): q per
+    # (N m)^2 with a rotor failed (VT_MPC_Q_MOM), with a servo jammed (VT_MPC_Q_MOM_SRV: at walking speeds the
+    # surfaces cancel almost nothing, and a rotor jammed forward was lost with the rotor's weight); 0 or no failure:
+    # no bound, as the paper. The softplus width (N m), the surfaces' share.
     q_moment_bound: float = 1000.0
+    q_moment_bound_servo: float = 10000.0
     moment_bound_width: float = 0.5
     moment_bound_share: float = 0.5
 
@@ -132,7 +136,8 @@ class MpcWeights:
         return replace(self, q_ref=MpcWeights.q_ref, q_final=MpcWeights.q_final, q_psi=MpcWeights.q_psi,
                        q_psi_dot=MpcWeights.q_psi_dot, r_thrust=MpcWeights.r_thrust,
                        r_rotor_lift=MpcWeights.r_rotor_lift, r_tilt_rate=MpcWeights.r_tilt_rate,
-                       r_psi_d=MpcWeights.r_psi_d, q_moment_bound=MpcWeights.q_moment_bound)  # fmt: skip
+                       r_psi_d=MpcWeights.r_psi_d, q_moment_bound=MpcWeights.q_moment_bound,
+                       q_moment_bound_servo=MpcWeights.q_moment_bound_servo)  # fmt: skip
 
 
 @dataclass(frozen=True)

@@ -257,10 +257,12 @@ class RtiSolver:
         u_lb[CHI_DOT] = np.where(stuck, 0.0, u_lb[CHI_DOT])
         u_ub[CHI_DOT] = np.where(stuck, 0.0, u_ub[CHI_DOT])
         self.lbw, self.ubw = self._stack(x_lb, u_lb), self._stack(x_ub, u_ub)
+        # A rotor limited or a tilt stuck: the rotors' thrusts, planned for force, make moments the allocator cannot
+        # cancel with the thrusts the force leaves it; the surfaces can.
         rotor_failed = bool(np.any(thrust_max < self.airframe.thrust_planned_max) or np.any(thrust_min > 0.0))
-        self.solver_rows[self._solver_row(P_MOMENT_BOUND)] = (
-            math.sqrt(self.weights.q_moment_bound) if rotor_failed else 0.0
-        )
+        weight = max(self.weights.q_moment_bound if rotor_failed else 0.0,
+                     self.weights.q_moment_bound_servo if np.any(stuck) else 0.0)  # fmt: skip
+        self.solver_rows[self._solver_row(P_MOMENT_BOUND)] = math.sqrt(weight)
 
     # ---- solving ------------------------------------------------------------------------------------------
     def states(self) -> np.ndarray:

@@ -719,6 +719,16 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         px4=False,
     ),
     P(
+        "VT_MPC_Q_MOM_SRV",
+        REAL32,
+        10000.0,
+        0.0,
+        1e6,
+        "1/(N m)^2",
+        "MPC weight, with a tilt servo jammed: the planned rotors' moment beyond half of what the surfaces can cancel",
+        px4=False,
+    ),
+    P(
         "VT_MPC_R_ROLLSP",
         REAL32,
         10.0,
