@@ -118,11 +118,11 @@ class MpcWeights:
     weigh_by_length: bool = True
     # With a rotor or a tilt servo failed, the moment of the planned rotor thrusts bounded softly to what the control
     # surfaces can cancel at the stage's airspeed, less a margin for the attitude loop (moment_bound_residual): q per
-    # (N m)^2 with a rotor failed (VT_MPC_Q_MOM), with a servo jammed (VT_MPC_Q_MOM_SRV: at walking speeds the
-    # surfaces cancel almost nothing, and a rotor jammed forward was lost with the rotor's weight); 0 or no failure:
-    # no bound, as the paper. The softplus width (N m), the surfaces' share.
+    # (N m)^2 with a rotor failed (VT_MPC_Q_MOM), with a servo jammed (VT_MPC_Q_MOM_SRV, off by default: 10000 holds
+    # a rotor jammed past horizontal at walking speed, but costs a slow hover with one jammed at 60 deg 16 m of
+    # height); 0 or no failure: no bound, as the paper. The softplus width (N m), the surfaces' share.
     q_moment_bound: float = 1000.0
-    q_moment_bound_servo: float = 10000.0
+    q_moment_bound_servo: float = 0.0
     moment_bound_width: float = 0.5
     moment_bound_share: float = 0.5
 

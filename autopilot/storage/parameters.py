@@ -721,7 +721,7 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
     P(
         "VT_MPC_Q_MOM_SRV",
         REAL32,
-        10000.0,
+        0.0,
         0.0,
         1e6,
         "1/(N m)^2",
