@@ -13,7 +13,9 @@ and, when their difference is at least VT_FD_SRV_MOM, asks for each servo which 
 explain it: the least-squares (a, b) of T_i (A_i a + B_i b) = the moment rotor i must be giving, chi = atan2(a, b).
 The servo whose tilt explains the difference best (at most a quarter of it left, and at most half of what the
 second best leaves), at least VT_FD_SRV_ANG from its estimate, is failing; failing for VT_FD_SRV_TOUT is a jam at
-that tilt. A servo that keeps moving after the jam (towards the angle it jammed at) is found again at its new tilt.
+that tilt. A servo that keeps moving after the jam (towards the angle it jammed at) is found again at its new tilt:
+a servo found jammed stays among the judged ones however slowly its rotor turns, since the moment it leaves as it
+moves on is one a servo on the same side explains almost as well, and that servo would be found jammed instead.
 """
 
 from __future__ import annotations
@@ -209,6 +211,7 @@ class ServoJamDetector:
         fit = None
         if norm >= check.min_moment:
             judged = observable(self.model, candidates, thrusts, tilts, check)
+            judged += [servo for servo in self.jammed if servo in candidates and servo not in judged]
             if len(judged) >= 2:  # one alone cannot be told from a moment it happens to fit
                 fit = failing_servo(best_fits(self.model, unexplained, thrusts, tilts, judged), norm, tilts, check)
         if fit is None:

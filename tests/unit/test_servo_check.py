@@ -69,6 +69,21 @@ def test_a_jam_found_again_is_not_the_first():
     assert [jam.first for jam in fly(true, estimated, detector=detector) if jam is not None] == [True]
 
 
+def test_a_jammed_servo_moving_on_behind_a_slow_rotor_is_found_again_not_blamed_on_the_servo_beside_it():
+    # Late in the transition (the servo map, jammed at 25 m/s): servo 1 found jammed at 70 deg slews on towards
+    # where it jams while its rotor turns too slowly to be judged on its own; servo 3's rotor, on the same side,
+    # explains the moment almost as well and must not be found jammed instead.
+    estimated = [math.radians(a) for a in (70.0, 90.0, 90.0, 90.0)]
+    true = [math.radians(55.0), *estimated[1:]]
+    thrusts = [1.7, 11.8, 10.3, 2.9]
+    detector = ServoJamDetector(MODEL, jammed=[0])
+    said = [jam for jam in fly(true, estimated, thrusts=thrusts, airspeed=25.0, detector=detector) if jam is not None]
+    assert said, "the moving servo is found again"
+    assert {jam.servo for jam in said} == {0}
+    assert math.degrees(said[0].tilt_rad) == pytest.approx(55.0, abs=1.0)
+    assert not said[0].first and detector.jammed == [0]
+
+
 def test_a_tilt_within_the_angle_threshold_is_not_failing():
     estimated, true = [0.0] * 4, [math.radians(1.5), 0.0, 0.0, 0.0]
     assert fly(true, estimated) == [None] * 10
