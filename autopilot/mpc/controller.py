@@ -23,7 +23,7 @@ from autopilot.control.actuator_health import ServoEstimate
 from autopilot.control.allocation import ControlAllocator
 from autopilot.control.attitude import AttitudeGains, euler_rates
 from autopilot.control.tuning import attitude_gains
-from autopilot.control.velocity_command import SetpointTrajectory, VelocityCommand, course_rates
+from autopilot.control.velocity_command import SetpointTrajectory, VelocityCommand, course_rates, has_course
 from autopilot.mpc.horizon import PAPER, MpcHorizon, extrapolate_setpoint
 from autopilot.mpc.model import (
     CHI,
@@ -66,6 +66,12 @@ def coordinated_roll(acceleration_ned: np.ndarray, heading: np.ndarray, gravity:
     return np.minimum(np.maximum(np.arctan2(lateral, gravity), -limit), limit)  # np.clip's result, less overhead
 
 
+def held_yaw(hold: float | None, yaw: float, has_course: bool) -> float:
+    """The heading the MPC holds at low speed (docs/mpc.md, the yaw reference): the yaw of the tick the set-point lost
+    its course (or a yaw reference ended), kept until it has one again; while it has one, the current yaw (rad)."""
+    return yaw if has_course or hold is None else hold
+
+
 class MpcVelocityController:
     """Velocity set-point -> VelocityCommand through the unified MPC."""
 
@@ -98,6 +104,7 @@ class MpcVelocityController:
         self.fallback_requested = False
         self.last_solution: MpcSolution | None = None
         self.last_x0 = np.zeros(NX)
+        self.yaw_hold: float | None = None  # the heading held while the set-point has no course (held_yaw)
         self.trajectory = SetpointTrajectory()
         # The servos lag by their time constant (30 ms): command the plan's tilt that far (3 stages) ahead.
         self.tilt_lead_stages = grid.node_at(airframe.servo_tau)
@@ -147,9 +154,12 @@ class MpcVelocityController:
         params[P_V_SP, :], rates = extrapolate_setpoint(v_sp, rate, times_s, turning)
         params[P_FREE_TILT, :] = np.isnan(self.servos.stuck)[:, None]
         if reference is None:
-            psi_ref = yaw_references(params[P_V_SP, :], yaw)
+            north, east = float(params[P_V_SP.start, 0]), float(params[P_V_SP.start + 1, 0])
+            self.yaw_hold = held_yaw(self.yaw_hold, yaw, bool(has_course(north, east)))
+            psi_ref = yaw_references(params[P_V_SP, :], yaw + wrap(self.yaw_hold - yaw))
             turn_rate = course_rates(params[P_V_SP, :], rates)  # while it has a course (psi_ref follows it)
         else:  # each stage within pi of the one before, stage 0 of the (continuous) yaw
+            self.yaw_hold = yaw
             psi_ref = angle_chain(yaw, reference.at(times_s), np.ones(times_s.size, dtype=bool))
             turn_rate = np.full(times_s.size, reference.rate)
         params[P_PSI_REF, :] = psi_ref

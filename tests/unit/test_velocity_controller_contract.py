@@ -159,6 +159,18 @@ def test_a_yaw_reference_turns_the_yaw_set_point_towards_it(airframe, kind):
     assert abs(held.euler_sp[2]) < math.radians(1.0)
 
 
+@pytest.mark.parametrize("kind", VARIANTS)
+def test_a_hover_holds_its_heading_when_the_nose_is_pushed_off_it(airframe, kind):
+    """Without a course or a yaw reference the heading the set-point lost its course at is held: a yaw pushed 20 deg
+    off it (a gust on a crosswind) gets a yaw set-point back towards it, not the new yaw kept."""
+    controller = build(airframe, kind)
+    for tick in range(TICKS):
+        yaw_deg = 0.0 if tick < 10 else 20.0
+        command = controller.update(state_at(tick * VELOCITY_PERIOD_USEC, (0, 0, 0), (0, 0, yaw_deg)), np.zeros(3),
+                                    np.zeros(4))  # fmt: skip
+    assert command.euler_sp[2] < math.radians(15.0)
+
+
 # ---- the same contract with a failure known (MAV_CMD_INJECT_FAILURE accepted, or found by the failure detector) ----
 
 # failure -> (what the controllers are told, the tilts (deg) the servo estimate gives them)
