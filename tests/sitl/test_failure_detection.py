@@ -101,7 +101,7 @@ def test_a_jammed_tilt_servo_is_found_from_the_unexplained_moment_at_its_tilt_an
 def test_a_hover_in_a_gusty_wind_holds_heading_and_height_and_raises_no_false_alarm(tmp_path):
     # 12 m/s with Dryden gusts of 2 m/s: the airframe's aerodynamics act from 10 m/s of airspeed (e(V), docs/model.md),
     # so a weaker wind would leave the hover untouched. The MPC holds its heading (the wind from 53 deg, off the nose)
-    # and banks into it; a hover that let the nose go weathervaned, and a gust at 110 s cost it 48 m.
+    # and banks into it; two minutes, since a hover that lets the nose go weathervanes and loses 48 m in the gust at 110 s.
     wind = Wind(from_north=7.2, from_east=9.6, turbulence=2.0, seed=3)
     with Vehicle(spawn_alt=100.0, speed=0, params={"VT_FAIL_ORACLE": 0}, wind=wind, folder=tmp_path) as vehicle:
         vehicle.truth.wait_until(lambda s: s.t > 120.0, timeout_sim_s=125.0, what="two minutes in the wind")
