@@ -66,10 +66,10 @@ def coordinated_roll(acceleration_ned: np.ndarray, heading: np.ndarray, gravity:
     return np.minimum(np.maximum(np.arctan2(lateral, gravity), -limit), limit)  # np.clip's result, less overhead
 
 
-def held_yaw(hold: float | None, yaw: float, has_course: bool) -> float:
-    """The heading the MPC holds at low speed (docs/mpc.md, the yaw reference): the yaw of the tick the set-point lost
-    its course (or a yaw reference ended), kept until it has one again; while it has one, the current yaw (rad)."""
-    return yaw if has_course or hold is None else hold
+def held_yaw(hold: float | None, yaw: float, on_course: bool) -> float:
+    """The heading the MPC holds at low speed (docs/mpc.md, the yaw reference): the yaw of the last tick the set-point
+    had a course (or a yaw reference), kept while it has none; while it has one, the current yaw (rad)."""
+    return yaw if on_course or hold is None else hold
 
 
 class MpcVelocityController:
