@@ -78,7 +78,9 @@ FULL_DEFLECTION = (1.0, -1.0, 1.0, 1.0)
 # sqrt of the rotors' moment bound's weight (moment_bound_residual): of q_moment_bound while a rotor has failed, of
 # q_moment_bound_servo while a tilt servo is jammed (the larger of the two with both), else 0.
 P_MOMENT_BOUND = P_ATTITUDE_BOUND.stop
-NP = P_MOMENT_BOUND + 1
+# Per rotor, 1 while it can give thrust, 0 once it has failed: a failed rotor has no lifting component to weigh.
+P_WORKING_ROTOR = slice(P_MOMENT_BOUND + 1, P_MOMENT_BOUND + 5)
+NP = P_WORKING_ROTOR.stop
 P_SOLVER = slice(P_GRID.start, NP)
 # The stage the paper's weights are given for (Table 2: 25 stages of 10 ms); a stage of length dt weighs dt / this,
 # so the cost stays the same integral on any grid. Also the delay of Psi_dot_prev in the continuous-time form.
@@ -125,6 +127,10 @@ class MpcWeights:
     q_moment_bound_servo: float = 0.0
     moment_bound_width: float = 0.5
     moment_bound_share: float = 0.5
+    # The factor on the north and east velocity weights (q_ref, q_final) while a rotor has failed (VT_MPC_QV_FAIL):
+    # at the paper's weights the plan then flew 1-1.6 m/s over the set-point at 18 m/s, buying wing lift and rotor
+    # effort with speed (docs/mpc.md, the solver); 1: the paper's weights.
+    q_velocity_rotor_failed: float = 6.0
 
     def table_2_rows(self) -> np.ndarray:
         """The Table 2 weights as the stage parameters P_WEIGHTS carry them."""
@@ -137,7 +143,8 @@ class MpcWeights:
                        q_psi_dot=MpcWeights.q_psi_dot, r_thrust=MpcWeights.r_thrust,
                        r_rotor_lift=MpcWeights.r_rotor_lift, r_tilt_rate=MpcWeights.r_tilt_rate,
                        r_psi_d=MpcWeights.r_psi_d, q_moment_bound=MpcWeights.q_moment_bound,
-                       q_moment_bound_servo=MpcWeights.q_moment_bound_servo)  # fmt: skip
+                       q_moment_bound_servo=MpcWeights.q_moment_bound_servo,
+                       q_velocity_rotor_failed=MpcWeights.q_velocity_rotor_failed)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -305,7 +312,7 @@ def stage_residual(airframe: Airframe, weights: MpcWeights, soft: SoftTiltCost, 
         sq(p[P_Q_PSI_DOT]) * (x[PSI_DOT] - ca.vertcat(0, 0, psi_rate_ref)),
         sq(p[P_R_TILT_RATE]) * u[CHI_DOT],
         sq(p[P_R_THRUST]) * u[THRUST],
-        sq(p[P_R_ROTOR_LIFT]) * (u[THRUST] * ca.cos(x[CHI]) - thrust_ref),
+        sq(p[P_R_ROTOR_LIFT]) * p[P_WORKING_ROTOR] * (u[THRUST] * ca.cos(x[CHI]) - thrust_ref),
         sq(p[P_R_PSI_D]) * ca.vertcat(u[PSI_D][0] - phi_ref, u[PSI_D][1], wrap_angle(u[PSI_D][2] - psi_d_ref)),
         ca.exp(soft.exponent(forward_speed, mean_tilt_deg) / 2),
         attitude_bound_residual(weights, x, p[P_ATTITUDE_BOUND]),

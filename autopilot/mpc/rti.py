@@ -40,8 +40,11 @@ from autopilot.mpc.model import (
     P_GRID,
     P_MOMENT_BOUND,
     P_MOVE,
+    P_Q_FINAL,
+    P_Q_REF,
     P_SOLVER,
     P_WEIGHTS,
+    P_WORKING_ROTOR,
     PSI,
     PSI_D,
     PSI_D_INDEX,
@@ -147,6 +150,7 @@ class RtiSolver:
             (np.append(grid.lengths_s, grid.tick_s), np.append(np.equal(grid.ticks, 1), 1.0))
         )
         self.solver_rows[rows(P_MOVE), 0] = 1.0
+        self.solver_rows[rows(P_WORKING_ROTOR)] = 1.0
         self._shift_interval, self._shift_fraction = grid.shift_sources()
         # The interval's far node, and the input in force at each new stage's start (the last repeated).
         self._shift_next = np.minimum(self._shift_interval + 1, self.horizon)
@@ -263,6 +267,11 @@ class RtiSolver:
         weight = max(self.weights.q_moment_bound if rotor_failed else 0.0,
                      self.weights.q_moment_bound_servo if np.any(stuck) else 0.0)  # fmt: skip
         self.solver_rows[self._solver_row(P_MOMENT_BOUND)] = math.sqrt(weight)
+        self.solver_rows[self._solver_row(P_WORKING_ROTOR)] = (thrust_max > 0.0)[:, None]
+        factor = self.weights.q_velocity_rotor_failed if rotor_failed else 1.0
+        horizontal = np.array([factor, factor, 1.0])
+        self.solver_rows[self._solver_row(P_Q_REF)] = (np.array(self.weights.q_ref) * horizontal)[:, None]
+        self.solver_rows[self._solver_row(P_Q_FINAL)] = (np.array(self.weights.q_final) * horizontal)[:, None]
 
     # ---- solving ------------------------------------------------------------------------------------------
     def states(self) -> np.ndarray:

@@ -14,7 +14,8 @@ from autopilot.storage.parameters import ParameterStore
 
 def mpc_weights(params: ParameterStore, base: MpcWeights = MpcWeights()) -> MpcWeights:
     """`base` (a horizon's weights) with the Table 2 weights from VT_MPC_Q_*, VT_MPC_QF_*, VT_MPC_R_*, and the rotors'
-    moment bound's from VT_MPC_Q_MOM and VT_MPC_Q_MOM_SRV."""
+    moment bound's from VT_MPC_Q_MOM and VT_MPC_Q_MOM_SRV, the velocity weights' factor with a rotor failed from
+    VT_MPC_QV_FAIL."""
     return replace(
         base,
         q_ref=(params["VT_MPC_Q_VN"], params["VT_MPC_Q_VE"], params["VT_MPC_Q_VD"]),
@@ -27,6 +28,7 @@ def mpc_weights(params: ParameterStore, base: MpcWeights = MpcWeights()) -> MpcW
         r_psi_d=(params["VT_MPC_R_ROLLSP"], params["VT_MPC_R_PTCHSP"], params["VT_MPC_R_YAWSP"]),
         q_moment_bound=params["VT_MPC_Q_MOM"],
         q_moment_bound_servo=params["VT_MPC_Q_MOM_SRV"],
+        q_velocity_rotor_failed=params["VT_MPC_QV_FAIL"],
     )
 
 

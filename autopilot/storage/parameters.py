@@ -729,6 +729,16 @@ DEFINITIONS: tuple[ParameterDefinition, ...] = (
         px4=False,
     ),
     P(
+        "VT_MPC_QV_FAIL",
+        REAL32,
+        6.0,
+        1.0,
+        100.0,
+        "",
+        "MPC factor on the north and east velocity weights (Q, QF) while a rotor has failed",
+        px4=False,
+    ),
+    P(
         "VT_MPC_R_ROLLSP",
         REAL32,
         10.0,

@@ -23,6 +23,9 @@ from autopilot.mpc.model import (
     P_MOMENT_BOUND,
     P_PSI_D_REF,
     P_PSI_REF,
+    P_Q_FINAL,
+    P_Q_REF,
+    P_WORKING_ROTOR,
     PSI,
     THRUST,
     MpcWeights,
@@ -234,6 +237,33 @@ def test_a_failed_rotor_or_tilt_servo_bounds_the_rotors_moment(solver, thrust_ma
     finally:
         solver.set_tuning(solver.gains, built, solver.limits)
         solver.set_actuator_limits(np.full(4, 23.0), np.full(4, np.nan))
+
+
+@pytest.mark.parametrize(
+    "thrust_max, tilt_fixed",
+    [([0.0, 23.0, 23.0, 23.0], [math.nan] * 4),  # rotor 1 off
+     ([23.0] * 4, [math.radians(95.0), math.nan, math.nan, math.nan])],  # servo 1 jammed at 95 deg
+    ids=["rotor off", "servo jammed"],
+)  # fmt: skip
+def test_a_failed_rotor_drops_its_lift_term_and_weighs_the_horizontal_velocity_more(solver, thrust_max, tilt_fixed):
+    """docs/mpc.md, the solver, failures: a dead rotor's lift is not weighed against T_ref (the weight would buy
+    speed), and the north and east velocity weights are VT_MPC_QV_FAIL times the paper's; a jammed servo changes
+    neither, and the healthy bounds give both back."""
+    rotor_off = thrust_max[0] == 0.0
+
+    def rows() -> np.ndarray:
+        return solver.stage_parameters(np.zeros((NP, solver.horizon + 1)))
+
+    try:
+        solver.set_actuator_limits(np.array(thrust_max), np.array(tilt_fixed))
+        factor = MpcWeights.q_velocity_rotor_failed if rotor_off else 1.0
+        assert np.all(rows()[P_WORKING_ROTOR] == np.array([0.0 if rotor_off else 1.0, 1.0, 1.0, 1.0])[:, None])
+        assert np.all(rows()[P_Q_REF] == (np.array(MpcWeights.q_ref) * [factor, factor, 1.0])[:, None])
+        assert np.all(rows()[P_Q_FINAL] == (np.array(MpcWeights.q_final) * [factor, factor, 1.0])[:, None])
+    finally:
+        solver.set_actuator_limits(np.full(4, 23.0), np.full(4, np.nan))
+    assert np.all(rows()[P_WORKING_ROTOR] == 1.0)
+    assert np.all(rows()[P_Q_REF] == np.array(MpcWeights.q_ref)[:, None])
 
 
 # ---- the set-point trajectory, the coordinated-turn roll, continuous yaw, stuck servos (docs/mpc.md, deviations 7-9) ----
