@@ -7,7 +7,8 @@ key says otherwise; NED axes: x = north, y = east, z = down.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+import re
+from collections.abc import Iterable, Mapping
 
 import numpy as np
 
@@ -20,14 +21,16 @@ ATTITUDE_LIMIT_DEG = 60.0  # survived = |roll| and |pitch| stayed below this
 TURN_SETTLE_S = 5.0  # the steady turn (mean bank) starts this long after the circle begins
 FINAL_WINDOW_S = 1.0  # final_speed: mean speed over the last second
 COURSE_MIN_SPEED = 1.0  # m/s: heading_error_max_deg counts where the horizontal set-point is at least this fast
+# The STATUSTEXTs the autopilot's failure detector sends on finding a failure (docs/failures.md).
+FAILURE_FOUND = re.compile(r"failure detected|jam detected")
 
 
 METRIC_KINDS: dict[str, type] = {
     **{key: float for key in (
         "vx_rmse", "vy_rmse", "vz_rmse", "vz_max_abs", "roll_max_abs_deg", "pitch_max_abs_deg",
         "heading_error_max_deg", "alt_change_max_m", "alt_loss_max_m", "t_reach_s", "tilt_tv_ratio", "radial_rmse_m",
-        "radial_max_m", "bank_mean_deg", "final_speed", "failure_t_s", "vx_rmse_after_failure", "solve_ms_median",
-        "solve_ms_p99", "solve_ms_max")},
+        "radial_max_m", "bank_mean_deg", "final_speed", "failure_t_s", "detected_after_s", "vx_rmse_after_failure",
+        "solve_ms_median", "solve_ms_p99", "solve_ms_max")},
     "mode_switches": int,
     "solves_failed": int,
     "survived": bool,
@@ -91,17 +94,27 @@ def mean_bank_deg(t: np.ndarray, roll: np.ndarray, circle: Circle) -> float:
     return float(np.degrees(np.mean(roll[steady]))) if np.any(steady) else math.nan
 
 
+def detection_time(statustexts: Iterable[tuple[float, str]], failure_s: float | None) -> float | None:
+    """When (s) the autopilot first said it found a failure (FAILURE_FOUND) at or after `failure_s`, from the
+    flight's (time s, text) STATUSTEXTs; None without a failure or a finding."""
+    if failure_s is None:
+        return None
+    return next((t for t, text in statustexts if t >= failure_s and FAILURE_FOUND.search(text)), None)
+
+
 def flight_metrics(
     log: Mapping[str, np.ndarray],
     modes: list[str],
     solver: dict | None = None,
     circle: Circle | None = None,
     failure_s: float | None = None,
+    detected_s: float | None = None,
 ) -> dict[str, float | int | bool | None]:
     """The keys of docs/scenarios.md for one run, and a few more the scenarios' acceptance needs (`bank_mean_deg`,
-    `alt_loss_max_m`, `final_speed`, `failure_t_s`, `vx_rmse_after_failure`). `solver`: the autopilot's MPC
-    statistics (absent for the PID); `failure_s`: when a failure was injected. `log`: the flight log's numeric
-    columns by name, `modes` its mode column."""
+    `alt_loss_max_m`, `final_speed`, `failure_t_s`, `detected_after_s`, `vx_rmse_after_failure`). `solver`: the
+    autopilot's MPC statistics (absent for the PID); `failure_s`: when a failure was injected, `detected_s` when the
+    autopilot said it found it (detection_time). `log`: the flight log's numeric columns by name, `modes` its mode
+    column."""
     t = log[T]
     altitude = -log[DOWN]
     roll_deg, pitch_deg = np.degrees(np.abs(log[ROLL])), np.degrees(np.abs(log[PITCH]))
@@ -129,6 +142,7 @@ def flight_metrics(
         "final_speed": float(np.mean(speed[t >= t[-1] - FINAL_WINDOW_S])),
         "bank_mean_deg": None,
         "failure_t_s": failure_s,
+        "detected_after_s": None if failure_s is None or detected_s is None else detected_s - failure_s,
         "vx_rmse_after_failure": None,
         "survived": bool(altitude.min() > GROUND_CLEARANCE and roll_deg.max() < ATTITUDE_LIMIT_DEG
                          and pitch_deg.max() < ATTITUDE_LIMIT_DEG),

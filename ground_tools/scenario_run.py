@@ -34,7 +34,7 @@ from aircraft.airframe import load_airframe
 from autopilot.storage.parameters import ParameterStore
 from ground_tools.lockstep_client import START_MS, LockstepClient
 from ground_tools.lockstep_flight import FlightFailed
-from ground_tools.metrics import flight_metrics
+from ground_tools.metrics import detection_time, flight_metrics
 from scenarios.experiments import Scenario
 from tiltrotor_sitl._children import Child, Stream, start, stop
 from tiltrotor_sitl._commands import AutopilotCommand, Controller, SimCommand, VehiclePorts, Zenoh
@@ -220,7 +220,9 @@ def run_scenario(
     (run_dir / "autopilot_log.csv").unlink()
     table = read_flight_log(run_dir / "timeseries.csv")
     failure_s = None if events.failure_ms is None else events.failure_ms / 1000.0 - start_s
-    metrics = flight_metrics(table, table.modes, summaries["autopilot"].get("controller"), scenario.circle, failure_s)
+    statustexts = [(ms / 1000.0 - start_s, text) for ms, text in events.statustexts]
+    metrics = flight_metrics(table, table.modes, summaries["autopilot"].get("controller"), scenario.circle, failure_s,
+                             detection_time(statustexts, failure_s))  # fmt: skip
     (run_dir / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
     run = {
         "scenario": scenario.name,
@@ -238,7 +240,7 @@ def run_scenario(
         "autopilot_params": dict(autopilot_params or {}),
         "lockstep_intact": summaries["plant"].get("missed_commands", 0) == 0,
         "holds_answered": events.holds_answered,
-        "statustexts": [[ms / 1000.0 - start_s, text] for ms, text in events.statustexts],
+        "statustexts": [list(pair) for pair in statustexts],
         "processes": summaries,
         "recording": None if recorder is None else dict(recorder.counts),
     }

@@ -49,9 +49,23 @@ def _summary(spec: CampaignSpec, frame: pandas.DataFrame) -> list[str]:
                   f"{', '.join(sorted(done['host'].dropna().unique()))}.", ""]  # fmt: skip
         for controller, rows in done.groupby("controller"):
             lines.append(f"- {NAMES.get(str(controller), controller)}: {int(rows['survived'].sum())} of {len(rows)} "
-                         "survived.")  # fmt: skip
+                         f"survived.{_detection(rows)}")  # fmt: skip
         lines.append("")
     return lines
+
+
+def _detection(rows: pandas.DataFrame) -> str:
+    """How soon the autopilot found the injected failures (`detected_after_s`), as a sentence; empty without any."""
+    if "detected_after_s" not in rows.columns:  # a store written before the metric was added
+        return ""
+    injected = rows["failure_t_s"].notna()
+    found = rows.loc[injected, "detected_after_s"].dropna() * 1000.0
+    if not injected.any():
+        return ""
+    if found.empty:
+        return f" The failure was found in none of {int(injected.sum())} flights."
+    return (f" The failure was found in {len(found)} of {int(injected.sum())} flights, {found.median():.0f} ms after "
+            f"its injection (median; worst {found.max():.0f} ms).")  # fmt: skip
 
 
 def _boundaries(spec: CampaignSpec, axes: MapAxes, survival: dict[str, pandas.DataFrame]) -> list[str]:

@@ -4,6 +4,7 @@ store, and a small campaign flown on a local Dask cluster of 2 workers, killed h
 from __future__ import annotations
 
 import json
+import math
 import os
 import signal
 import subprocess
@@ -16,6 +17,7 @@ import duckdb
 import psutil
 import pytest
 
+from ground_tools.metrics import detection_time
 from tests.unit.test_campaign import _campaign
 
 pytestmark = pytest.mark.timeout(600)
@@ -92,12 +94,19 @@ def test_a_campaign_on_two_workers_is_killed_resumed_and_reported(tmp_path: Path
         assert metrics["vx_rmse"] == row["vx_rmse"] and metrics["survived"] == row["survived"]
         run = json.loads((Path(row["run_dir"]) / "run.json").read_text())
         assert f"STUCK at {row['jam_deg']:.1f} deg" in json.dumps(run["statustexts"])
+        found = detection_time(run["statustexts"], row["failure_t_s"])  # within 0.6 s, or not yet
+        assert (
+            math.isnan(row["detected_after_s"])
+            if found is None
+            else row["detected_after_s"] == found - row["failure_t_s"]
+        )
         assert run["plant"]["wind_ned"] == [0.0, 0.5, 0.0] and row["SIH_WIND_E"] == -0.5
         assert Path(run["plant"]["airframe"]).resolve() == (tmp_path / "paper.toml").resolve()
     survival = out / "figures" / "survival.png"
     assert survival.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and (out / "figures" / "error.png").is_file()
     report = (out / "report.md").read_text()
     assert "Flights: 8 planned, 8 in the store, 8 flown, 0 failed" in report and "figures/survival.png" in report
+    assert report.count("The failure was found in ") == 2  # a sentence per controller, from detected_after_s
 
     survival.unlink()
     again = _vtol_campaign(*args[:3], "--report")

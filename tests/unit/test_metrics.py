@@ -7,7 +7,14 @@ import math
 import numpy as np
 import pytest
 
-from ground_tools.metrics import flight_metrics, heading_error_max_deg, mode_switches, tilt_tv_ratio, time_to_reach
+from ground_tools.metrics import (
+    detection_time,
+    flight_metrics,
+    heading_error_max_deg,
+    mode_switches,
+    tilt_tv_ratio,
+    time_to_reach,
+)
 from scenarios.experiments import Circle
 
 
@@ -74,3 +81,14 @@ def test_radial_error_about_the_intended_circle():
                              circle=Circle(start, radius))  # fmt: skip
     assert 0 < metrics["radial_rmse_m"] <= 2.0 and metrics["radial_max_m"] <= 2.0 + 1e-9
     assert metrics["solve_ms_median"] == 1.2 and metrics["solves_failed"] == 0
+
+
+def test_detection_time_is_the_first_finding_at_or_after_the_injection():
+    texts = [(1.0, "Tilt servo 1 jam detected"), (2.0, "Failure injected: motor 1 OFF"), (2.0, "plant: rotor 1: OFF"),
+             (2.3, "Takeoff detected"), (2.5, "Motor failure detected"), (3.0, "Motor failure detected")]  # fmt: skip
+    assert detection_time(texts, 2.0) == 2.5  # not the finding before the injection, not "Takeoff detected"
+    assert detection_time(texts, 3.5) is None and detection_time(texts, None) is None
+    log = synthetic_log()
+    modes = ["MPC"] * len(log["t"])
+    assert flight_metrics(log, modes, failure_s=2.0, detected_s=2.5)["detected_after_s"] == pytest.approx(0.5)
+    assert flight_metrics(log, modes, failure_s=2.0)["detected_after_s"] is None  # injected, never found
