@@ -143,7 +143,8 @@ class RtiSolver:
         # The stage parameters P_SOLVER of every node: each stage's length and whether it is one tick long (the
         # delayed rate held, as the paper's stages), the attitude gains, the roll and pitch set-point flown at the
         # previous tick (set at each shift) and the weight of the move from it (the first stage's), the Table 2
-        # weights and the roll and pitch bound (set_tuning).
+        # weights and the roll and pitch bound (set_tuning); the rotors' moment bound, the working rotors and the velocity
+        # weights' factor while a rotor has failed (set_actuator_limits).
         self.solver_rows = np.zeros((P_SOLVER.stop - P_SOLVER.start, n + 1))
         rows = self._solver_row
         self.solver_rows[rows(P_GRID)] = np.vstack(
