@@ -1,6 +1,6 @@
 """The full experiment set: `vtol scenario all --controller both`, timed (goal: at most 60 s on 2 cores).
 
-    python benchmarks/bench_scenarios.py [--out DIR] [--no-record] [--jobs J]
+    python benchmarks/bench_scenarios.py [--out DIR] [--no-record] [--jobs J] [--baseline DIR] [--repeats N]
 
 Runs the command as a user would (a subprocess, default zenoh recording on, its default --jobs unless given),
 then prints the total wall time against the 60-second goal, each run's simulated and wall seconds, its real-time
@@ -8,12 +8,17 @@ factor and the autopilot's lockstep holds (runs flown two at a time share the co
 than a run's alone), and the MPC's acceptance checks from the report. Then `vtol scenario accel` once per
 controller, alone (--jobs 1), for the real-time factors asked of one run. The run folders and report stay in DIR
 (default: a temporary folder, removed afterwards).
+
+With `--baseline DIR` (a checkout of another commit, e.g. `git worktree add DIR main`) each command is timed
+`--repeats` times (default 3) for this tree and for DIR's code, alternately, and the medians and this tree's ratio
+to the baseline, round by round, are printed: the machine's noise meets both alike.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import statistics
 import subprocess
 import sys
@@ -29,13 +34,67 @@ from ground_tools.scenario_report import acceptance, load_runs
 GOAL_S = 60.0
 
 
+def run_command(command: list[str], tree: Path | None) -> tuple[float, subprocess.CompletedProcess[str]]:
+    """Wall seconds and the result of `command` with this tree's code, or with the checkout `tree`'s."""
+    environment = None if tree is None else {**os.environ, "PYTHONPATH": str(tree)}
+    started = time.perf_counter()  # in the checkout: `python -m` looks in the working directory first
+    result = subprocess.run(command, capture_output=True, text=True, env=environment, cwd=tree)
+    return time.perf_counter() - started, result
+
+
+def compare(label: str, here: list[float], there: list[float], better: str) -> None:
+    """Medians of both trees and this tree's ratio to the baseline's, round by round."""
+    ratios = [a / b for a, b in zip(here, there)]
+    print(f"{label}: this tree median {statistics.median(here):.2f}, baseline {statistics.median(there):.2f}; "
+          f"this / baseline, round by round: median {statistics.median(ratios):.3f} (min {min(ratios):.3f}, "
+          f"max {max(ratios):.3f}; {better} is better)")  # fmt: skip
+
+
+def against_baseline(args: argparse.Namespace, scratch: Path) -> None:
+    """Each command timed alternately with this tree and the baseline's code, `args.repeats` rounds."""
+    record = ["--no-record"] if args.no_record else []
+    jobs = ["--jobs", str(args.jobs)] if args.jobs else []
+    walls: dict[str, list[float]] = {"here": [], "there": []}
+    alone: dict[str, dict[str, list[float]]] = {c: {"here": [], "there": []} for c in ("mpc", "pid")}
+    for round_index in range(args.repeats):
+        order = [("here", None), ("there", args.baseline)]
+        for side, tree in order[::-1] if round_index % 2 else order:
+            out = scratch / f"{side}-{round_index}"
+            wall, result = run_command([sys.executable, "-m", "ground_tools", "scenario", "all", "--controller",
+                                        "both", "--out", str(out), "--no-progress", *record, *jobs], tree)  # fmt: skip
+            if result.returncode != 0:
+                raise SystemExit(f"{side}: exit code {result.returncode}\n{result.stderr[-2000:]}")
+            walls[side].append(wall)
+            for controller in ("mpc", "pid"):
+                folder = out / "alone"
+                _, flown = run_command([sys.executable, "-m", "ground_tools", "scenario", "accel", "--controller",
+                                        controller, "--jobs", "1", "--out", str(folder), "--no-progress", *record],
+                                       tree)  # fmt: skip
+                if flown.returncode != 0:
+                    raise SystemExit(
+                        f"{side}: accel {controller}: exit code {flown.returncode}\n{flown.stderr[-2000:]}"
+                    )
+                run = json.loads((folder / "accel" / controller / "run.json").read_text())
+                alone[controller][side].append(run["sim_s"] / run["wall_s"])
+    print(f"{args.repeats} rounds, baseline {args.baseline}, recording {'off' if args.no_record else 'on'}")
+    compare("vtol scenario all --controller both, wall s", walls["here"], walls["there"], "lower")
+    for controller, sides in alone.items():
+        compare(f"accel, {controller.upper()}, alone, x real time", sides["here"], sides["there"], "higher")
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", help="keep the runs here (default: a temporary folder)")
     parser.add_argument("--no-record", action="store_true", help="pass --no-record (no zenoh recording)")
     parser.add_argument("--jobs", type=int, help="pass --jobs J (default: the command's default)")
     parser.add_argument("--json", type=Path, metavar="FILE", help="also write the figures and metrics to FILE (JSON)")
+    parser.add_argument("--baseline", type=Path, metavar="DIR", help="time against a checkout of another commit")
+    parser.add_argument("--repeats", type=int, default=3, help="rounds against the baseline (default 3)")
     args = parser.parse_args()
+    if args.baseline is not None:
+        with tempfile.TemporaryDirectory() as scratch:
+            against_baseline(args, Path(scratch))
+        return 0
     with tempfile.TemporaryDirectory() as scratch:
         out = Path(args.out) if args.out else Path(scratch)
         command = [sys.executable, "-m", "ground_tools", "scenario", "all", "--controller", "both", "--out", str(out),
