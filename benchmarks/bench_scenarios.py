@@ -36,6 +36,7 @@ GOAL_S = 60.0
 
 def run_command(command: list[str], tree: Path | None) -> tuple[float, subprocess.CompletedProcess[str]]:
     """Wall seconds and the result of `command` with this tree's code, or with the checkout `tree`'s."""
+    tree = None if tree is None else tree.resolve()  # the same folder seen from inside it
     environment = None if tree is None else {**os.environ, "PYTHONPATH": str(tree)}
     started = time.perf_counter()  # in the checkout: `python -m` looks in the working directory first
     result = subprocess.run(command, capture_output=True, text=True, env=environment, cwd=tree)

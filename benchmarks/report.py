@@ -255,9 +255,9 @@ def page(figures: Mapping[str, Any], stamp: Mapping[str, str]) -> str:
         "horizon's screening), `bench_engines.py` (Dask against Ray), `mavsdk_examples.py` (MAVSDK-Python's "
         "examples against `vtol up`), `compare_runs.py` (two `vtol scenario` folders, metric by metric and their "
         "time series byte for byte), `bench_control_path.py` (the flight controller's CPU time per simulated second "
-        "in a one-process closed loop, with fingerprints of its commands); `bench_sitl.py` and "
-        "`bench_control_path.py` take `--baseline DIR` to fly a checkout of another commit round by round beside "
-        "this one.",
+        "in a one-process closed loop, with fingerprints of its commands); `bench_sitl.py`, `bench_scenarios.py` "
+        "and `bench_control_path.py` take `--baseline DIR` to fly a checkout of another commit round by round "
+        "beside this one.",
         "",
     ]  # fmt: skip
     return "\n".join(lines)
