@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import statistics
 import subprocess
 import sys
@@ -27,6 +26,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from baseline import ratio_summary, run_in
 from bench_sitl import GOALS  # the same real-time factors are asked of `vtol scenario accel`
 
 from ground_tools.scenario_report import acceptance, load_runs
@@ -36,19 +36,9 @@ GOAL_S = 60.0
 
 def run_command(command: list[str], tree: Path | None) -> tuple[float, subprocess.CompletedProcess[str]]:
     """Wall seconds and the result of `command` with this tree's code, or with the checkout `tree`'s."""
-    tree = None if tree is None else tree.resolve()  # the same folder seen from inside it
-    environment = None if tree is None else {**os.environ, "PYTHONPATH": str(tree)}
-    started = time.perf_counter()  # in the checkout: `python -m` looks in the working directory first
-    result = subprocess.run(command, capture_output=True, text=True, env=environment, cwd=tree)
+    started = time.perf_counter()
+    result = run_in(command, tree, capture_output=True)
     return time.perf_counter() - started, result
-
-
-def compare(label: str, here: list[float], there: list[float], better: str) -> None:
-    """Medians of both trees and this tree's ratio to the baseline's, round by round."""
-    ratios = [a / b for a, b in zip(here, there)]
-    print(f"{label}: this tree median {statistics.median(here):.2f}, baseline {statistics.median(there):.2f}; "
-          f"this / baseline, round by round: median {statistics.median(ratios):.3f} (min {min(ratios):.3f}, "
-          f"max {max(ratios):.3f}; {better} is better)")  # fmt: skip
 
 
 def against_baseline(args: argparse.Namespace, scratch: Path) -> None:
@@ -78,9 +68,10 @@ def against_baseline(args: argparse.Namespace, scratch: Path) -> None:
                 run = json.loads((folder / "accel" / controller / "run.json").read_text())
                 alone[controller][side].append(run["sim_s"] / run["wall_s"])
     print(f"{args.repeats} rounds, baseline {args.baseline}, recording {'off' if args.no_record else 'on'}")
-    compare("vtol scenario all --controller both, wall s", walls["here"], walls["there"], "lower")
+    print(ratio_summary("vtol scenario all --controller both, wall s", walls["here"], walls["there"], "lower"))
     for controller, sides in alone.items():
-        compare(f"accel, {controller.upper()}, alone, x real time", sides["here"], sides["there"], "higher")
+        print(ratio_summary(f"accel, {controller.upper()}, alone, x real time", sides["here"], sides["there"],
+                            "higher"))  # fmt: skip
 
 
 def main() -> int:
