@@ -19,7 +19,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
 import statistics
 import subprocess
 import sys
@@ -27,6 +26,8 @@ import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
+
+from baseline import run_in
 
 from tiltrotor_sitl import Controller, Fleet, PlantTruth, ProcessOptions, Vehicle, VehicleHandle
 
@@ -53,8 +54,7 @@ def time_to_ready_of(directory: Path, controller: Controller, scratch: Path) -> 
     """One start with the code of the checkout `directory`, in a fresh interpreter (its own bench_api.py)."""
     out = scratch / "start.json"
     command = [sys.executable, "benchmarks/bench_api.py", "--runs", "1", "--controller", controller, "--json", str(out)]
-    subprocess.run(command, cwd=directory, env={**os.environ, "PYTHONPATH": str(directory)}, check=True,
-                   stdout=subprocess.DEVNULL)  # fmt: skip
+    run_in(command, directory, check=True, stdout=subprocess.DEVNULL)
     return float(json.loads(out.read_text())["ready_s_median"])
 
 

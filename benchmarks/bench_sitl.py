@@ -17,12 +17,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import statistics
 import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+from baseline import run_in
 
 from autopilot.storage.parameters import ParameterStore
 from ground_tools.lockstep_flight import fly_lockstep
@@ -58,10 +59,9 @@ def run_baseline(
 ) -> dict[str, float]:
     """One flight of `controller` with the code of the checkout `directory` (its own bench_sitl.py, one repeat)."""
     out = scratch / "baseline.json"
-    environment = {**os.environ, "PYTHONPATH": str(directory)}
     command = [sys.executable, "benchmarks/bench_sitl.py", "--profile", profile, "--duration", str(duration),
                "--controller", controller, "--repeats", "1", "--json", str(out)]  # fmt: skip
-    subprocess.run(command, cwd=directory, env=environment, check=True, stdout=subprocess.DEVNULL)
+    run_in(command, directory, check=True, stdout=subprocess.DEVNULL)
     label = {"pid": "pid", 0: SYNCHRONOUS, 1: OVERLAPPED}[overlap if controller == "mpc" else controller]
     return json.loads(out.read_text())["configurations"][label]
 

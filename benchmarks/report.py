@@ -26,6 +26,8 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from transport.udp import usable_cpus
+
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 
@@ -280,8 +282,9 @@ def run_benchmark(benchmark: Benchmark, scratch: Path, say: Callable[[str], None
 def machine() -> str:
     model = next((line.split(":", 1)[1].strip() for line in _read_lines(Path("/proc/cpuinfo"))
                   if line.startswith("model name")), platform.processor() or platform.machine())  # fmt: skip
-    cores = len(os.sched_getaffinity(0))
-    return f"{model}, {cores} CPU(s), {platform.system()} {platform.release()}, Python {platform.python_version()}"
+    return (
+        f"{model}, {usable_cpus()} CPU(s), {platform.system()} {platform.release()}, Python {platform.python_version()}"
+    )
 
 
 def _read_lines(path: Path) -> list[str]:

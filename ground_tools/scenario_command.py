@@ -17,11 +17,12 @@ from pathlib import Path
 from autopilot.mpc.horizon import HORIZONS
 from ground_tools.exit_status import CHECK_FAILED, FAILED, INTERRUPTED, OK, epilog
 from ground_tools.scenario_flights import FlightQueue
-from ground_tools.scenario_report import acceptance, usable_cpus, write_report
+from ground_tools.scenario_report import acceptance, write_report
 from ground_tools.scenario_run import RunResult
 from scenarios.experiments import SCENARIOS
 from tiltrotor_sitl import Controller
 from transport.cli import bounded_int, fail, positive_float, writable_folder
+from transport.udp import usable_cpus
 
 PROG = "vtol"
 SHOWN = ("survived", "vx_rmse", "vz_max_abs", "pitch_max_abs_deg", "alt_change_max_m", "t_reach_s", "radial_rmse_m",

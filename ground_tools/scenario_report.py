@@ -8,9 +8,7 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import platform
-import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import UTC, datetime
@@ -19,6 +17,7 @@ from typing import Any
 
 from ground_tools.scenario_figures import FIGURE_FILES
 from scenarios.experiments import BANK_THEORY_DEG, SCENARIOS
+from transport.udp import usable_cpus
 
 Metrics = dict[str, Any]
 
@@ -164,8 +163,3 @@ def write_report(out: Path, wall_s: float | None = None) -> Path:
     path = out / "report.md"
     path.write_text("\n".join(lines) + "\n")
     return path
-
-
-def usable_cpus() -> int:
-    """The CPUs this process may run on (its affinity where the system has one)."""
-    return len(os.sched_getaffinity(0)) if sys.platform == "linux" else os.cpu_count() or 1

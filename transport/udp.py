@@ -19,6 +19,7 @@ import math
 import os
 import select
 import socket
+import sys
 import time
 from collections.abc import Callable
 
@@ -45,10 +46,8 @@ def running_threads() -> int | None:
 
 
 def usable_cpus() -> int:
-    """The cores this process may run on."""
-    if hasattr(os, "sched_getaffinity"):
-        return len(os.sched_getaffinity(0))
-    return os.cpu_count() or 1
+    """The CPUs this process may run on (its affinity where the system has one)."""
+    return len(os.sched_getaffinity(0)) if sys.platform == "linux" else os.cpu_count() or 1
 
 
 class SpinGate:
